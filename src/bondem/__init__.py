@@ -1,0 +1,10 @@
+"""bondem: discrete element simulation of bonded particles (MUSEN's elastic solid bond)."""
+from .model import BondMaterial, Material, Model, State, make_system
+from .integrate import SimulationBlowUp
+from .simulation import Simulation
+from .timestep import stable_time_step, time_scales
+
+__version__ = "0.1.0"
+
+__all__ = ["BondMaterial", "Material", "Model", "State", "make_system", "Simulation",
+           "SimulationBlowUp", "stable_time_step", "time_scales", "__version__"]

@@ -1,0 +1,1 @@
+"""Backends: loops that apply the physics functions over all bonds, contacts, particles."""

@@ -1,0 +1,245 @@
+"""CPU backend: Numba loops over bonds and particles calling the physics functions.
+
+Deterministic sums: each bond writes its loads to its own slot, then each particle sums
+its bonds through a fixed CSR index (particle -> bond ends). No atomics, and the same bits
+whatever the number of threads, which is what makes a resumed run bit-identical.
+"""
+import numba
+import numpy as np
+from numba import prange
+
+from ..physics import compile_physics
+from ..physics.bond_elastic import INTACT
+
+P = compile_physics(numba.njit(cache=False))
+elastic_bond = P.elastic_bond
+bond_stiffnesses = P.bond_stiffnesses
+bond_loads_on_particles = P.bond_loads_on_particles
+bond_break_mode = P.bond_break_mode
+bond_elastic_energy = P.bond_elastic_energy
+minimum_image = P.minimum_image
+
+STATUS_OK, STATUS_NOT_FINITE, STATUS_OUT_OF_DOMAIN = 0, 1, 2
+
+_jit = dict(parallel=True, cache=True, fastmath=False, nogil=True)
+
+
+@numba.njit(**_jit)
+def elastic_bonds(pairs, diameter, initial_length, bond_material, bm_young, bm_poisson,
+                  bm_normal_strength, bm_tangential_strength, bm_criterion, bm_compressive,
+                  position, velocity, angular_velocity, box_length, periodic,
+                  active, axis, tangential_force, normal_moment, tangential_moment,
+                  break_time, break_mode, time, dt, out_force_i, out_moment_i, out_moment_j):
+    """Advance every intact bond by one increment dt (s) and store its loads per bond."""
+    for b in prange(pairs.shape[0]):
+        if not active[b]:
+            for k in range(3):
+                out_force_i[b, k] = 0.0
+                out_moment_i[b, k] = 0.0
+                out_moment_j[b, k] = 0.0
+            continue
+        i = pairs[b, 0]
+        j = pairs[b, 1]
+        m = bond_material[b]
+        r = minimum_image((position[j, 0] - position[i, 0], position[j, 1] - position[i, 1],
+                           position[j, 2] - position[i, 2]),
+                          (box_length[0], box_length[1], box_length[2]),
+                          periodic[0], periodic[1], periodic[2])
+        kn, kt, ktw, kb = bond_stiffnesses(bm_young[m], bm_poisson[m], diameter[b],
+                                           initial_length[b])
+        length, n, f_n, f_t, m_n, m_t = elastic_bond(
+            r,
+            (velocity[i, 0], velocity[i, 1], velocity[i, 2]),
+            (velocity[j, 0], velocity[j, 1], velocity[j, 2]),
+            (angular_velocity[i, 0], angular_velocity[i, 1], angular_velocity[i, 2]),
+            (angular_velocity[j, 0], angular_velocity[j, 1], angular_velocity[j, 2]),
+            (axis[b, 0], axis[b, 1], axis[b, 2]),
+            (tangential_force[b, 0], tangential_force[b, 1], tangential_force[b, 2]),
+            (normal_moment[b, 0], normal_moment[b, 1], normal_moment[b, 2]),
+            (tangential_moment[b, 0], tangential_moment[b, 1], tangential_moment[b, 2]),
+            initial_length[b], kn, kt, ktw, kb, dt)
+        mode = bond_break_mode(length, initial_length[b], f_n, f_t, m_n, m_t, diameter[b],
+                               bm_normal_strength[m], bm_tangential_strength[m],
+                               bm_criterion[m], bm_compressive[m])
+        if mode != INTACT:
+            active[b] = False
+            break_time[b] = time
+            break_mode[b] = mode
+            for k in range(3):
+                out_force_i[b, k] = 0.0
+                out_moment_i[b, k] = 0.0
+                out_moment_j[b, k] = 0.0
+            continue
+        force_i, moment_i, moment_j = bond_loads_on_particles(r, f_n, f_t, m_n, m_t)
+        for k in range(3):
+            axis[b, k] = n[k]
+            tangential_force[b, k] = f_t[k]
+            normal_moment[b, k] = m_n[k]
+            tangential_moment[b, k] = m_t[k]
+            out_force_i[b, k] = force_i[k]
+            out_moment_i[b, k] = moment_i[k]
+            out_moment_j[b, k] = moment_j[k]
+
+
+@numba.njit(**_jit)
+def gather_bond_loads(offsets, ends, force_i, moment_i, moment_j, force, moment):
+    """Add each particle's bond loads (CSR ``ends`` = 2*bond + side, side 1 for j)."""
+    for p in prange(offsets.shape[0] - 1):
+        fx = fy = fz = mx = my = mz = 0.0
+        for k in range(offsets[p], offsets[p + 1]):
+            b = ends[k] >> 1
+            if ends[k] & 1:
+                fx -= force_i[b, 0]
+                fy -= force_i[b, 1]
+                fz -= force_i[b, 2]
+                mx += moment_j[b, 0]
+                my += moment_j[b, 1]
+                mz += moment_j[b, 2]
+            else:
+                fx += force_i[b, 0]
+                fy += force_i[b, 1]
+                fz += force_i[b, 2]
+                mx += moment_i[b, 0]
+                my += moment_i[b, 1]
+                mz += moment_i[b, 2]
+        force[p, 0] += fx
+        force[p, 1] += fy
+        force[p, 2] += fz
+        moment[p, 0] += mx
+        moment[p, 1] += my
+        moment[p, 2] += mz
+
+
+@numba.njit(**_jit)
+def integrate(position, velocity, angular_velocity, force, moment, mass, inertia, fixed,
+              gravity, external_force, external_moment, damping, kick_dt, drift_dt,
+              box_low, box_high, periodic, status):
+    """Semi-implicit Euler: v += F/m kick_dt; x += v drift_dt; w += M/I kick_dt.
+
+    Fixed particles keep their velocity (they move with it). Local damping (Cundall)
+    removes damping * |F_k| against the sign of v_k per component. Sets status[0] to
+    STATUS_NOT_FINITE or STATUS_OUT_OF_DOMAIN when a particle blows up.
+    """
+    for p in prange(position.shape[0]):
+        if not fixed[p]:
+            for k in range(3):
+                f = force[p, k] + mass[p] * gravity[k] + external_force[p, k]
+                mk = moment[p, k] + external_moment[p, k]
+                if damping > 0.0:
+                    f -= damping * abs(f) * np.sign(velocity[p, k])
+                    mk -= damping * abs(mk) * np.sign(angular_velocity[p, k])
+                velocity[p, k] += f / mass[p] * kick_dt
+                angular_velocity[p, k] += mk / inertia[p] * kick_dt
+        for k in range(3):
+            x = position[p, k] + velocity[p, k] * drift_dt
+            if periodic[k]:
+                length = box_high[k] - box_low[k]
+                x -= length * np.floor((x - box_low[k]) / length)
+            elif x < box_low[k] or x > box_high[k]:
+                status[0] = STATUS_OUT_OF_DOMAIN
+            if not np.isfinite(x) or not np.isfinite(velocity[p, k]) \
+                    or not np.isfinite(angular_velocity[p, k]):
+                status[0] = STATUS_NOT_FINITE
+            position[p, k] = x
+
+
+@numba.njit(**_jit)
+def bond_energies(pairs, diameter, initial_length, bond_material, bm_young, bm_poisson,
+                  position, box_length, periodic, active, tangential_force, normal_moment,
+                  tangential_moment, out):
+    """Elastic energy (J) stored in each bond; 0 for broken bonds."""
+    for b in prange(pairs.shape[0]):
+        if not active[b]:
+            out[b] = 0.0
+            continue
+        i = pairs[b, 0]
+        j = pairs[b, 1]
+        m = bond_material[b]
+        r = minimum_image((position[j, 0] - position[i, 0], position[j, 1] - position[i, 1],
+                           position[j, 2] - position[i, 2]),
+                          (box_length[0], box_length[1], box_length[2]),
+                          periodic[0], periodic[1], periodic[2])
+        kn, kt, ktw, kb = bond_stiffnesses(bm_young[m], bm_poisson[m], diameter[b],
+                                           initial_length[b])
+        length = np.sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2])
+        out[b] = bond_elastic_energy(
+            length, initial_length[b],
+            (tangential_force[b, 0], tangential_force[b, 1], tangential_force[b, 2]),
+            (normal_moment[b, 0], normal_moment[b, 1], normal_moment[b, 2]),
+            (tangential_moment[b, 0], tangential_moment[b, 1], tangential_moment[b, 2]),
+            kn, kt, ktw, kb)
+
+
+def particle_bond_index(pairs, n_particles):
+    """CSR index particle -> bond ends: (offsets (N+1,), ends (2B,) = 2*bond + side)."""
+    n_bonds = pairs.shape[0]
+    particle = pairs.reshape(-1)  # [i0, j0, i1, j1, ...] so entry k is end k = 2*bond + side
+    order = np.argsort(particle, kind="stable")
+    counts = np.bincount(particle, minlength=n_particles)
+    offsets = np.zeros(n_particles + 1, dtype=np.int64)
+    np.cumsum(counts, out=offsets[1:])
+    assert order.shape[0] == 2 * n_bonds
+    return offsets, order.astype(np.int64)
+
+
+class ElasticBonds:
+    """The elastic bond law over all bonds of a model, on the CPU.
+
+    Holds the bond-material tables, the particle -> bond CSR index and per-bond scratch;
+    ``accumulate`` advances the bonds by one increment and adds their loads.
+    """
+
+    name = "elastic_bond"
+
+    def __init__(self, model):
+        table = model.bond_material_table()
+        self._table = (table["young_modulus"], table["poisson_ratio"],
+                       table["normal_strength"], table["tangential_strength"],
+                       table["criterion"], table["compressive_breakage"])
+        self._box_length = model.box_length
+        self._offsets, self._ends = particle_bond_index(model.bond_pairs, model.n_particles)
+        n_bonds = model.n_bonds
+        self.force_i = np.zeros((n_bonds, 3))
+        self.moment_i = np.zeros((n_bonds, 3))
+        self.moment_j = np.zeros((n_bonds, 3))
+
+    def accumulate(self, model, state, force, moment, increment_dt):
+        """Advance the bonds by ``increment_dt`` (s); add loads to force (N), moment (N m)."""
+        if model.n_bonds == 0:
+            return
+        elastic_bonds(model.bond_pairs, model.bond_diameter, model.bond_initial_length,
+                      model.bond_material, *self._table, state.position, state.velocity,
+                      state.angular_velocity, self._box_length, model.periodic,
+                      state.bond_active, state.bond_axis, state.bond_tangential_force,
+                      state.bond_normal_moment, state.bond_tangential_moment,
+                      state.bond_break_time, state.bond_break_mode, state.time, increment_dt,
+                      self.force_i, self.moment_i, self.moment_j)
+        gather_bond_loads(self._offsets, self._ends, self.force_i, self.moment_i,
+                          self.moment_j, force, moment)
+
+    def energy(self, model, state):
+        """Elastic energy stored in each bond (J), shape (B,)."""
+        out = np.zeros(model.n_bonds)
+        if model.n_bonds:
+            bond_energies(model.bond_pairs, model.bond_diameter, model.bond_initial_length,
+                          model.bond_material, self._table[0], self._table[1],
+                          state.position, self._box_length, model.periodic,
+                          state.bond_active, state.bond_tangential_force,
+                          state.bond_normal_moment, state.bond_tangential_moment, out)
+        return out
+
+
+class Integrator:
+    """Semi-implicit Euler update of all particles on the CPU (see ``integrate``)."""
+
+    def __init__(self, model):
+        self.status = np.zeros(1, dtype=np.int64)
+
+    def advance(self, model, state, force, moment, kick_dt, drift_dt):
+        """Kick velocities by kick_dt (s), drift positions by drift_dt (s); return status."""
+        self.status[0] = STATUS_OK
+        integrate(state.position, state.velocity, state.angular_velocity, force, moment,
+                  model.mass, model.inertia, model.fixed, model.gravity,
+                  model.external_force, model.external_moment, model.damping, kick_dt,
+                  drift_dt, model.box_low, model.box_high, model.periodic, self.status)
+        return int(self.status[0])

@@ -1,0 +1,357 @@
+"""Model (constant arrays) and State (changing arrays) of a bonded-particle system.
+
+Structure of arrays, SI units, float64. ``Model`` holds what does not change during a run
+(radii, masses, bond pairs and materials); ``State`` what does (positions, velocities,
+accumulated bond vectors, contact history). Both are validated here, at the edge; kernels
+assume valid input.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field, fields
+
+import numpy as np
+
+from .physics.bond_elastic import CRITERION_CODES
+
+INDEX = np.int64
+
+
+@dataclass(frozen=True)
+class Material:
+    """Particle material.
+
+    density: kg/m^3; young_modulus: Pa; poisson_ratio: -; restitution: coefficient of
+    restitution in (0, 1]; friction: Coulomb sliding friction; rolling_friction: rolling
+    resistance coefficient (dimensionless, times radius gives the lever arm).
+    """
+    density: float
+    young_modulus: float
+    poisson_ratio: float = 0.3
+    restitution: float = 0.5
+    friction: float = 0.3
+    rolling_friction: float = 0.0
+    name: str = "material"
+
+    def __post_init__(self):
+        _check_range(f"material {self.name!r}", "density", self.density, 0.0, math.inf)
+        _check_range(f"material {self.name!r}", "young_modulus", self.young_modulus, 0.0, math.inf)
+        _check_range(f"material {self.name!r}", "poisson_ratio", self.poisson_ratio, -1.0, 0.5)
+        _check_range(f"material {self.name!r}", "restitution", self.restitution, 0.0, 1.0,
+                     include_high=True)
+        _check_range(f"material {self.name!r}", "friction", self.friction, 0.0, math.inf,
+                     include_low=True)
+        _check_range(f"material {self.name!r}", "rolling_friction", self.rolling_friction,
+                     0.0, math.inf, include_low=True)
+
+
+@dataclass(frozen=True)
+class BondMaterial:
+    """Bond material of the elastic solid bond.
+
+    young_modulus: Pa; poisson_ratio: -; normal_strength (sigma_max) and
+    tangential_strength (tau_max): Pa; breakage: "combined" | "separate" | "none";
+    compressive_breakage: evaluate the normal criterion in compression too.
+    """
+    young_modulus: float
+    poisson_ratio: float = 0.3
+    normal_strength: float = math.inf
+    tangential_strength: float = math.inf
+    breakage: str = "combined"
+    compressive_breakage: bool = False
+    name: str = "bond"
+
+    def __post_init__(self):
+        where = f"bond material {self.name!r}"
+        _check_range(where, "young_modulus", self.young_modulus, 0.0, math.inf)
+        _check_range(where, "poisson_ratio", self.poisson_ratio, -1.0, 0.5)
+        _check_range(where, "normal_strength", self.normal_strength, 0.0, math.inf,
+                     include_high=True)
+        _check_range(where, "tangential_strength", self.tangential_strength, 0.0, math.inf,
+                     include_high=True)
+        if self.breakage not in CRITERION_CODES:
+            raise ValueError(f"{where}: breakage = {self.breakage!r}; allowed: "
+                             + ", ".join(repr(k) for k in CRITERION_CODES))
+
+
+def _check_range(where, key, value, low, high, include_low=False, include_high=False):
+    ok_low = value >= low if include_low else value > low
+    ok_high = value <= high if include_high else value < high
+    if not (isinstance(value, (int, float, np.floating, np.integer)) and ok_low and ok_high
+            and not math.isnan(value)):
+        lo, hi = ("[" if include_low else "("), ("]" if include_high else ")")
+        raise ValueError(f"{where}: {key} = {value!r} is outside the allowed range "
+                         f"{lo}{low}, {high}{hi}")
+
+
+@dataclass
+class Model:
+    """Constant part of a system. Arrays indexed by particle (N) or bond (B).
+
+    radius (N,) m; mass (N,) kg; inertia (N,) kg m^2; material (N,) index into materials;
+    fixed (N,) bool: velocity prescribed, not integrated (zero velocity = clamped);
+    external_force (N,3) N and external_moment (N,3) N m: constant loads;
+    bond_pairs (B,2) particle indices i, j; bond_diameter (B,) m; bond_initial_length (B,) m;
+    bond_material (B,) index into bond_materials; gravity (3,) m/s^2;
+    periodic (3,) bool with box_low/box_high (3,) m the periodic cell (also the domain
+    outside which a particle means a blown-up run, along non-periodic axes where finite);
+    damping: local (non-viscous) damping coefficient in [0, 1), 0 for none.
+    """
+    radius: np.ndarray
+    mass: np.ndarray
+    inertia: np.ndarray
+    material: np.ndarray
+    fixed: np.ndarray
+    external_force: np.ndarray
+    external_moment: np.ndarray
+    materials: list
+    bond_pairs: np.ndarray
+    bond_diameter: np.ndarray
+    bond_initial_length: np.ndarray
+    bond_material: np.ndarray
+    bond_materials: list
+    gravity: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    periodic: np.ndarray = field(default_factory=lambda: np.zeros(3, dtype=bool))
+    box_low: np.ndarray = field(default_factory=lambda: np.full(3, -np.inf))
+    box_high: np.ndarray = field(default_factory=lambda: np.full(3, np.inf))
+    damping: float = 0.0
+
+    @property
+    def n_particles(self) -> int:
+        return self.radius.shape[0]
+
+    @property
+    def n_bonds(self) -> int:
+        return self.bond_pairs.shape[0]
+
+    @property
+    def box_length(self) -> np.ndarray:
+        """Periodic cell lengths (m); 1 along axes that are not periodic (unused there)."""
+        return np.where(self.periodic, self.box_high - self.box_low, 1.0)
+
+    def material_table(self) -> dict:
+        """Per-material property arrays for kernels."""
+        m = self.materials
+        return {k: np.array([getattr(x, k) for x in m], dtype=np.float64)
+                for k in ("density", "young_modulus", "poisson_ratio", "restitution",
+                          "friction", "rolling_friction")}
+
+    def bond_material_table(self) -> dict:
+        """Per-bond-material property arrays for kernels."""
+        m = self.bond_materials
+        return {
+            "young_modulus": np.array([x.young_modulus for x in m], dtype=np.float64),
+            "poisson_ratio": np.array([x.poisson_ratio for x in m], dtype=np.float64),
+            "normal_strength": np.array([x.normal_strength for x in m], dtype=np.float64),
+            "tangential_strength": np.array([x.tangential_strength for x in m], dtype=np.float64),
+            "criterion": np.array([CRITERION_CODES[x.breakage] for x in m], dtype=np.int8),
+            "compressive_breakage": np.array([x.compressive_breakage for x in m], dtype=np.bool_),
+        }
+
+
+@dataclass
+class State:
+    """Changing part of a system.
+
+    time: s; step: steps taken; started: the start-up half kick is done (velocities then
+    live at half steps); position, velocity, angular_velocity (N,3) in m, m/s, rad/s;
+    bond_active (B,); bond_axis (B,3) unit axis of the last step; bond_tangential_force
+    (B,3) N; bond_normal_moment, bond_tangential_moment (B,3) N m, all on particle i;
+    bond_break_time (B,) s, NaN while intact; bond_break_mode (B,) 0 intact, 1 tension,
+    2 compression, 3 shear. ``extra`` holds other laws' history (contacts, walls) as arrays.
+    """
+    time: float
+    step: int
+    started: bool
+    position: np.ndarray
+    velocity: np.ndarray
+    angular_velocity: np.ndarray
+    bond_active: np.ndarray
+    bond_axis: np.ndarray
+    bond_tangential_force: np.ndarray
+    bond_normal_moment: np.ndarray
+    bond_tangential_moment: np.ndarray
+    bond_break_time: np.ndarray
+    bond_break_mode: np.ndarray
+    extra: dict = field(default_factory=dict)
+
+    def copy(self) -> "State":
+        """Deep copy (arrays copied)."""
+        kwargs = {}
+        for f in fields(self):
+            value = getattr(self, f.name)
+            if isinstance(value, np.ndarray):
+                value = value.copy()
+            elif isinstance(value, dict):
+                value = {k: (v.copy() if isinstance(v, np.ndarray) else v) for k, v in value.items()}
+            kwargs[f.name] = value
+        return State(**kwargs)
+
+    def arrays(self) -> dict:
+        """Every array of the state by name (``extra`` entries prefixed ``extra/``)."""
+        out = {f.name: getattr(self, f.name) for f in fields(self)
+               if isinstance(getattr(self, f.name), np.ndarray)}
+        out.update({f"extra/{k}": v for k, v in self.extra.items()})
+        return out
+
+
+def _as_vectors(name, value, n, default=0.0):
+    if value is None:
+        return np.full((n, 3), default, dtype=np.float64)
+    array = np.array(value, dtype=np.float64)
+    if array.shape == (3,):
+        array = np.broadcast_to(array, (n, 3)).copy()
+    if array.shape != (n, 3):
+        raise ValueError(f"{name}: shape {array.shape}, expected ({n}, 3) for {n} particles")
+    if not np.all(np.isfinite(array)):
+        raise ValueError(f"{name}: contains NaN or infinite values")
+    return np.ascontiguousarray(array)
+
+
+def _per_item(name, value, n, dtype, count_name):
+    array = np.asarray(value, dtype=dtype)
+    if array.ndim == 0:
+        array = np.full(n, array, dtype=dtype)
+    if array.shape != (n,):
+        raise ValueError(f"{name}: length {array.shape[0] if array.ndim else 1}, "
+                         f"expected {n} ({count_name})")
+    return np.ascontiguousarray(array)
+
+
+def make_system(position, radius, material, *, material_index=None, velocity=None,
+                angular_velocity=None, fixed=None, external_force=None, external_moment=None,
+                bonds=None, bond_diameter=None, bond_material=None, bond_material_index=None,
+                gravity=(0.0, 0.0, 0.0), periodic=(False, False, False), box_low=None,
+                box_high=None, damping=0.0):
+    """Build a validated (Model, State) pair from plain arrays.
+
+    position (N,3) m; radius (N,) or scalar m; material: a Material or a list of them
+    (then material_index (N,) selects one per particle); velocity (N,3) m/s;
+    angular_velocity (N,3) rad/s; fixed (N,) bool; external_force (N,3) N;
+    external_moment (N,3) N m; bonds (B,2) 0-based particle indices; bond_diameter (B,) or
+    scalar m; bond_material: a BondMaterial or a list (then bond_material_index (B,));
+    gravity (3,) m/s^2; periodic (3,) bool with box_low/box_high (3,) m; damping: local
+    damping coefficient in [0, 1). Bond initial lengths are the current distances
+    (minimum image along periodic axes). Raises ValueError on inconsistent input.
+    """
+    position = np.asarray(position, dtype=np.float64)
+    if position.ndim != 2 or position.shape[1] != 3:
+        raise ValueError(f"position: shape {position.shape}, expected (N, 3)")
+    n = position.shape[0]
+    position = _as_vectors("position", position, n)
+    radius = _per_item("radius", radius, n, np.float64, "one per particle")
+    if not np.all(np.isfinite(radius)) or np.any(radius <= 0.0):
+        bad = int(np.flatnonzero(~(radius > 0.0))[0])
+        raise ValueError(f"radius: particle {bad} has radius {radius[bad]!r}; must be > 0")
+
+    materials = list(material) if isinstance(material, (list, tuple)) else [material]
+    if not materials or not all(isinstance(m, Material) for m in materials):
+        raise ValueError("material: expected a Material or a non-empty list of Materials")
+    if material_index is None:
+        if len(materials) > 1:
+            raise ValueError("material_index: required when several materials are given")
+        material_index = 0
+    material_index = _per_item("material_index", material_index, n, np.int32, "one per particle")
+    if np.any((material_index < 0) | (material_index >= len(materials))):
+        raise ValueError(f"material_index: values must lie in [0, {len(materials) - 1}]")
+
+    density = np.array([m.density for m in materials])[material_index]
+    mass = density * 4.0 / 3.0 * np.pi * radius ** 3
+    inertia = 0.4 * mass * radius ** 2
+
+    fixed = _per_item("fixed", False if fixed is None else fixed, n, np.bool_, "one per particle")
+    gravity = np.asarray(gravity, dtype=np.float64)
+    if gravity.shape != (3,) or not np.all(np.isfinite(gravity)):
+        raise ValueError(f"gravity: expected 3 finite numbers, got {gravity!r}")
+    if not (0.0 <= damping < 1.0):
+        raise ValueError(f"damping = {damping!r}; allowed range [0, 1)")
+
+    periodic = np.asarray(periodic, dtype=bool)
+    if periodic.shape != (3,):
+        raise ValueError("periodic: expected three booleans (x, y, z)")
+    box_low = np.full(3, -np.inf) if box_low is None else np.asarray(box_low, dtype=np.float64)
+    box_high = np.full(3, np.inf) if box_high is None else np.asarray(box_high, dtype=np.float64)
+    if box_low.shape != (3,) or box_high.shape != (3,) or np.any(box_high <= box_low):
+        raise ValueError("box_low/box_high: expected three numbers each with high > low")
+    if np.any(periodic & ~(np.isfinite(box_low) & np.isfinite(box_high))):
+        raise ValueError("periodic axes need finite box_low and box_high")
+
+    if bonds is None:
+        bonds = np.zeros((0, 2), dtype=INDEX)
+    bonds = np.asarray(bonds)
+    if bonds.size == 0:
+        bonds = np.zeros((0, 2), dtype=INDEX)
+    if bonds.ndim != 2 or bonds.shape[1] != 2:
+        raise ValueError(f"bonds: shape {bonds.shape}, expected (B, 2)")
+    if not np.issubdtype(bonds.dtype, np.integer):
+        raise ValueError("bonds: particle indices must be integers")
+    bonds = np.ascontiguousarray(bonds, dtype=INDEX)
+    n_bonds = bonds.shape[0]
+    if n_bonds:
+        if bonds.min() < 0 or bonds.max() >= n:
+            bad = int(np.flatnonzero((bonds < 0).any(1) | (bonds >= n).any(1))[0])
+            raise ValueError(f"bonds: bond {bad} joins particles {bonds[bad].tolist()}; "
+                             f"indices must lie in [0, {n - 1}]")
+        if np.any(bonds[:, 0] == bonds[:, 1]):
+            bad = int(np.flatnonzero(bonds[:, 0] == bonds[:, 1])[0])
+            raise ValueError(f"bonds: bond {bad} joins particle {bonds[bad, 0]} to itself")
+        key = np.sort(bonds, axis=1)
+        _, first, counts = np.unique(key, axis=0, return_index=True, return_counts=True)
+        if np.any(counts > 1):
+            dup = key[first[np.argmax(counts > 1)]]
+            raise ValueError(f"bonds: particles {dup.tolist()} are bonded more than once")
+        if bond_diameter is None:
+            raise ValueError("bond_diameter: required when bonds are given")
+        if bond_material is None:
+            raise ValueError("bond_material: required when bonds are given")
+    bond_diameter = _per_item("bond_diameter", 1.0 if bond_diameter is None else bond_diameter,
+                              n_bonds, np.float64, "one per bond")
+    if n_bonds and (not np.all(np.isfinite(bond_diameter)) or np.any(bond_diameter <= 0)):
+        bad = int(np.flatnonzero(~(bond_diameter > 0))[0])
+        raise ValueError(f"bond_diameter: bond {bad} has diameter {bond_diameter[bad]!r}; "
+                         "must be > 0")
+    bond_materials = (list(bond_material) if isinstance(bond_material, (list, tuple))
+                      else [bond_material] if bond_material is not None else [])
+    if n_bonds and not all(isinstance(m, BondMaterial) for m in bond_materials):
+        raise ValueError("bond_material: expected a BondMaterial or a list of them")
+    if bond_material_index is None:
+        if len(bond_materials) > 1:
+            raise ValueError("bond_material_index: required when several bond materials are given")
+        bond_material_index = 0
+    bond_material_index = _per_item("bond_material_index", bond_material_index, n_bonds,
+                                    np.int32, "one per bond")
+    if n_bonds and np.any((bond_material_index < 0)
+                          | (bond_material_index >= len(bond_materials))):
+        raise ValueError(f"bond_material_index: values must lie in "
+                         f"[0, {len(bond_materials) - 1}]")
+
+    box_length = np.where(periodic, box_high - box_low, 1.0)
+    separation = position[bonds[:, 1]] - position[bonds[:, 0]]
+    separation -= np.where(periodic, box_length * np.floor(separation / box_length + 0.5), 0.0)
+    initial_length = np.linalg.norm(separation, axis=1)
+    if n_bonds and np.any(initial_length <= 0.0):
+        bad = int(np.flatnonzero(initial_length <= 0.0)[0])
+        raise ValueError(f"bonds: bond {bad} joins particles {bonds[bad].tolist()} at the same "
+                         "position (initial length 0)")
+    axis = separation / np.where(initial_length > 0, initial_length, 1.0)[:, None]
+
+    model = Model(
+        radius=radius, mass=mass, inertia=inertia, material=material_index, fixed=fixed,
+        external_force=_as_vectors("external_force", external_force, n),
+        external_moment=_as_vectors("external_moment", external_moment, n),
+        materials=materials, bond_pairs=bonds, bond_diameter=bond_diameter,
+        bond_initial_length=initial_length, bond_material=bond_material_index,
+        bond_materials=bond_materials, gravity=gravity, periodic=periodic,
+        box_low=box_low, box_high=box_high, damping=float(damping))
+    state = State(
+        time=0.0, step=0, started=False, position=position,
+        velocity=_as_vectors("velocity", velocity, n),
+        angular_velocity=_as_vectors("angular_velocity", angular_velocity, n),
+        bond_active=np.ones(n_bonds, dtype=np.bool_),
+        bond_axis=np.ascontiguousarray(axis),
+        bond_tangential_force=np.zeros((n_bonds, 3)),
+        bond_normal_moment=np.zeros((n_bonds, 3)),
+        bond_tangential_moment=np.zeros((n_bonds, 3)),
+        bond_break_time=np.full(n_bonds, np.nan),
+        bond_break_mode=np.zeros(n_bonds, dtype=np.int8))
+    return model, state

@@ -1,0 +1,8 @@
+"""Physics as small pure functions on scalars and 3-tuples, one definition for all backends.
+
+Importing this package registers every law; ``compile_physics(jit)`` compiles them.
+"""
+from . import vector, rotation, bond_elastic  # noqa: F401  (registration order matters)
+from ._registry import compile_physics, physics
+
+__all__ = ["compile_physics", "physics"]

@@ -1,0 +1,149 @@
+"""MUSEN's elastic solid bond (Dosta et al. 2013; Potyondy & Cundall 2004), SPEC section 2.
+
+Bond between particles i and j with diameter d_b (R_b = d_b / 2) and material E, nu:
+    A_b = pi R_b^2,  I = pi R_b^4 / 4,  J = pi R_b^4 / 2,  G = E / (2 (1 + nu))
+    r = x_j - x_i,  L = |r|,  n = r / L
+    w_rel = w_i - w_j
+    v_rel = v_j - v_i - (w_i + w_j) x r / 2        (j's side relative to i's, at the centre)
+    v_t = v_rel - n (n . v_rel);  w_n = n (n . w_rel);  w_t = w_rel - w_n
+    F_n = E A_b (L - L0) / L0 n                   (on i: tension pulls i toward j)
+    F_t = T F_t + (G A_b / L0) v_t dt
+    M_n = T M_n - (G J / L0) w_n dt
+    M_t = T M_t - (E I / L0) w_t dt
+    on i: F += F_n + F_t,  M +=  M_n + M_t + (r/2) x F_t
+    on j: F -= F_n + F_t,  M += -M_n - M_t + (r/2) x F_t
+T is the exact rotation of ``rotation.bond_rotate``. The seed writes every increment with a
+plus sign; the signs here make each spring resist the relative motion (SPEC).
+
+Breakage, with s = +1 in tension and -1 in compression:
+    sigma = s |F_n| / A_b + |M_t| R_b / I,   tau = |F_t| / A_b + |M_n| R_b / J
+"combined" breaks when sigma >= sigma_max or tau >= tau_max; "separate" when any single
+term reaches its strength. The normal (sigma) terms are evaluated only while L > L0 unless
+compressive breakage is on, in which case always, with s = +1.
+"""
+import math
+
+from ._registry import physics
+from .rotation import bond_rotate
+from .vector import add, cross, dot, norm, scale, sub
+
+INTACT, TENSION, COMPRESSION, SHEAR = 0, 1, 2, 3
+BREAK_MODE_NAMES = ("intact", "tension", "compression", "shear")
+CRITERION_NONE, CRITERION_COMBINED, CRITERION_SEPARATE = 0, 1, 2
+CRITERION_CODES = {"none": CRITERION_NONE, "combined": CRITERION_COMBINED,
+                   "separate": CRITERION_SEPARATE}
+
+
+@physics
+def bond_stiffnesses(young_modulus, poisson_ratio, diameter, initial_length):
+    """Linear spring constants of the bond: (E A/L0 in N/m, G A/L0 in N/m,
+    G J/L0 in N m/rad, E I/L0 in N m/rad)."""
+    radius = 0.5 * diameter
+    area = math.pi * radius * radius
+    second_moment = 0.25 * math.pi * radius ** 4
+    shear_modulus = young_modulus / (2.0 * (1.0 + poisson_ratio))
+    return (young_modulus * area / initial_length,
+            shear_modulus * area / initial_length,
+            shear_modulus * 2.0 * second_moment / initial_length,
+            young_modulus * second_moment / initial_length)
+
+
+@physics
+def elastic_bond(r, vi, vj, wi, wj, previous_axis, tangential_force, normal_moment,
+                 tangential_moment, initial_length, normal_stiffness, shear_stiffness,
+                 twist_stiffness, bending_stiffness, dt):
+    """One step of the elastic bond law.
+
+    r: x_j - x_i (m); vi, vj: velocities (m/s); wi, wj: angular velocities (rad/s);
+    previous_axis: unit axis of the previous step; tangential_force (N), normal_moment and
+    tangential_moment (N m): accumulated vectors on i; stiffnesses from
+    ``bond_stiffnesses``; dt: the increment's time (s).
+    Returns (L, n, F_n, F_t, M_n, M_t), all on particle i, the accumulated vectors updated.
+    """
+    length = norm(r)
+    n = scale(r, 1.0 / length)
+    w_rel = sub(wi, wj)
+    w_sum = add(wi, wj)
+    v_rel = sub(sub(vj, vi), scale(cross(w_sum, r), 0.5))
+    v_t = sub(v_rel, scale(n, dot(n, v_rel)))
+    w_n = scale(n, dot(n, w_rel))
+    w_t = sub(w_rel, w_n)
+    twist_angle = 0.5 * dot(w_sum, n) * dt
+
+    f_n = scale(n, normal_stiffness * (length - initial_length))
+    f_t = add(bond_rotate(tangential_force, previous_axis, n, twist_angle),
+              scale(v_t, shear_stiffness * dt))
+    m_n = sub(bond_rotate(normal_moment, previous_axis, n, twist_angle),
+              scale(w_n, twist_stiffness * dt))
+    m_t = sub(bond_rotate(tangential_moment, previous_axis, n, twist_angle),
+              scale(w_t, bending_stiffness * dt))
+    # Round-off leaves the carried vectors slightly off their planes; project them back.
+    f_t = sub(f_t, scale(n, dot(n, f_t)))
+    m_t = sub(m_t, scale(n, dot(n, m_t)))
+    m_n = scale(n, dot(n, m_n))
+    return length, n, f_n, f_t, m_n, m_t
+
+
+@physics
+def bond_loads_on_particles(r, f_n, f_t, m_n, m_t):
+    """Force on i (N), moment on i and moment on j (N m) from the bond's vectors."""
+    shear_torque = cross(scale(r, 0.5), f_t)
+    force_i = add(f_n, f_t)
+    moment_i = add(add(m_n, m_t), shear_torque)
+    moment_j = sub(shear_torque, add(m_n, m_t))
+    return force_i, moment_i, moment_j
+
+
+@physics
+def bond_stresses(length, initial_length, f_n, f_t, m_n, m_t, diameter):
+    """(sigma, tau) in Pa: signed normal stress (s = -1 in compression) and shear stress."""
+    radius = 0.5 * diameter
+    area = math.pi * radius * radius
+    second_moment = 0.25 * math.pi * radius ** 4
+    sign = 1.0 if length > initial_length else -1.0
+    sigma = sign * norm(f_n) / area + norm(m_t) * radius / second_moment
+    tau = norm(f_t) / area + norm(m_n) * radius / (2.0 * second_moment)
+    return sigma, tau
+
+
+@physics
+def bond_break_mode(length, initial_length, f_n, f_t, m_n, m_t, diameter, normal_strength,
+                    tangential_strength, criterion, compressive_breakage):
+    """INTACT, or the mode (TENSION, COMPRESSION, SHEAR) in which the bond breaks now.
+
+    Strengths in Pa; criterion is CRITERION_NONE, _COMBINED or _SEPARATE.
+    """
+    if criterion == CRITERION_NONE:
+        return INTACT
+    radius = 0.5 * diameter
+    area = math.pi * radius * radius
+    second_moment = 0.25 * math.pi * radius ** 4
+    axial = norm(f_n) / area
+    bending = norm(m_t) * radius / second_moment
+    shear = norm(f_t) / area
+    torsion = norm(m_n) * radius / (2.0 * second_moment)
+    in_tension = length > initial_length
+    normal_mode = TENSION if in_tension else COMPRESSION
+    normal_checked = in_tension or compressive_breakage
+    if criterion == CRITERION_COMBINED:
+        if normal_checked and axial + bending >= normal_strength:
+            return normal_mode
+        if shear + torsion >= tangential_strength:
+            return SHEAR
+        return INTACT
+    if normal_checked and (axial >= normal_strength or bending >= normal_strength):
+        return normal_mode
+    if shear >= tangential_strength or torsion >= tangential_strength:
+        return SHEAR
+    return INTACT
+
+
+@physics
+def bond_elastic_energy(length, initial_length, f_t, m_n, m_t, normal_stiffness,
+                        shear_stiffness, twist_stiffness, bending_stiffness):
+    """Elastic energy stored in the bond (J): the four springs' potentials."""
+    stretch = length - initial_length
+    return (0.5 * normal_stiffness * stretch * stretch
+            + 0.5 * dot(f_t, f_t) / shear_stiffness
+            + 0.5 * dot(m_n, m_n) / twist_stiffness
+            + 0.5 * dot(m_t, m_t) / bending_stiffness)

@@ -1,0 +1,93 @@
+"""Simulation: owns a Model, a State and the laws, and runs the time loop. No physics here."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .backends import cpu
+from .integrate import SimulationBlowUp, step
+from .timestep import stable_time_step, time_scales
+
+
+class Simulation:
+    """Run a bonded-particle system in time.
+
+    model, state: from ``make_system`` or a scene; time_step: s, or "auto" (safety_factor
+    times the smallest time scale, see ``timestep``); a given step above the smallest time
+    scale raises ValueError unless force_time_step; musen_compat: reproduce MUSEN's
+    numerical choices where they differ from the SPEC; laws: extra force laws (contacts,
+    walls) with ``accumulate(model, state, force, moment, increment_dt)``.
+    """
+
+    def __init__(self, model, state, *, time_step="auto", safety_factor=0.2,
+                 force_time_step=False, musen_compat=False, laws=()):
+        self.model = model
+        self.state = state
+        stable, cause = stable_time_step(model, safety_factor)
+        if isinstance(time_step, str):
+            if time_step != "auto":
+                raise ValueError(f"time_step = {time_step!r}; expected a number (s) or 'auto'")
+            time_step = stable
+        time_step = float(time_step)
+        if not (time_step > 0.0 and math.isfinite(time_step)):
+            raise ValueError(f"time_step = {time_step!r}; must be a positive number of seconds")
+        critical = min(time_scales(model).values())
+        if time_step > critical and not force_time_step:
+            raise ValueError(f"time_step = {time_step:.3g} s exceeds the stable limit "
+                             f"{critical:.3g} s ({cause}); use a smaller step or force it")
+        self.time_step = time_step
+        self.time_step_cause = cause
+        self.musen_compat = bool(musen_compat)
+        self.bonds = cpu.ElasticBonds(model)
+        self.laws = [self.bonds, *laws]
+        self.integrator = cpu.Integrator(model)
+        n = model.n_particles
+        self.force = np.zeros((n, 3))
+        self.moment = np.zeros((n, 3))
+
+    def step(self, steps=1):
+        """Advance by ``steps`` time steps (the start-up half kick comes first, once)."""
+        for _ in range(steps + (0 if self.state.started else 1)):
+            step(self.model, self.state, self.laws, self.integrator, self.force,
+                 self.moment, self.time_step, self.musen_compat)
+
+    def run(self, until=None, *, steps=None, callback=None, every=None):
+        """Run to time ``until`` (s) or for ``steps`` steps.
+
+        callback(simulation) is called every ``every`` seconds of simulated time (and at
+        the end). On a blow-up, SimulationBlowUp is raised with ``last_good_state`` set to
+        a copy of the state at the last callback (or at the start).
+        """
+        if (until is None) == (steps is None):
+            raise ValueError("run: give exactly one of until (s) or steps")
+        dt = self.time_step
+        if steps is None:
+            steps = max(0, int(round((until - self.state.time) / dt)))
+        stride = steps if every is None else max(1, int(round(every / dt)))
+        good = self.state.copy()
+        done = 0
+        try:
+            while done < steps:
+                chunk = min(stride, steps - done)
+                self.step(chunk)
+                done += chunk
+                if callback is not None:
+                    callback(self)
+                good = self.state.copy() if done < steps else good
+        except SimulationBlowUp as error:
+            error.last_good_state = good
+            raise
+
+    def kinetic_energy(self):
+        """(translational, rotational) kinetic energy in J at the current velocities."""
+        m = self.model
+        translational = 0.5 * float(np.sum(m.mass * np.einsum("ij,ij->i", self.state.velocity,
+                                                                 self.state.velocity)))
+        rotational = 0.5 * float(np.sum(m.inertia * np.einsum(
+            "ij,ij->i", self.state.angular_velocity, self.state.angular_velocity)))
+        return translational, rotational
+
+    def bond_energy(self):
+        """Elastic energy stored in all intact bonds (J)."""
+        return float(self.bonds.energy(self.model, self.state).sum())

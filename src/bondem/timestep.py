@@ -1,0 +1,39 @@
+"""Stable time step of a model (SPEC section 1)."""
+import numpy as np
+
+
+def time_scales(model):
+    """Smallest time scale (s) of each kind: {"rayleigh", "bond_axial", "bond_bending"}.
+
+    Rayleigh: pi r sqrt(rho / G) / (0.1631 nu + 0.8766) per particle. Bonds:
+    sqrt(m_red L0 / (E A_b)) and sqrt(I_red L0 / (E I)), with the pair's reduced mass
+    and reduced moment of inertia.
+    """
+    table = model.material_table()
+    density = table["density"][model.material]
+    young = table["young_modulus"][model.material]
+    poisson = table["poisson_ratio"][model.material]
+    shear_modulus = young / (2.0 * (1.0 + poisson))
+    rayleigh = np.pi * model.radius * np.sqrt(density / shear_modulus) / (0.1631 * poisson + 0.8766)
+    scales = {"rayleigh": float(rayleigh.min()) if rayleigh.size else np.inf}
+    if model.n_bonds:
+        i, j = model.bond_pairs[:, 0], model.bond_pairs[:, 1]
+        reduced_mass = model.mass[i] * model.mass[j] / (model.mass[i] + model.mass[j])
+        reduced_inertia = (model.inertia[i] * model.inertia[j]
+                           / (model.inertia[i] + model.inertia[j]))
+        bond_young = model.bond_material_table()["young_modulus"][model.bond_material]
+        radius = 0.5 * model.bond_diameter
+        area = np.pi * radius ** 2
+        second_moment = 0.25 * np.pi * radius ** 4
+        length = model.bond_initial_length
+        scales["bond_axial"] = float(np.sqrt(reduced_mass * length / (bond_young * area)).min())
+        scales["bond_bending"] = float(
+            np.sqrt(reduced_inertia * length / (bond_young * second_moment)).min())
+    return scales
+
+
+def stable_time_step(model, safety_factor=0.2):
+    """(time step in s, limiting cause): safety_factor times the smallest time scale."""
+    scales = time_scales(model)
+    cause = min(scales, key=scales.get)
+    return safety_factor * scales[cause], cause
