@@ -158,7 +158,10 @@ class State:
     bond_active (B,); bond_axis (B,3) unit axis of the last step; bond_tangential_force
     (B,3) N; bond_normal_moment, bond_tangential_moment (B,3) N m, all on particle i;
     bond_break_time (B,) s, NaN while intact; bond_break_mode (B,) 0 intact, 1 tension,
-    2 compression, 3 shear. ``extra`` holds other laws' history (contacts, walls) as arrays.
+    2 compression, 3 shear; bond_break_energy (B,) J: elastic energy the bond held when it
+    broke; work_external: J done on particles by gravity and external loads so far;
+    dissipated_damping: J removed by local damping so far. ``extra`` holds other laws'
+    history and counters (contacts, walls) as arrays.
     """
     time: float
     step: int
@@ -173,6 +176,9 @@ class State:
     bond_tangential_moment: np.ndarray
     bond_break_time: np.ndarray
     bond_break_mode: np.ndarray
+    bond_break_energy: np.ndarray
+    work_external: float = 0.0
+    dissipated_damping: float = 0.0
     extra: dict = field(default_factory=dict)
 
     def copy(self) -> "State":
@@ -353,5 +359,6 @@ def make_system(position, radius, material, *, material_index=None, velocity=Non
         bond_normal_moment=np.zeros((n_bonds, 3)),
         bond_tangential_moment=np.zeros((n_bonds, 3)),
         bond_break_time=np.full(n_bonds, np.nan),
-        bond_break_mode=np.zeros(n_bonds, dtype=np.int8))
+        bond_break_mode=np.zeros(n_bonds, dtype=np.int8),
+        bond_break_energy=np.zeros(n_bonds))
     return model, state

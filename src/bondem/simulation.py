@@ -91,3 +91,19 @@ class Simulation:
     def bond_energy(self):
         """Elastic energy stored in all intact bonds (J)."""
         return float(self.bonds.energy(self.model, self.state).sum())
+
+    def energy_terms(self):
+        """Energy bookkeeping in J: stored (kinetic, bond elastic, and each law's own),
+        and cumulative since t = 0 (work of gravity and external loads, energy removed by
+        damping, energy held by bonds when they broke, and each law's counters).
+        Balance: stored(t) - stored(0) = work - dissipated - released."""
+        translational, rotational = self.kinetic_energy()
+        state = self.state
+        terms = {"kinetic_translational": translational, "kinetic_rotational": rotational,
+                 "bond_elastic": self.bond_energy(), "work_external": state.work_external,
+                 "dissipated_damping": state.dissipated_damping,
+                 "released_breakage": float(state.bond_break_energy.sum())}
+        for law in self.laws[1:]:
+            if hasattr(law, "energy_terms"):
+                terms.update(law.energy_terms(self.model, state))
+        return terms

@@ -29,7 +29,8 @@ def elastic_bonds(pairs, diameter, initial_length, bond_material, bm_young, bm_p
                   bm_normal_strength, bm_tangential_strength, bm_criterion, bm_compressive,
                   position, velocity, angular_velocity, box_length, periodic,
                   active, axis, tangential_force, normal_moment, tangential_moment,
-                  break_time, break_mode, time, dt, out_force_i, out_moment_i, out_moment_j):
+                  break_time, break_mode, break_energy, time, dt, out_force_i, out_moment_i,
+                  out_moment_j):
     """Advance every intact bond by one increment dt (s) and store its loads per bond."""
     for b in prange(pairs.shape[0]):
         if not active[b]:
@@ -65,6 +66,8 @@ def elastic_bonds(pairs, diameter, initial_length, bond_material, bm_young, bm_p
             active[b] = False
             break_time[b] = time
             break_mode[b] = mode
+            break_energy[b] = bond_elastic_energy(length, initial_length[b], f_t, m_n, m_t,
+                                                  kn, kt, ktw, kb)
             for k in range(3):
                 out_force_i[b, k] = 0.0
                 out_moment_i[b, k] = 0.0
@@ -119,17 +122,31 @@ def integrate(position, velocity, angular_velocity, force, moment, mass, inertia
     Fixed particles keep their velocity (they move with it). Local damping (Cundall)
     removes damping * |F_k| against the sign of v_k per component. Sets status[0] to
     STATUS_NOT_FINITE or STATUS_OUT_OF_DOMAIN when a particle blows up.
+    Returns (work of gravity and external loads, energy removed by damping) in J over
+    this kick, each load times the mean of the old and new velocity, which is exactly
+    the leapfrog's change of kinetic energy.
     """
+    work = 0.0
+    dissipated = 0.0
     for p in prange(position.shape[0]):
         if not fixed[p]:
             for k in range(3):
-                f = force[p, k] + mass[p] * gravity[k] + external_force[p, k]
+                applied = mass[p] * gravity[k] + external_force[p, k]
+                f = force[p, k] + applied
                 mk = moment[p, k] + external_moment[p, k]
+                damp_f = 0.0
+                damp_m = 0.0
                 if damping > 0.0:
-                    f -= damping * abs(f) * np.sign(velocity[p, k])
-                    mk -= damping * abs(mk) * np.sign(angular_velocity[p, k])
-                velocity[p, k] += f / mass[p] * kick_dt
-                angular_velocity[p, k] += mk / inertia[p] * kick_dt
+                    damp_f = -damping * abs(f) * np.sign(velocity[p, k])
+                    damp_m = -damping * abs(mk) * np.sign(angular_velocity[p, k])
+                v_old = velocity[p, k]
+                w_old = angular_velocity[p, k]
+                velocity[p, k] = v_old + (f + damp_f) / mass[p] * kick_dt
+                angular_velocity[p, k] = w_old + (mk + damp_m) / inertia[p] * kick_dt
+                v_mean = 0.5 * (v_old + velocity[p, k])
+                w_mean = 0.5 * (w_old + angular_velocity[p, k])
+                work += (applied * v_mean + external_moment[p, k] * w_mean) * kick_dt
+                dissipated -= (damp_f * v_mean + damp_m * w_mean) * kick_dt
         for k in range(3):
             x = position[p, k] + velocity[p, k] * drift_dt
             if periodic[k]:
@@ -141,6 +158,7 @@ def integrate(position, velocity, angular_velocity, force, moment, mass, inertia
                     or not np.isfinite(angular_velocity[p, k]):
                 status[0] = STATUS_NOT_FINITE
             position[p, k] = x
+    return work, dissipated
 
 
 @numba.njit(**_jit)
@@ -212,7 +230,8 @@ class ElasticBonds:
                       state.angular_velocity, self._box_length, model.periodic,
                       state.bond_active, state.bond_axis, state.bond_tangential_force,
                       state.bond_normal_moment, state.bond_tangential_moment,
-                      state.bond_break_time, state.bond_break_mode, state.time, increment_dt,
+                      state.bond_break_time, state.bond_break_mode, state.bond_break_energy,
+                      state.time, increment_dt,
                       self.force_i, self.moment_i, self.moment_j)
         gather_bond_loads(self._offsets, self._ends, self.force_i, self.moment_i,
                           self.moment_j, force, moment)
@@ -238,8 +257,10 @@ class Integrator:
     def advance(self, model, state, force, moment, kick_dt, drift_dt):
         """Kick velocities by kick_dt (s), drift positions by drift_dt (s); return status."""
         self.status[0] = STATUS_OK
-        integrate(state.position, state.velocity, state.angular_velocity, force, moment,
+        work, dissipated = integrate(state.position, state.velocity, state.angular_velocity, force, moment,
                   model.mass, model.inertia, model.fixed, model.gravity,
                   model.external_force, model.external_moment, model.damping, kick_dt,
                   drift_dt, model.box_low, model.box_high, model.periodic, self.status)
+        state.work_external += work
+        state.dissipated_damping += dissipated
         return int(self.status[0])
