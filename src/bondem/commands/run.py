@@ -1,0 +1,37 @@
+"""``bondem run SCENE.toml``: run a scene with a progress bar and write DIR/results.h5."""
+import sys
+from pathlib import Path
+
+import click
+
+
+@click.command(name="run")
+@click.argument("scene", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path),
+              help="Output folder (default: next to the scene, named after it).")
+@click.option("--backend", type=click.Choice(["cpu", "gpu"]),
+              help="Override simulation.backend of the scene.")
+@click.option("--resume", is_flag=True,
+              help="Continue from the folder's last checkpoint (same scene).")
+@click.option("--checkpoint-minutes", type=click.FloatRange(min=0.0),
+              help="Wall-clock minutes between checkpoints (scene default: 10).")
+@click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE",
+              help="Override a scene value, e.g. --set simulation.end_time=1e-3 (repeatable).")
+@click.option("--no-progress", is_flag=True, help="No progress bar.")
+def command(scene, out_dir, backend, resume, checkpoint_minutes, overrides, no_progress):
+    """Run SCENE (a TOML scene file, SPEC 4) and write results.h5 (SPEC 6)."""
+    from ..runner import RunFailed, default_out_dir, run_scene
+    from ..scene import load_scene, parse_override
+
+    changes = dict(parse_override(text) for text in overrides)
+    if backend is not None:
+        changes["simulation.backend"] = backend
+    loaded = load_scene(scene, changes or None)
+    out_dir = out_dir or default_out_dir(scene)
+    try:
+        path = run_scene(loaded, out_dir, progress=not no_progress, resume=resume,
+                         checkpoint_minutes=checkpoint_minutes)
+    except RunFailed as error:
+        click.echo(f"bondem: run failed: {error}", err=True)
+        sys.exit(1)
+    click.echo(f"results: {path}")

@@ -1,0 +1,121 @@
+"""Run a scene to its end time: frames to results.h5, checkpoints, progress bar, resume.
+
+Frames are taken every ``save_every`` seconds of simulated time, rounded to whole steps
+(frame k at step k * stride, plus the last step), so an interrupted and a resumed run see
+the same frame schedule. Checkpoints are taken at frame boundaries when at least
+``checkpoint_minutes`` of wall time have passed since the last one, and at the end.
+"""
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+from .errors import InputError
+from .integrate import SimulationBlowUp
+from .io.checkpoint import read_checkpoint, write_checkpoint
+from .io.results import ResultsWriter
+
+RESULTS_NAME = "results.h5"
+CHECKPOINT_NAME = "checkpoint.npz"
+LAST_GOOD_NAME = "last_good_state.npz"
+
+
+class RunFailed(RuntimeError):
+    """The simulation blew up; the message says where the last good state was kept."""
+
+
+def default_out_dir(scene_path) -> Path:
+    """Next to the scene, named after it: ``dir/impact.toml`` -> ``dir/impact``."""
+    scene_path = Path(scene_path)
+    return scene_path.parent / scene_path.stem
+
+
+def frame_schedule(scene, time_step):
+    """(total steps, steps between frames) of a scene run with ``time_step`` (s)."""
+    total = max(0, int(round(scene.end_time / time_step)))
+    stride = max(1, int(round(scene.save_every / time_step)))
+    return total, stride
+
+
+def run_scene(scene, out_dir, *, progress=True, resume=False, checkpoint_minutes=None,
+              stop_after_frames=None) -> Path:
+    """Run ``scene`` (from ``load_scene``) and write ``out_dir/results.h5``.
+
+    progress: show a tqdm bar (simulated time, steps/s, intact bonds); resume: continue
+    from ``out_dir/checkpoint.npz`` and truncate the results to its frame;
+    checkpoint_minutes: wall-clock minutes between checkpoints (default: the scene's
+    ``simulation.checkpoint_minutes``; 0 means at every frame); stop_after_frames: stop
+    (as if killed) after that many frames in this call, for tests. Returns the results
+    path. Raises InputError (bad resume) or RunFailed (blow-up; the last good state is
+    kept in ``out_dir/last_good_state.npz`` and every frame up to it in the results).
+    """
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    results_path = out_dir / RESULTS_NAME
+    checkpoint_path = out_dir / CHECKPOINT_NAME
+    minutes = scene.checkpoint_minutes if checkpoint_minutes is None else checkpoint_minutes
+    if resume:
+        if not checkpoint_path.is_file() or not results_path.is_file():
+            raise InputError("nothing to resume: no checkpoint.npz and results.h5 there",
+                             file=out_dir, key="--resume")
+        state, frames, scene_text, _ = read_checkpoint(checkpoint_path)
+        if scene_text != scene.text:
+            raise InputError("the scene changed since the checkpoint was written; run "
+                             "without --resume", file=scene.path, key="--resume")
+        sim = scene.make_simulation(state)
+        writer = ResultsWriter(results_path, sim, resume_frames=frames)
+    else:
+        sim = scene.make_simulation()
+        writer = ResultsWriter(results_path, sim, scene_text=scene.text, backend=scene.backend,
+                               material_names=list(scene.data.get("materials", {})) or None,
+                               bond_material_names=list(scene.data.get("bond_materials", {}))
+                               or None)
+        writer.append(sim)
+        write_checkpoint(checkpoint_path, sim.state, frames=writer.n_frames,
+                         scene_text=scene.text)
+    state_steps, stride = frame_schedule(scene, sim.time_step)
+    total = state_steps
+    bar = _progress_bar(progress, total, sim.state.step)
+    last_checkpoint = time.monotonic()
+    good = sim.state.copy()
+    frames_here = 0
+    try:
+        while sim.state.step < total:
+            if stop_after_frames is not None and frames_here >= stop_after_frames:
+                return results_path
+            start_step = sim.state.step
+            chunk = min(stride - start_step % stride, total - start_step)
+            try:
+                sim.step(chunk)
+            except SimulationBlowUp as error:
+                write_checkpoint(out_dir / LAST_GOOD_NAME, good, frames=writer.n_frames,
+                                 scene_text=scene.text)
+                raise RunFailed(f"{error}. The results hold every frame up to "
+                                f"t = {good.time:.6g} s; that state is kept in "
+                                f"{out_dir / LAST_GOOD_NAME}") from None
+            writer.append(sim)
+            frames_here += 1
+            good = sim.state.copy()
+            if bar is not None:
+                bar.update(sim.state.step - start_step)
+                bar.set_postfix_str(f"t={sim.state.time:.4g} s, intact bonds="
+                                    f"{int(sim.state.bond_active.sum())}/"
+                                    f"{sim.model.n_bonds}", refresh=False)
+            now = time.monotonic()
+            if now - last_checkpoint >= 60.0 * minutes or sim.state.step >= total:
+                write_checkpoint(checkpoint_path, sim.state, frames=writer.n_frames,
+                                 scene_text=scene.text)
+                last_checkpoint = now
+    finally:
+        writer.close()
+        if bar is not None:
+            bar.close()
+    return results_path
+
+
+def _progress_bar(progress, total, initial):
+    if not progress:
+        return None
+    from tqdm import tqdm
+    return tqdm(total=total, initial=initial, unit="step", dynamic_ncols=True,
+                desc="bondem", mininterval=0.5)

@@ -1,0 +1,636 @@
+"""Scene files (TOML, SPEC section 4) -> a validated Model, State and Simulation options.
+
+Validation happens here, at the edge: every bad value raises ``InputError`` naming the
+file, the key (dotted path, e.g. ``materials.glass.density``), the value and the allowed
+range. Kernels downstream assume valid input. The keys are documented in docs/scene.md.
+"""
+from __future__ import annotations
+
+import copy
+import csv
+import inspect
+import math
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .errors import InputError
+from .model import BondMaterial, Material, make_system
+
+BACKENDS = ("cpu", "gpu")
+CONTACT_MODELS = ("hertz_mindlin", "linear", "none")
+BREAKAGE = ("combined", "separate", "none")
+
+# Each schema entry: key -> (kind, default, low, high, include_low, include_high).
+# kind: "number", "int", "bool", "str", "vector3", "bool3", "time_step", "table", "any".
+# default REQUIRED means the key must be present; None means optional without default.
+REQUIRED = object()
+INF = math.inf
+
+SIMULATION_KEYS = {
+    "end_time": ("number", REQUIRED, 0.0, INF, False, False),
+    "time_step": ("time_step", "auto", 0.0, INF, False, False),
+    "save_every": ("number", None, 0.0, INF, False, False),
+    "gravity": ("vector3", [0.0, 0.0, 0.0], -INF, INF, False, False),
+    "backend": ("str", "cpu", BACKENDS, None, None, None),
+    "safety_factor": ("number", 0.2, 0.0, 1.0, False, True),
+    "force_time_step": ("bool", False, None, None, None, None),
+    "musen_compat": ("bool", False, None, None, None, None),
+    "damping": ("number", 0.0, 0.0, 1.0, True, False),
+    "periodic": ("bool3", [False, False, False], None, None, None, None),
+    "box_low": ("vector3", None, -INF, INF, False, False),
+    "box_high": ("vector3", None, -INF, INF, False, False),
+    "contact_model": ("str", None, CONTACT_MODELS, None, None, None),
+    "bonded_contacts": ("bool", False, None, None, None, None),
+    "rolling_resistance": ("bool", True, None, None, None, None),
+    "checkpoint_minutes": ("number", 10.0, 0.0, INF, True, False),
+}
+MATERIAL_KEYS = {
+    "density": ("number", REQUIRED, 0.0, INF, False, False),
+    "young_modulus": ("number", REQUIRED, 0.0, INF, False, False),
+    "poisson_ratio": ("number", 0.3, -1.0, 0.5, False, False),
+    "restitution": ("number", 0.5, 0.0, 1.0, False, True),
+    "friction": ("number", 0.3, 0.0, INF, True, False),
+    "rolling_friction": ("number", 0.0, 0.0, INF, True, False),
+}
+BOND_MATERIAL_KEYS = {
+    "young_modulus": ("number", REQUIRED, 0.0, INF, False, False),
+    "poisson_ratio": ("number", 0.3, -1.0, 0.5, False, False),
+    "normal_strength": ("number", INF, 0.0, INF, False, True),
+    "tangential_strength": ("number", INF, 0.0, INF, False, True),
+    "breakage": ("str", "combined", BREAKAGE, None, None, None),
+    "compressive_breakage": ("bool", False, None, None, None, None),
+}
+PARTICLE_KEYS = {
+    "file": ("str", None, None, None, None, None),
+    "generator": ("table", None, None, None, None, None),
+    "velocity": ("vector3", [0.0, 0.0, 0.0], -INF, INF, False, False),
+    "angular_velocity": ("vector3", [0.0, 0.0, 0.0], -INF, INF, False, False),
+    "offset": ("vector3", [0.0, 0.0, 0.0], -INF, INF, False, False),
+}
+BOND_KEYS = {
+    "file": ("str", None, None, None, None, None),
+    "max_gap": ("number", None, 0.0, INF, True, False),
+    "diameter": ("number", None, 0.0, INF, False, False),
+    "diameter_ratio": ("number", None, 0.0, INF, False, False),
+    "max_per_particle": ("int", None, 1, INF, True, False),
+    "material": ("str", None, None, None, None, None),
+}
+PLANE_KEYS = {
+    "type": ("str", REQUIRED, ("plane", "mesh"), None, None, None),
+    "point": ("vector3", REQUIRED, -INF, INF, False, False),
+    "normal": ("vector3", REQUIRED, -INF, INF, False, False),
+    "material": ("str", REQUIRED, None, None, None, None),
+    "velocity": ("vector3", [0.0, 0.0, 0.0], -INF, INF, False, False),
+}
+MESH_KEYS = {
+    "type": ("str", REQUIRED, ("plane", "mesh"), None, None, None),
+    "file": ("str", REQUIRED, None, None, None, None),
+    "material": ("str", REQUIRED, None, None, None, None),
+    "scale": ("number", 1.0, 0.0, INF, False, False),
+    "velocity": ("vector3", [0.0, 0.0, 0.0], -INF, INF, False, False),
+    "angular_velocity": ("vector3", [0.0, 0.0, 0.0], -INF, INF, False, False),
+    "rotation_center": ("vector3", [0.0, 0.0, 0.0], -INF, INF, False, False),
+}
+TOP_KEYS = ("simulation", "materials", "bond_materials", "particles", "bonds", "walls")
+
+PARTICLE_COLUMNS = ("x", "y", "z", "radius", "material")
+PARTICLE_OPTIONAL = ("vx", "vy", "vz", "wx", "wy", "wz")
+BOND_COLUMNS = ("i", "j", "diameter", "material")
+
+
+@dataclass
+class Scene:
+    """A loaded, validated scene.
+
+    model, state: the system at t = 0; end_time, save_every: s; text: the scene TOML after
+    overrides; path: the scene file; backend: "cpu" | "gpu"; simulation_options: keyword
+    arguments of ``Simulation`` (time_step, safety_factor, contact, walls, ...);
+    checkpoint_minutes: wall-clock minutes between checkpoints; data: the parsed table
+    with defaults filled in.
+    """
+    model: object
+    state: object
+    end_time: float
+    save_every: float
+    text: str
+    path: Path
+    backend: str
+    simulation_options: dict
+    checkpoint_minutes: float = 10.0
+    data: dict = field(default_factory=dict)
+
+    def make_simulation(self, state=None):
+        """A Simulation of this scene, from ``state`` (a checkpoint's) or a copy of the
+        scene's initial state."""
+        from .simulation import Simulation
+        return Simulation(self.model, (state if state is not None else self.state.copy()),
+                          **self.simulation_options)
+
+
+def load_scene(path, overrides: dict | None = None) -> Scene:
+    """Read and validate a scene file (TOML, SPEC 4).
+
+    path: the scene file; overrides: {"simulation.end_time": 1e-3,
+    "materials.glass.density": 2000.0, "walls.0.velocity": [0, 0, 1], ...} applied to the
+    parsed table before validation (parameter studies). Raises InputError on bad input.
+    """
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except OSError as error:
+        raise InputError(f"cannot read the scene file ({error.strerror})", file=path)
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as error:
+        raise InputError(f"not valid TOML: {error}", file=path)
+    if overrides:
+        data = copy.deepcopy(data)
+        for key, value in overrides.items():
+            _apply_override(data, key, value, path)
+        import tomli_w
+        text = tomli_w.dumps(data)
+    return _build(data, text, path)
+
+
+def parse_override(text, file="--set"):
+    """``"simulation.end_time=1e-3"`` -> ("simulation.end_time", 0.001); the value is
+    read as a TOML value (a bare word is taken as a string)."""
+    if "=" not in text:
+        raise InputError(f"{text!r} is not KEY=VALUE", file=file)
+    key, raw = (part.strip() for part in text.split("=", 1))
+    try:
+        value = tomllib.loads(f"v = {raw}")["v"]
+    except tomllib.TOMLDecodeError:
+        value = raw
+    return key, value
+
+
+def _apply_override(data, key, value, path):
+    parts = key.split(".")
+    node = data
+    for depth, part in enumerate(parts[:-1]):
+        where = ".".join(parts[:depth + 1])
+        if isinstance(node, list):
+            node = node[_list_index(node, part, where, path)]
+        elif isinstance(node, dict):
+            node = node.setdefault(part, {})
+        else:
+            raise InputError(f"override {key!r}: {where} is not a table", file=path, key=key)
+    last = parts[-1]
+    if isinstance(node, list):
+        node[_list_index(node, last, key, path)] = value
+    elif isinstance(node, dict):
+        node[last] = value
+    else:
+        raise InputError(f"override {key!r}: parent is not a table", file=path, key=key)
+
+
+def _list_index(node, part, where, path):
+    if not part.isdigit() or int(part) >= len(node):
+        raise InputError(f"index {part!r} must be in [0, {len(node) - 1}]", file=path, key=where)
+    return int(part)
+
+
+# ---------------------------------------------------------------------------- validation
+
+def _check_table(table, schema, where, path):
+    """Validate one table against its schema; return a dict with defaults filled in."""
+    if not isinstance(table, dict):
+        raise InputError(f"expected a table, got {table!r}", file=path, key=where)
+    for key in table:
+        if key not in schema:
+            raise InputError(f"unknown key; allowed: {', '.join(schema)}", file=path,
+                             key=f"{where}.{key}")
+    out = {}
+    for key, (kind, default, low, high, inc_low, inc_high) in schema.items():
+        full = f"{where}.{key}"
+        if key not in table:
+            if default is REQUIRED:
+                raise InputError("missing required key", file=path, key=full)
+            out[key] = copy.deepcopy(default)
+            continue
+        out[key] = _check_value(table[key], kind, low, high, inc_low, inc_high, full, path)
+    return out
+
+
+def _is_number(value):
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+def _range_text(low, high, inc_low, inc_high):
+    return f"{'[' if inc_low else '('}{low}, {high}{']' if inc_high else ')'}"
+
+
+def _check_number(value, low, high, inc_low, inc_high, key, path):
+    if not _is_number(value):
+        raise InputError(f"value {value!r}: expected a number in {_range_text(low, high, inc_low, inc_high)}",
+                         file=path, key=key)
+    value = float(value)
+    ok = (value >= low if inc_low else value > low) and (value <= high if inc_high else value < high)
+    if math.isnan(value) or not ok:
+        raise InputError(f"value {value!r} is outside the allowed range "
+                         f"{_range_text(low, high, inc_low, inc_high)}", file=path, key=key)
+    return value
+
+
+def _check_value(value, kind, low, high, inc_low, inc_high, key, path):
+    if kind == "number":
+        return _check_number(value, low, high, inc_low, inc_high, key, path)
+    if kind == "int":
+        if not isinstance(value, int) or isinstance(value, bool) or value < low:
+            raise InputError(f"value {value!r}: expected an integer >= {low}", file=path, key=key)
+        return value
+    if kind == "bool":
+        if not isinstance(value, bool):
+            raise InputError(f"value {value!r}: expected true or false", file=path, key=key)
+        return value
+    if kind == "str":
+        if not isinstance(value, str):
+            raise InputError(f"value {value!r}: expected a string", file=path, key=key)
+        if low is not None and value not in low:
+            raise InputError(f"value {value!r}; allowed: {', '.join(repr(v) for v in low)}",
+                             file=path, key=key)
+        return value
+    if kind == "time_step":
+        if value == "auto":
+            return value
+        if isinstance(value, str) or not _is_number(value):
+            raise InputError(f"value {value!r}: expected \"auto\" or a number of seconds > 0",
+                             file=path, key=key)
+        return _check_number(value, 0.0, INF, False, False, key, path)
+    if kind == "vector3":
+        if not (isinstance(value, list) and len(value) == 3 and all(_is_number(v) for v in value)
+                and all(math.isfinite(v) for v in value)):
+            raise InputError(f"value {value!r}: expected three finite numbers [x, y, z]",
+                             file=path, key=key)
+        return [float(v) for v in value]
+    if kind == "bool3":
+        if isinstance(value, bool):
+            return [value] * 3
+        if not (isinstance(value, list) and len(value) == 3
+                and all(isinstance(v, bool) for v in value)):
+            raise InputError(f"value {value!r}: expected true/false or three of them [x, y, z]",
+                             file=path, key=key)
+        return list(value)
+    if kind == "table":
+        if not isinstance(value, dict):
+            raise InputError(f"value {value!r}: expected a table", file=path, key=key)
+        return value
+    raise AssertionError(kind)
+
+
+def _build(data, text, path):
+    for key in data:
+        if key not in TOP_KEYS:
+            raise InputError(f"unknown key; allowed: {', '.join(TOP_KEYS)}", file=path, key=key)
+    for key in ("simulation", "materials", "particles"):
+        if key not in data:
+            raise InputError("missing required table", file=path, key=key)
+    sim = _check_table(data["simulation"], SIMULATION_KEYS, "simulation", path)
+    if sim["save_every"] is None:
+        sim["save_every"] = sim["end_time"] / 100.0
+
+    materials = _named_tables(data["materials"], "materials", MATERIAL_KEYS, path)
+    if not materials:
+        raise InputError("at least one particle material is needed", file=path, key="materials")
+    bond_materials = _named_tables(data.get("bond_materials", {}), "bond_materials",
+                                   BOND_MATERIAL_KEYS, path)
+    material_objects = [Material(name=name, **values) for name, values in materials.items()]
+    bond_material_objects = [BondMaterial(name=name, **values)
+                             for name, values in bond_materials.items()]
+    material_names = list(materials)
+    bond_material_names = list(bond_materials)
+
+    position, radius, material_index, velocity, angular_velocity, particles = _particles(
+        data["particles"], material_names, path)
+    n = position.shape[0]
+    bonds, bond_diameter, bond_material_index = _bonds(
+        data.get("bonds"), position, radius, bond_material_names, path)
+    if bonds.shape[0] and not bond_material_objects:
+        raise InputError("bonds are given but no [bond_materials] table", file=path,
+                         key="bond_materials")
+
+    periodic = sim["periodic"]
+    if any(periodic) and (sim["box_low"] is None or sim["box_high"] is None):
+        raise InputError("periodic axes need simulation.box_low and simulation.box_high",
+                         file=path, key="simulation.periodic")
+    try:
+        model, state = make_system(
+            position, radius, material_objects, material_index=material_index,
+            velocity=velocity, angular_velocity=angular_velocity, bonds=bonds,
+            bond_diameter=bond_diameter if bonds.shape[0] else None,
+            bond_material=bond_material_objects or None,
+            bond_material_index=bond_material_index if bonds.shape[0] else None,
+            gravity=sim["gravity"], periodic=periodic, box_low=sim["box_low"],
+            box_high=sim["box_high"], damping=sim["damping"])
+    except ValueError as error:
+        raise InputError(str(error), file=path, key=_guess_key(str(error)))
+
+    walls_data = data.get("walls", [])
+    if not isinstance(walls_data, list):
+        raise InputError("expected an array of tables [[walls]]", file=path, key="walls")
+    walls = [_wall(w, k, material_names, path) for k, w in enumerate(walls_data)]
+
+    options = {"time_step": sim["time_step"], "safety_factor": sim["safety_factor"],
+               "force_time_step": sim["force_time_step"], "musen_compat": sim["musen_compat"]}
+    _contact_and_walls(options, sim, walls, material_objects, material_names, path)
+    if sim["backend"] != "cpu":
+        _require_parameter("backend", path, "simulation.backend", sim["backend"])
+        options["backend"] = sim["backend"]
+    scene = Scene(model=model, state=state, end_time=sim["end_time"],
+                  save_every=sim["save_every"], text=text, path=path, backend=sim["backend"],
+                  simulation_options=options, checkpoint_minutes=sim["checkpoint_minutes"],
+                  data={"simulation": sim, "materials": materials,
+                        "bond_materials": bond_materials, "particles": particles,
+                        "walls": walls})
+    _check_time_step(scene, path)
+    return scene
+
+
+def _guess_key(message):
+    head = message.split(":")[0].split(" ")[0]
+    return {"bonds": "bonds", "bond_diameter": "bonds.diameter", "radius": "particles.radius",
+            "damping": "simulation.damping"}.get(head, head)
+
+
+def _named_tables(tables, where, schema, path):
+    if not isinstance(tables, dict):
+        raise InputError(f"expected tables [{where}.NAME]", file=path, key=where)
+    out = {}
+    for name, table in tables.items():
+        out[name] = _check_table(table, schema, f"{where}.{name}", path)
+    return out
+
+
+def _check_time_step(scene, path):
+    from .timestep import stable_time_step, time_scales
+    step = scene.simulation_options["time_step"]
+    if step == "auto":
+        step, _ = stable_time_step(scene.model, scene.simulation_options["safety_factor"])
+    else:
+        critical = min(time_scales(scene.model).values())
+        if step > critical and not scene.simulation_options["force_time_step"]:
+            raise InputError(f"value {step!r} s exceeds the stable limit {critical:.4g} s; allowed "
+                             f"(0, {critical:.4g}] or set force_time_step = true", file=path,
+                             key="simulation.time_step")
+    if scene.save_every < step:
+        raise InputError(f"value {scene.save_every!r} s is shorter than the time step "
+                         f"{step:.4g} s; allowed [{step:.4g}, end_time]", file=path,
+                         key="simulation.save_every")
+
+
+def _require_parameter(name, path, key, value):
+    from .simulation import Simulation
+    if name not in inspect.signature(Simulation).parameters:
+        raise InputError(f"value {value!r} is not available in this build of bondem", file=path,
+                         key=key)
+
+
+def _contact_and_walls(options, sim, walls, material_objects, material_names, path):
+    """Contacts and walls come from bondem.contacts / bondem.walls (imported lazily)."""
+    model = sim["contact_model"]
+    try:
+        from .contacts import ContactSettings
+    except ImportError:
+        ContactSettings = None
+    if model is None:
+        # Default: Hertz-Mindlin where the contact module is present; otherwise none.
+        model = "hertz_mindlin" if ContactSettings is not None else "none"
+        sim["contact_model"] = model
+    if model != "none":
+        if ContactSettings is None:
+            raise InputError(f"value {model!r} needs bondem.contacts, not in this build; "
+                             "allowed here: 'none'", file=path, key="simulation.contact_model")
+        _require_parameter("contact", path, "simulation.contact_model", model)
+        options["contact"] = ContactSettings(model=model, bonded_pairs=sim["bonded_contacts"],
+                                             rolling_resistance=sim["rolling_resistance"])
+    if walls:
+        try:
+            from . import walls as wall_module
+        except ImportError:
+            raise InputError("walls need bondem.walls, not in this build", file=path,
+                             key="walls")
+        _require_parameter("walls", path, "walls", "[[walls]]")
+        objects = []
+        for w in walls:
+            material = material_objects[material_names.index(w["material"])]
+            if w["type"] == "plane":
+                objects.append(wall_module.PlaneWall(w["point"], w["normal"], material,
+                                                     velocity=w["velocity"]))
+            else:
+                try:
+                    objects.append(wall_module.MeshWall.from_stl(
+                        w["file"], material, scale=w["scale"], velocity=w["velocity"],
+                        angular_velocity=w["angular_velocity"],
+                        rotation_center=w["rotation_center"]))
+                except (OSError, ValueError) as error:
+                    raise InputError(f"cannot read the mesh {w['file']!r}: {error}",
+                                     file=path, key=f"walls.{w['index']}.file")
+        options["walls"] = objects
+
+
+def _wall(table, index, material_names, path):
+    where = f"walls.{index}"
+    if not isinstance(table, dict):
+        raise InputError("expected a table", file=path, key=where)
+    kind = table.get("type")
+    if kind not in ("plane", "mesh"):
+        raise InputError(f"value {kind!r}; allowed: 'plane', 'mesh'", file=path, key=f"{where}.type")
+    wall = _check_table(table, PLANE_KEYS if kind == "plane" else MESH_KEYS, where, path)
+    if wall["material"] not in material_names:
+        raise InputError(f"value {wall['material']!r} is not defined; defined materials: "
+                         f"{', '.join(material_names)}", file=path, key=f"{where}.material")
+    if kind == "plane" and np.linalg.norm(wall["normal"]) == 0.0:
+        raise InputError("value [0, 0, 0]: the normal must be a non-zero vector", file=path,
+                         key=f"{where}.normal")
+    if kind == "mesh":
+        wall["file"] = str((path.parent / wall["file"]).resolve())
+        if not Path(wall["file"]).is_file():
+            raise InputError(f"value {table['file']!r}: no such file", file=path,
+                             key=f"{where}.file")
+    wall["index"] = index
+    return wall
+
+
+# ---------------------------------------------------------------------------- CSV input
+
+def _read_csv(file, required, optional, key, path):
+    """Rows of a CSV file with a header: dict column -> list of strings."""
+    try:
+        with open(file, newline="") as handle:
+            reader = csv.reader(handle)
+            header = [h.strip() for h in next(reader, [])]
+            rows = [row for row in reader if row and any(c.strip() for c in row)]
+    except OSError as error:
+        raise InputError(f"value {str(file)!r}: cannot read ({error.strerror})", file=path, key=key)
+    missing = [c for c in required if c not in header]
+    if missing:
+        raise InputError(f"value {str(file)!r}: missing column(s) {', '.join(missing)}; expected "
+                         f"{','.join(required)}[,{','.join(optional)}]", file=path, key=key)
+    unknown = [c for c in header if c not in required and c not in optional]
+    if unknown:
+        raise InputError(f"value {str(file)!r}: unknown column(s) {', '.join(unknown)}",
+                         file=path, key=key)
+    columns = {c: [] for c in header}
+    for line, row in enumerate(rows, start=2):
+        if len(row) != len(header):
+            raise InputError(f"{file} line {line}: {len(row)} values, expected {len(header)}",
+                             file=path, key=key)
+        for c, v in zip(header, row):
+            columns[c].append(v.strip())
+    return columns
+
+
+def _floats(columns, names, file, key, path):
+    try:
+        out = np.array([[float(v) for v in columns[c]] for c in names], dtype=np.float64).T
+    except ValueError as error:
+        raise InputError(f"{file}: {error}", file=path, key=key)
+    if out.size and not np.all(np.isfinite(out)):
+        row = int(np.flatnonzero(~np.isfinite(out).all(axis=1))[0])
+        raise InputError(f"{file} row {row}: NaN or infinite value", file=path, key=key)
+    return out.reshape(-1, len(names))
+
+
+def _particles(table, material_names, path):
+    p = _check_table(table, PARTICLE_KEYS, "particles", path)
+    if (p["file"] is None) == (p["generator"] is None):
+        raise InputError("give exactly one of particles.file or particles.generator",
+                         file=path, key="particles")
+    if p["file"] is not None:
+        file = path.parent / p["file"]
+        columns = _read_csv(file, PARTICLE_COLUMNS, PARTICLE_OPTIONAL, "particles.file", path)
+        if not columns["x"]:
+            raise InputError(f"value {p['file']!r}: no particles", file=path, key="particles.file")
+        position = _floats(columns, ("x", "y", "z"), file, "particles.file", path)
+        radius = _floats(columns, ("radius",), file, "particles.file", path)[:, 0]
+        if np.any(radius <= 0):
+            row = int(np.flatnonzero(radius <= 0)[0])
+            raise InputError(f"{p['file']} row {row}: radius = {radius[row]!r}; must be > 0",
+                             file=path, key="particles.file")
+        names = np.array(columns["material"])
+        velocity = (_floats(columns, ("vx", "vy", "vz"), file, "particles.file", path)
+                    if "vx" in columns else np.zeros_like(position))
+        angular_velocity = (_floats(columns, ("wx", "wy", "wz"), file, "particles.file", path)
+                            if "wx" in columns else np.zeros_like(position))
+    else:
+        try:
+            from .generate import particles_from_generator
+        except ImportError:
+            raise InputError("the generator needs bondem.generate, not in this build",
+                             file=path, key="particles.generator")
+        position, radius, names = particles_from_generator(p["generator"], str(path))
+        position = np.asarray(position, dtype=np.float64)
+        radius = np.broadcast_to(np.asarray(radius, dtype=np.float64), position.shape[:1]).copy()
+        names = np.broadcast_to(np.asarray(names), position.shape[:1])
+        velocity = np.zeros_like(position)
+        angular_velocity = np.zeros_like(position)
+    unknown = sorted(set(names.tolist()) - set(material_names))
+    if unknown:
+        raise InputError(f"material {unknown[0]!r} is not defined; defined materials: "
+                         f"{', '.join(material_names)}", file=path, key="particles.material")
+    index = np.array([material_names.index(m) for m in names.tolist()], dtype=np.int32)
+    position = position + np.array(p["offset"])
+    velocity = velocity + np.array(p["velocity"])
+    angular_velocity = angular_velocity + np.array(p["angular_velocity"])
+    return position, radius, index, velocity, angular_velocity, p
+
+
+def _bonds(table, position, radius, bond_material_names, path):
+    n = position.shape[0]
+    empty = (np.zeros((0, 2), dtype=np.int64), np.zeros(0), np.zeros(0, dtype=np.int32))
+    if table is None:
+        return empty
+    b = _check_table(table, BOND_KEYS, "bonds", path)
+    generated = b["max_gap"] is not None
+    if (b["file"] is None) == (not generated):
+        raise InputError("give exactly one of bonds.file or bonds.max_gap", file=path,
+                         key="bonds")
+    if b["file"] is not None:
+        for key in ("diameter", "diameter_ratio", "max_per_particle", "material"):
+            if b[key] is not None:
+                raise InputError("only used with bonds.max_gap (bonds.csv has its own columns)",
+                                 file=path, key=f"bonds.{key}")
+        file = path.parent / b["file"]
+        columns = _read_csv(file, BOND_COLUMNS, (), "bonds.file", path)
+        try:
+            pairs = np.array([[int(i), int(j)] for i, j in zip(columns["i"], columns["j"])],
+                             dtype=np.int64).reshape(-1, 2)
+        except ValueError as error:
+            raise InputError(f"{b['file']}: particle indices must be integers ({error})",
+                             file=path, key="bonds.file")
+        diameter = _floats(columns, ("diameter",), file, "bonds.file", path)[:, 0]
+        names = columns["material"]
+    else:
+        if b["material"] is None:
+            raise InputError("missing required key (with bonds.max_gap)", file=path,
+                             key="bonds.material")
+        if (b["diameter"] is None) == (b["diameter_ratio"] is None):
+            raise InputError("give exactly one of bonds.diameter or bonds.diameter_ratio",
+                             file=path, key="bonds.diameter")
+        try:
+            from .generate import bonds_from_gap
+        except ImportError:
+            pairs, diameter = _bonds_from_gap(position, radius, b)
+        else:
+            pairs, diameter = bonds_from_gap(position, radius, b["max_gap"],
+                                             diameter=b["diameter"],
+                                             diameter_ratio=b["diameter_ratio"],
+                                             max_per_particle=b["max_per_particle"])
+        pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
+        diameter = np.asarray(diameter, dtype=np.float64).reshape(-1)
+        names = [b["material"]] * pairs.shape[0]
+    where = "bonds.file" if b["file"] is not None else "bonds"
+    if pairs.size:
+        bad = np.flatnonzero((pairs < 0).any(1) | (pairs >= n).any(1))
+        if bad.size:
+            raise InputError(f"bond {int(bad[0])} joins particles {pairs[bad[0]].tolist()}; "
+                             f"indices must lie in [0, {n - 1}]", file=path, key=where)
+        same = np.flatnonzero(pairs[:, 0] == pairs[:, 1])
+        if same.size:
+            raise InputError(f"bond {int(same[0])} joins particle {pairs[same[0], 0]} to itself",
+                             file=path, key=where)
+        key = np.sort(pairs, axis=1)
+        _, first, counts = np.unique(key, axis=0, return_index=True, return_counts=True)
+        if np.any(counts > 1):
+            dup = key[first[np.argmax(counts > 1)]]
+            raise InputError(f"particles {dup.tolist()} are bonded more than once (duplicate "
+                             "bond)", file=path, key=where)
+        length = np.linalg.norm(position[pairs[:, 1]] - position[pairs[:, 0]], axis=1)
+        zero = np.flatnonzero(length <= 0.0)
+        if zero.size:
+            raise InputError(f"bond {int(zero[0])} joins particles {pairs[zero[0]].tolist()} at "
+                             "the same position (initial length 0, must be > 0)", file=path,
+                             key=where)
+        nonpositive = np.flatnonzero(~(diameter > 0))
+        if nonpositive.size:
+            raise InputError(f"bond {int(nonpositive[0])} has diameter "
+                             f"{diameter[nonpositive[0]]!r}; must be > 0", file=path, key=where)
+    unknown = sorted(set(names) - set(bond_material_names))
+    if unknown:
+        raise InputError(f"bond material {unknown[0]!r} is not defined; defined: "
+                         f"{', '.join(bond_material_names) or '(none)'}", file=path,
+                         key="bonds.material")
+    index = np.array([bond_material_names.index(m) for m in names], dtype=np.int32)
+    return pairs, diameter, index
+
+
+def _bonds_from_gap(position, radius, b):
+    """Fallback bond generation (until bondem.generate is merged): every pair whose
+    surface gap is at most max_gap (m); diameter (m) or diameter_ratio times the smaller
+    radius's diameter."""
+    from scipy.spatial import cKDTree
+    tree = cKDTree(position)
+    pairs = tree.query_pairs(2.0 * float(radius.max()) + b["max_gap"], output_type="ndarray")
+    pairs = pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))] if pairs.size else pairs.reshape(0, 2)
+    gap = (np.linalg.norm(position[pairs[:, 1]] - position[pairs[:, 0]], axis=1)
+           - radius[pairs[:, 0]] - radius[pairs[:, 1]])
+    pairs = pairs[gap <= b["max_gap"]]
+    if b["diameter"] is not None:
+        diameter = np.full(pairs.shape[0], b["diameter"])
+    else:
+        diameter = b["diameter_ratio"] * 2.0 * np.minimum(radius[pairs[:, 0]], radius[pairs[:, 1]])
+    return pairs, diameter
