@@ -27,7 +27,7 @@ def describe(scene, stable_time_step):
     stable, cause = stable_time_step(model, options["safety_factor"])
     dt = stable if options["time_step"] == "auto" else options["time_step"]
     total, stride = frame_schedule(scene, dt)
-    frames = total // stride + 2
+    frames = 1 + -(-total // stride)  # t = 0, every stride steps, and the last step
     # State: 3 (N,3) float64 arrays + per-bond history (~17 float64 each) + kernel scratch
     # (force/moment (N,3), per-bond loads 9 floats); results: position, velocity, angular
     # velocity per frame and particle, force and two moments plus a flag per frame and bond.
@@ -46,7 +46,7 @@ def describe(scene, stable_time_step):
         f"stable step:     {stable:.4g} s (safety factor {options['safety_factor']}, "
         f"limited by {cause})",
         f"time step:       {dt:.4g} s" + (" (auto)" if options["time_step"] == "auto" else ""),
-        f"end time:        {scene.end_time:.4g} s = {total} steps, {frames - 1} frames "
+        f"end time:        {scene.end_time:.4g} s = {total} steps, {frames} frames "
         f"every {stride} steps",
         f"memory estimate: {memory / 2**20:.3g} MiB in RAM, results up to "
         f"{results / 2**20:.3g} MiB before compression",

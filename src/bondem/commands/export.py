@@ -1,0 +1,39 @@
+"""``bondem export vtk RESULTS.h5``: ParaView files of a results file."""
+from pathlib import Path
+
+import click
+
+from ..errors import InputError
+
+
+@click.group(name="export")
+def command():
+    """Export results to other formats."""
+
+
+@command.command(name="vtk")
+@click.argument("results", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path),
+              help="Output folder (default: 'vtk' next to the results file).")
+@click.option("--every", type=click.IntRange(min=1), default=1, show_default=True,
+              help="Write every N-th frame only.")
+def vtk_command(results, out_dir, every):
+    """ParaView files: particles (points with radius, velocity, fragment id) and bonds
+    (lines with active flag, force, normal and shear stress), one per frame, and a .pvd
+    index with the times."""
+    import h5py
+
+    from ..io.vtk import export_vtk
+
+    if not results.is_file():
+        raise InputError("no such file", file=results, key="RESULTS")
+    try:
+        with h5py.File(results, "r", swmr=True) as f:
+            missing = [k for k in ("time", "particles/position", "bonds/pairs") if k not in f]
+    except OSError as error:
+        raise InputError(f"not an HDF5 results file ({error})", file=results, key="RESULTS")
+    if missing:
+        raise InputError(f"not a bondem results file (missing {', '.join(missing)})",
+                         file=results, key="RESULTS")
+    pvd = export_vtk(results, out_dir, every=every)
+    click.echo(f"ParaView: {pvd}")

@@ -1,0 +1,126 @@
+"""Scene loading (SPEC 4): a valid scene gives the right Model/State; every bad input
+gives exit status 2 and one line naming the file and the key (SPEC 5)."""
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from bondem.cli import main
+from bondem.scene import load_scene, parse_override
+from scenetools import cube_scene
+
+
+def test_valid_scene_builds_model(tmp_path):
+    """Reference: the lattice written by cube_scene (27 particles, 54 bonds, L0 = 2 r)."""
+    scene = load_scene(cube_scene(tmp_path))
+    model, state = scene.model, scene.state
+    assert model.n_particles == 27 and model.n_bonds == 54
+    np.testing.assert_allclose(model.bond_initial_length, 2e-3, rtol=1e-12)
+    np.testing.assert_allclose(model.mass, 2500.0 * 4 / 3 * np.pi * 1e-9, rtol=1e-12)
+    np.testing.assert_array_equal(model.gravity, [0.0, 0.0, -9.81])
+    assert model.bond_materials[0].normal_strength == 3e5
+    assert scene.end_time == 2e-4 and scene.save_every == 2e-5
+    # velocities from the CSV columns: x-layers at -0.4, 0, +0.4 m/s
+    np.testing.assert_allclose(np.unique(state.velocity[:, 0]), [-0.4, 0.0, 0.4], atol=1e-15)
+    assert scene.simulation_options["time_step"] == "auto"
+
+
+def test_overrides_change_values_and_text(tmp_path):
+    path = cube_scene(tmp_path)
+    scene = load_scene(path, {"simulation.end_time": 1e-4, "materials.glass.density": 2000.0,
+                              "particles.velocity": [0.0, 0.0, 1.0]})
+    assert scene.end_time == 1e-4
+    np.testing.assert_allclose(scene.model.mass, 2000.0 * 4 / 3 * np.pi * 1e-9, rtol=1e-12)
+    np.testing.assert_allclose(scene.state.velocity[:, 2], 1.0)
+    assert "density = 2000.0" in scene.text and "end_time = 0.0001" in scene.text
+    # the text after overrides loads back to the same scene
+    (tmp_path / "again.toml").write_text(scene.text)
+    again = load_scene(tmp_path / "again.toml")
+    np.testing.assert_array_equal(again.model.mass, scene.model.mass)
+    assert parse_override("simulation.time_step=1e-7") == ("simulation.time_step", 1e-7)
+    assert parse_override("simulation.backend=cpu") == ("simulation.backend", "cpu")
+
+
+def _replace(path, old, new):
+    text = path.read_text()
+    assert old in text, old
+    path.write_text(text.replace(old, new, 1))
+
+
+BAD_SCENES = [
+    # (description, edit of the scene text or a CSV file, key expected in the message)
+    ("unknown key", ("scene.toml", "end_time = ", "end_tme = 1.0\nend_time = "),
+     "simulation.end_tme"),
+    ("unknown table", ("scene.toml", "[materials.glass]", "[material.glass]\n[materials.glass]"),
+     "material"),
+    ("wrong type", ("scene.toml", "end_time = 0.0002", 'end_time = "soon"'),
+     "simulation.end_time"),
+    ("negative density", ("scene.toml", "density = 2500.0", "density = -2500.0"),
+     "materials.glass.density"),
+    ("Poisson ratio 0.5", ("scene.toml", "poisson_ratio = 0.3\n\n[bond", "poisson_ratio = 0.5\n\n[bond"),
+     "materials.glass.poisson_ratio"),
+    ("Poisson ratio -1", ("scene.toml", "poisson_ratio = 0.3\nnormal", "poisson_ratio = -1.0\nnormal"),
+     "bond_materials.binder.poisson_ratio"),
+    ("missing material", ("particles.csv", ",glass,", ",steel,"), "particles.material"),
+    ("missing bond material", ("bonds.csv", "binder", "glue"), "bonds.material"),
+    ("bond index out of range", ("bonds.csv", "\n0,1,", "\n0,27,"), "bonds.file"),
+    ("duplicate bond", ("bonds.csv", "i,j,diameter,material\n",
+                        "i,j,diameter,material\n1,0,0.001,binder\n"), "bonds.file"),
+    ("bonded particles at zero distance", ("particles.csv", "\n0.0,0.0,0.002,",
+                                           "\n0.0,0.0,0.0,"), "bonds.file"),
+    ("missing required key", ("scene.toml", "young_modulus = 1e8\npoisson_ratio = 0.3\n\n[bond",
+                              "poisson_ratio = 0.3\n\n[bond"), "materials.glass.young_modulus"),
+    ("bad breakage", ("scene.toml", "tangential_strength = 300000.0",
+                      'tangential_strength = 300000.0\nbreakage = "sometimes"'),
+     "bond_materials.binder.breakage"),
+    ("bad backend", ("scene.toml", 'time_step = "auto"', 'time_step = "auto"\nbackend = "tpu"'),
+     "simulation.backend"),
+    ("negative time step", ("scene.toml", 'time_step = "auto"', "time_step = -1e-6"),
+     "simulation.time_step"),
+    ("time step above the stable limit", ("scene.toml", 'time_step = "auto"', "time_step = 1e-3"),
+     "simulation.time_step"),
+    ("gravity not a vector", ("scene.toml", "gravity = [0.0, 0.0, -9.81]", "gravity = [0.0, -9.81]"),
+     "simulation.gravity"),
+    ("missing CSV file", ("scene.toml", 'file = "bonds.csv"', 'file = "nobonds.csv"'), "bonds.file"),
+    ("CSV missing column", ("particles.csv", "x,y,z,radius,", "x,y,zz,radius,"), "particles.file"),
+    ("CSV not a number", ("particles.csv", "\n0.0,0.0,0.002,", "\n0.0,0.0,abc,"), "particles.file"),
+    ("wall without material", ("scene.toml", "[bonds]",
+                               '[[walls]]\ntype = "plane"\npoint = [0.0, 0.0, 0.0]\n'
+                               'normal = [0.0, 0.0, 1.0]\nmaterial = "steel"\n\n[bonds]'),
+     "walls.0.material"),
+    ("bad contact model", ("scene.toml", 'contact_model = "none"', 'contact_model = "glue"'),
+     "simulation.contact_model"),
+    ("restitution above 1", ("scene.toml", "density = 2500.0", "density = 2500.0\nrestitution = 1.5"),
+     "materials.glass.restitution"),
+]
+
+
+@pytest.mark.parametrize("what, edit, key", BAD_SCENES, ids=[c[0] for c in BAD_SCENES])
+def test_bad_input_exit_2_names_key(tmp_path, what, edit, key):
+    path = cube_scene(tmp_path)
+    name, old, new = edit
+    _replace(tmp_path / name, old, new)
+    result = CliRunner().invoke(main, ["info", str(path)])
+    assert result.exit_code == 2, (what, result.output)
+    message = result.stderr.strip()
+    assert "\n" not in message and "Traceback" not in result.output
+    assert str(path) in message and key in message, message
+
+
+def test_missing_scene_file_and_bad_override(tmp_path):
+    result = CliRunner().invoke(main, ["info", str(tmp_path / "none.toml")])
+    assert result.exit_code == 2 and "none.toml" in result.stderr
+    path = cube_scene(tmp_path)
+    result = CliRunner().invoke(main, ["run", str(path), "--set", "materials.glass.density=-1"])
+    assert result.exit_code == 2 and "materials.glass.density" in result.stderr
+
+
+def test_info_reports_counts_mass_step(tmp_path):
+    """Reference: total mass 27 m, stable step = 0.2 x the bond axial time scale
+    sqrt(m_red L0 / (E A_b)) for this lattice (bond-limited)."""
+    result = CliRunner().invoke(main, ["info", str(cube_scene(tmp_path))])
+    assert result.exit_code == 0, result.output
+    mass = 2500.0 * 4 / 3 * np.pi * 1e-9
+    step = 0.2 * np.sqrt(0.5 * mass * 2e-3 / (1e8 * np.pi * 0.25e-6))
+    assert "27" in result.output and "54" in result.output
+    assert f"{27 * mass:.6g} kg" in result.output
+    assert f"{step:.4g} s" in result.output and "bond_axial" in result.output
