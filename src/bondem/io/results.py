@@ -84,9 +84,11 @@ class ResultsWriter:
                  bond_material_names=None, resume_frames=None, compression="gzip"):
         self.path = Path(path)
         self.n_walls = count_walls(sim)
+        self._datasets = None
+        self._break_time_written = -1
         model = sim.model
         if resume_frames is not None:
-            self._reopen(resume_frames)
+            self._reopen(resume_frames, sim.state)
             return
         self.energy_names = list(sim.energy_terms())
         n, b, w = model.n_particles, model.n_bonds, self.n_walls
@@ -144,18 +146,21 @@ class ResultsWriter:
         f.swmr_mode = True
         self.n_frames = 0
 
-    def _reopen(self, n_frames):
+    def _reopen(self, n_frames, state):
         f = h5py.File(self.path, "a", libver="latest")
         frame_names = []
         f.visititems(lambda name, obj: frame_names.append(name)
                      if isinstance(obj, h5py.Dataset) and obj.maxshape[:1] == (None,) else None)
-        have = f["time"].shape[0]
+        have = min(f[name].shape[0] for name in frame_names)
         if have < n_frames:
             f.close()
             raise ValueError(f"{self.path}: holds {have} frames, the checkpoint needs {n_frames}")
         for name in frame_names:
             f[name].resize(n_frames, axis=0)
         self.energy_names = list(f["energy"].keys()) if "energy" in f else []
+        # breaks after the checkpoint may have been written before the interruption
+        f["bonds/break_time"][...] = state.bond_break_time
+        f["bonds/break_mode"][...] = state.bond_break_mode
         f.flush()
         f.swmr_mode = True
         self.file = f
@@ -164,8 +169,9 @@ class ResultsWriter:
     def append(self, sim):
         """Append the Simulation's current state as one frame and flush it to disk."""
         f, state, k = self.file, sim.state, self.n_frames
+        # /time is written last: its length is the number of complete frames, even when
+        # the process is killed in the middle of an append.
         values = {
-            "time": state.time,
             "particles/position": state.position,
             "particles/velocity": state.velocity,
             "particles/angular_velocity": state.angular_velocity,
@@ -180,12 +186,17 @@ class ResultsWriter:
         energy = sim.energy_terms()
         for name in self.energy_names:
             values[f"energy/{name}"] = energy.get(name, np.nan)
+        values["time"] = state.time
+        if self._datasets is None:  # looking datasets up by name costs more than writing
+            self._datasets = {name: f[name] for name in values}
         for name, value in values.items():
-            dataset = f[name]
+            dataset = self._datasets[name]
             dataset.resize(k + 1, axis=0)
             dataset[k] = value
-        f["bonds/break_time"][...] = state.bond_break_time
-        f["bonds/break_mode"][...] = state.bond_break_mode
+        if self._break_time_written < int(np.count_nonzero(~state.bond_active)):
+            f["bonds/break_time"][...] = state.bond_break_time
+            f["bonds/break_mode"][...] = state.bond_break_mode
+            self._break_time_written = int(np.count_nonzero(~state.bond_active))
         self.n_frames = k + 1
         f.flush()
 
