@@ -22,6 +22,7 @@ leaves a file that opens and holds every frame flushed so far.
 """
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import h5py
@@ -147,16 +148,10 @@ class ResultsWriter:
         self.n_frames = 0
 
     def _reopen(self, n_frames, state):
-        f = h5py.File(self.path, "a", libver="latest")
-        frame_names = []
-        f.visititems(lambda name, obj: frame_names.append(name)
-                     if isinstance(obj, h5py.Dataset) and obj.maxshape[:1] == (None,) else None)
-        have = min(f[name].shape[0] for name in frame_names)
+        have = rewrite_results(self.path, n_frames)
         if have < n_frames:
-            f.close()
             raise ValueError(f"{self.path}: holds {have} frames, the checkpoint needs {n_frames}")
-        for name in frame_names:
-            f[name].resize(n_frames, axis=0)
+        f = h5py.File(self.path, "a", libver="latest")
         self.energy_names = list(f["energy"].keys()) if "energy" in f else []
         # breaks after the checkpoint may have been written before the interruption
         f["bonds/break_time"][...] = state.bond_break_time
@@ -210,6 +205,38 @@ class ResultsWriter:
 
     def __exit__(self, *exc):
         self.close()
+
+
+def _frame_datasets(f):
+    names = []
+    f.visititems(lambda name, obj: names.append(name)
+                 if isinstance(obj, h5py.Dataset) and obj.maxshape[:1] == (None,) else None)
+    return names
+
+
+def rewrite_results(path, n_frames=None) -> int:
+    """Rewrite a results file cleanly, keeping its first ``n_frames`` frames (default: all
+    complete frames, the length of /time); returns the frames kept.
+
+    A writer killed in SWMR mode leaves HDF5's "open for write" flag set: the file still
+    opens with ``h5py.File(path, "r", swmr=True)`` (as ``read_results`` does), but not for
+    writing nor, with plain ``h5py.File(path)``, for reading. This copies it (through
+    SWMR read) into a new file, cut to the frames wanted, and atomically replaces it.
+    """
+    path = Path(path)
+    temporary = path.with_name(path.name + ".rewrite")
+    with h5py.File(path, "r", swmr=True) as source:
+        complete = min(source[name].shape[0] for name in _frame_datasets(source))
+        keep = complete if n_frames is None else min(n_frames, complete)
+        with h5py.File(temporary, "w", libver="latest") as target:
+            for key, value in source.attrs.items():
+                target.attrs[key] = value
+            for name in source:
+                source.copy(source[name], target, name=name)
+            for name in _frame_datasets(target):
+                target[name].resize(keep, axis=0)
+    os.replace(temporary, path)
+    return keep
 
 
 def read_results(path) -> dict:
