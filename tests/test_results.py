@@ -79,8 +79,11 @@ def test_spec6_layout_and_contents(finished):
         np.testing.assert_array_equal(r["particles/position"][k], sim.state.position)
         np.testing.assert_array_equal(r["particles/velocity"][k], sim.state.velocity)
         np.testing.assert_array_equal(r["bonds/active"][k], sim.state.bond_active)
+        intact = sim.state.bond_active[:, None]
         np.testing.assert_array_equal(r["bonds/tangential_moment"][k],
-                                      sim.state.bond_tangential_moment)
+                                      np.where(intact, sim.state.bond_tangential_moment, 0.0))
+        np.testing.assert_array_equal(r["bonds/normal_moment"][k],
+                                      np.where(intact, sim.state.bond_normal_moment, 0.0))
     for name, value in sim.energy_terms().items():
         assert r[f"energy/{name}"][-1] == value, name
     np.testing.assert_array_equal(r["bonds/break_time"], sim.state.bond_break_time)

@@ -9,7 +9,7 @@ Layout (F frames, N particles, B bonds, W walls; every dataset has a ``unit`` at
        /bond_materials/names, active (F,B) bool, break_time (B,) s (NaN while intact),
        break_mode (B,) int8 (0 intact, 1 tension, 2 compression, 3 shear),
        force (F,B,3) N (F_n + F_t on particle i), normal_moment, tangential_moment
-       (F,B,3) N m (on particle i)
+       (F,B,3) N m (on particle i); all three zero for broken bonds
 /walls/force, torque, position (F,W,3) N, N m, m
 /energy/<term> (F,) J: Simulation.energy_terms()
 /materials/names, /bond_materials/names
@@ -59,6 +59,13 @@ def bond_forces(model, state):
     force = normal + state.bond_tangential_force
     force[~state.bond_active] = 0.0
     return force
+
+
+def _intact_only(vectors, active):
+    """A broken bond applies no load: its (stale) history is recorded as zero."""
+    out = vectors.copy()
+    out[~active] = 0.0
+    return out
 
 
 def _wall_array(sim, name, n_walls):
@@ -172,8 +179,9 @@ class ResultsWriter:
             "particles/angular_velocity": state.angular_velocity,
             "bonds/active": state.bond_active,
             "bonds/force": bond_forces(sim.model, state),
-            "bonds/normal_moment": state.bond_normal_moment,
-            "bonds/tangential_moment": state.bond_tangential_moment,
+            "bonds/normal_moment": _intact_only(state.bond_normal_moment, state.bond_active),
+            "bonds/tangential_moment": _intact_only(state.bond_tangential_moment,
+                                                    state.bond_active),
             "walls/force": _wall_array(sim, "wall_force", self.n_walls),
             "walls/torque": _wall_array(sim, "wall_torque", self.n_walls),
             "walls/position": _wall_array(sim, "wall_positions", self.n_walls),
