@@ -17,7 +17,7 @@ def demo_folder() -> Path:
 @click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path),
               default=Path("bondem-demo"), show_default=True, help="Output folder.")
 @click.option("--end-time", type=click.FloatRange(min=0.0, min_open=True),
-              help="Stop earlier than the demo's 1.5 ms (s).")
+              help="End time (s) instead of the demo's 1 ms.")
 @click.option("--no-progress", is_flag=True, help="No progress bar.")
 def command(out_dir, end_time, no_progress):
     """Run the demo: a bonded agglomerate of 369 particles hits a wall at 6 m/s; writes
