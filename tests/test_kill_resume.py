@@ -79,3 +79,24 @@ def test_resume_without_checkpoint_is_input_error(tmp_path):
     result = CliRunner().invoke(main, ["run", str(cube_scene(tmp_path)), "--out",
                                        str(tmp_path / "empty"), "--resume"])
     assert result.exit_code == 2 and "--resume" in result.stderr
+
+
+def test_blow_up_exits_nonzero_and_keeps_last_good_state(tmp_path):
+    """A forced time step 4x the bond's axial time scale blows up (explicit integration is unstable
+    above 2/omega); the run stops with exit status 1, the frames before it are kept and
+    the last good state is saved."""
+    from bondem.io.checkpoint import read_checkpoint
+    path = cube_scene(tmp_path, end_time=2e-2, save_every=2e-4)
+    text = path.read_text().replace('time_step = "auto"',
+                                    "time_step = 5e-5\nforce_time_step = true")
+    text = text.replace("\n[particles]", 'breakage = "none"\n\n[particles]')
+    path.write_text(text)
+    result = CliRunner().invoke(main, ["run", str(path), "--no-progress"])
+    assert result.exit_code == 1, result.output
+    assert "blew up" in result.stderr and "last_good_state.npz" in result.stderr
+    out = tmp_path / "scene"
+    state, frames, _, _ = read_checkpoint(out / "last_good_state.npz")
+    r = read_results(out / "results.h5")
+    assert 1 <= frames == r["time"].shape[0] < 101
+    assert np.all(np.isfinite(state.position)) and state.time == r["time"][-1]
+    np.testing.assert_array_equal(state.position, r["particles/position"][-1])
