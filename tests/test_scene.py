@@ -89,6 +89,14 @@ BAD_SCENES = [
      "walls.0.material"),
     ("bad contact model", ("scene.toml", 'contact_model = "none"', 'contact_model = "glue"'),
      "simulation.contact_model"),
+    ("periodic without box", ("scene.toml", 'contact_model = "none"',
+                              'contact_model = "none"\nperiodic = [true, false, false]'),
+     "simulation.periodic"),
+    ("box high below low", ("scene.toml", 'contact_model = "none"',
+                            'contact_model = "none"\nbox_low = [0.0, 0.0, 0.0]\n'
+                            'box_high = [1.0, -1.0, 1.0]'), "simulation.box_high"),
+    ("save_every below the time step", ("scene.toml", "save_every = 2e-05",
+                                        "save_every = 1e-9"), "simulation.save_every"),
     ("restitution above 1", ("scene.toml", "density = 2500.0", "density = 2500.0\nrestitution = 1.5"),
      "materials.glass.restitution"),
 ]

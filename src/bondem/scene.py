@@ -353,7 +353,8 @@ def _build(data, text, path):
 def _guess_key(message):
     head = message.split(":")[0].split(" ")[0]
     return {"bonds": "bonds", "bond_diameter": "bonds.diameter", "radius": "particles.radius",
-            "damping": "simulation.damping"}.get(head, head)
+            "damping": "simulation.damping", "box_low/box_high": "simulation.box_high",
+            "periodic": "simulation.periodic"}.get(head, head)
 
 
 def _named_tables(tables, where, schema, path):

@@ -8,10 +8,13 @@ force (N, F_n + F_t on particle i), normal_stress and shear_stress (Pa):
     normal_stress = (F . n) / A_b + |M_t| R_b / I   (positive in tension, SPEC 2)
     shear_stress  = |F_t| / A_b + |M_n| R_b / J
 with F_t = F - (F . n) n. Open ``results.pvd`` in ParaView (glyph the particles with
-"radius" as scale array, Sphere glyph, scale factor 2).
+"radius" as scale array, Sphere glyph, scale factor 2). Fragment ids come from
+/particles/fragment, (F,N) or (N,), in the results file or in the analysis' sidecar
+``<stem>.fragments.h5``.
 """
 from __future__ import annotations
 
+from contextlib import ExitStack
 from pathlib import Path
 from xml.sax.saxutils import quoteattr
 
@@ -118,13 +121,21 @@ def export_vtk(results_path, out_dir=None, *, every=1) -> Path:
     out_dir = Path(out_dir) if out_dir is not None else results_path.parent / "vtk"
     out_dir.mkdir(parents=True, exist_ok=True)
     entries = []
-    with h5py.File(results_path, "r", swmr=True) as f:
+    # fragment ids: in the results file, or in the analysis' sidecar when the results
+    # file could not be written (e.g. still open in a running simulation)
+    sidecar_path = results_path.with_name(results_path.stem + ".fragments.h5")
+    with ExitStack() as stack:
+        sidecar = (stack.enter_context(h5py.File(sidecar_path, "r"))
+                   if sidecar_path.is_file() else None)
+        f = stack.enter_context(h5py.File(results_path, "r", swmr=True))
         times = f["time"][()]
         radius = f["particles/radius"][()]
         material = f["particles/material"][()]
         pairs = f["bonds/pairs"][()]
         diameter = f["bonds/diameter"][()]
-        fragment = f["particles/fragment"] if "particles/fragment" in f else None
+        fragment = (f["particles/fragment"] if "particles/fragment" in f
+                    else sidecar["particles/fragment"] if sidecar is not None
+                    and "particles/fragment" in sidecar else None)
         for k in range(0, times.shape[0], max(1, int(every))):
             position = f["particles/position"][k]
             frag = None
