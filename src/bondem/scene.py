@@ -532,7 +532,9 @@ def _particles(table, material_names, path):
     unknown = sorted(set(names.tolist()) - set(material_names))
     if unknown:
         raise InputError(f"material {unknown[0]!r} is not defined; defined materials: "
-                         f"{', '.join(material_names)}", file=path, key="particles.material")
+                         f"{', '.join(material_names)}", file=path,
+                         key="particles.material" if p["file"] is not None
+                         else "particles.generator.material")
     index = np.array([material_names.index(m) for m in names.tolist()], dtype=np.int32)
     position = position + np.array(p["offset"])
     velocity = velocity + np.array(p["velocity"])
