@@ -132,3 +132,56 @@ def test_info_reports_counts_mass_step(tmp_path):
     assert "27" in result.output and "54" in result.output
     assert f"{27 * mass:.6g} kg" in result.output
     assert f"{step:.4g} s" in result.output and "bond_axial" in result.output
+
+
+GENERATED = """\
+[simulation]
+end_time = 1e-4
+contact_model = "none"
+
+[materials.glass]
+density = 2500.0
+young_modulus = 1e8
+
+[bond_materials.binder]
+young_modulus = 1e8
+
+[particles]
+generator = {shape = "sphere", radius = 2e-3, particle_radius = 0.3e-3, seed = 1, material = "glass"}
+velocity = [0.0, 0.0, -1.0]
+
+[bonds]
+max_gap = 2e-5
+diameter_ratio = 0.5
+material = "binder"
+"""
+
+
+def test_generated_particles_and_bonds(tmp_path):
+    """Reference: brute force over all pairs (scipy cKDTree) for the bonds from max_gap;
+    every particle inside the 2 mm sphere."""
+    pytest.importorskip("bondem.generate")
+    from scipy.spatial import cKDTree
+    (tmp_path / "gen.toml").write_text(GENERATED)
+    scene = load_scene(tmp_path / "gen.toml")
+    model, state = scene.model, scene.state
+    assert model.n_particles > 50
+    assert np.all(np.linalg.norm(state.position, axis=1) + model.radius <= 2e-3 * (1 + 1e-9))
+    np.testing.assert_array_equal(state.velocity, np.tile([0.0, 0.0, -1.0], (model.n_particles, 1)))
+    pairs = cKDTree(state.position).query_pairs(0.6e-3 + 2e-5, output_type="ndarray")
+    gap = np.linalg.norm(state.position[pairs[:, 0]] - state.position[pairs[:, 1]], axis=1) - 0.6e-3
+    expected = {tuple(p) for p in np.sort(pairs[gap <= 2e-5], axis=1).tolist()}
+    assert {tuple(p) for p in np.sort(model.bond_pairs, axis=1).tolist()} == expected
+    np.testing.assert_allclose(model.bond_diameter, 0.3e-3, rtol=1e-12)
+
+
+def test_bonds_from_gap_match_lattice_bonds(tmp_path):
+    """Reference: the cube lattice's 54 nearest-neighbour bonds written to bonds.csv; with
+    max_gap = 1 nm the generated bonds must be the same pairs."""
+    path = cube_scene(tmp_path)
+    from_file = load_scene(path).model
+    _replace(path, 'file = "bonds.csv"', 'max_gap = 1e-9\ndiameter = 1e-3\nmaterial = "binder"')
+    generated = load_scene(path).model
+    key = lambda pairs: {tuple(p) for p in np.sort(pairs, axis=1).tolist()}  # noqa: E731
+    assert key(generated.bond_pairs) == key(from_file.bond_pairs)
+    np.testing.assert_array_equal(generated.bond_diameter, 1e-3)
