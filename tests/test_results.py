@@ -177,3 +177,30 @@ def test_resume_refuses_changed_scene(finished, tmp_path):
     changed = load_scene(scene.path, {"materials.glass.density": 2600.0})
     with pytest.raises(InputError, match="--resume"):
         run_scene(changed, out, progress=False, resume=True)
+
+
+def test_resume_from_checkpoint_between_frames(finished, tmp_path, monkeypatch):
+    """Checkpoints taken between two frames (one step per batch): resuming from one taken
+    mid-interval still reproduces the uninterrupted run bit for bit."""
+    import shutil
+
+    import bondem.runner as runner
+    scene, reference = finished
+    monkeypatch.setattr(runner, "BATCH_SECONDS", 0.0)  # batches of one step
+    saved = {}
+    original = runner.write_checkpoint
+
+    def keep_mid_frame(path, state, **kwargs):
+        original(path, state, **kwargs)
+        if state.step == 13 and path.name == runner.CHECKPOINT_NAME:  # stride is 9
+            shutil.copyfile(path, tmp_path / "mid.npz")
+            saved["frames"] = kwargs["frames"]
+
+    monkeypatch.setattr(runner, "write_checkpoint", keep_mid_frame)
+    out = tmp_path / "out"
+    run_scene(scene, out, progress=False, checkpoint_minutes=0.0)
+    monkeypatch.undo()
+    assert saved["frames"] == 2  # t = 0 and step 9
+    shutil.copyfile(tmp_path / "mid.npz", out / runner.CHECKPOINT_NAME)
+    run_scene(scene, out, progress=False, resume=True)
+    _assert_same_results(reference, out / "results.h5")

@@ -2,8 +2,10 @@
 
 Frames are taken every ``save_every`` seconds of simulated time, rounded to whole steps
 (frame k at step k * stride, plus the last step), so an interrupted and a resumed run see
-the same frame schedule. Checkpoints are taken at frame boundaries when at least
-``checkpoint_minutes`` of wall time have passed since the last one, and at the end.
+the same frame schedule. Steps run in batches of about a second of wall time; after a
+batch, a checkpoint is taken when at least ``checkpoint_minutes`` of wall time have passed
+since the last one (also between frames: resume continues to the next frame), and at the
+end.
 """
 from __future__ import annotations
 
@@ -18,6 +20,8 @@ from .io.results import ResultsWriter
 RESULTS_NAME = "results.h5"
 CHECKPOINT_NAME = "checkpoint.npz"
 LAST_GOOD_NAME = "last_good_state.npz"
+FIRST_BATCH = 16       # steps in the first batch (it includes the JIT compilation)
+BATCH_SECONDS = 1.0    # wall-clock target of a batch of steps
 
 
 class RunFailed(RuntimeError):
@@ -44,7 +48,7 @@ def run_scene(scene, out_dir, *, progress=True, resume=False, checkpoint_minutes
     progress: show a tqdm bar (simulated time, steps/s, intact bonds); resume: continue
     from ``out_dir/checkpoint.npz`` and truncate the results to its frame;
     checkpoint_minutes: wall-clock minutes between checkpoints (default: the scene's
-    ``simulation.checkpoint_minutes``; 0 means at every frame); stop_after_frames: stop
+    ``simulation.checkpoint_minutes``; 0 means after every batch of steps); stop_after_frames: stop
     (as if killed) after that many frames in this call, for tests. Returns the results
     path. Raises InputError (bad resume) or RunFailed (blow-up; the last good state is
     kept in ``out_dir/last_good_state.npz`` and every frame up to it in the results).
@@ -80,28 +84,36 @@ def run_scene(scene, out_dir, *, progress=True, resume=False, checkpoint_minutes
     good = sim.state.copy()
     frames_here = 0
     try:
+        batch = FIRST_BATCH
         while sim.state.step < total:
             if stop_after_frames is not None and frames_here >= stop_after_frames:
                 return results_path
             start_step = sim.state.step
-            chunk = min(stride - start_step % stride, total - start_step)
+            to_frame = min(stride - start_step % stride, total - start_step)
+            steps = min(to_frame, batch)
+            started = time.monotonic()
             try:
-                sim.step(chunk)
+                sim.step(steps)
             except SimulationBlowUp as error:
                 write_checkpoint(out_dir / LAST_GOOD_NAME, good, frames=writer.n_frames,
                                  scene_text=scene.text)
                 raise RunFailed(f"{error}. The results hold every frame up to "
                                 f"t = {good.time:.6g} s; that state is kept in "
                                 f"{out_dir / LAST_GOOD_NAME}") from None
-            writer.append(sim)
-            frames_here += 1
-            good = sim.state.copy()
+            now = time.monotonic()
+            # batches of about BATCH_SECONDS, so that checkpoints and the progress bar
+            # keep to the wall clock even when frames are hours apart
+            rate = steps / max(now - started, 1e-9)
+            batch = max(1, min(2 * batch, int(rate * BATCH_SECONDS)))
+            if steps == to_frame:
+                writer.append(sim)
+                frames_here += 1
+                good = sim.state.copy()
             if bar is not None:
                 bar.update(sim.state.step - start_step)
                 bar.set_postfix_str(f"t={sim.state.time:.4g} s, intact bonds="
                                     f"{int(sim.state.bond_active.sum())}/"
                                     f"{sim.model.n_bonds}", refresh=False)
-            now = time.monotonic()
             if now - last_checkpoint >= 60.0 * minutes or sim.state.step >= total:
                 write_checkpoint(checkpoint_path, sim.state, frames=writer.n_frames,
                                  scene_text=scene.text)
