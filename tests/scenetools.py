@@ -35,8 +35,8 @@ def cube_scene(folder, *, n=3, radius=1e-3, end_time=2e-4, save_every=2e-5, stre
                speed=0.4, extra=""):
     """n^3 particles on a simple cubic lattice (spacing 2 radius), bonded to their six
     neighbours; the three x-layers move apart at ``speed`` (m/s) so the bonds along x
-    stretch and, with the default strength (Pa), break while the others stay intact. Writes scene.toml, particles.csv,
-    bonds.csv in ``folder``; returns the scene path."""
+    stretch and, with the default strength (Pa), break while the others stay intact.
+    Writes scene.toml, particles.csv, bonds.csv in ``folder``; returns the scene path."""
     grid = np.stack(np.meshgrid(*[np.arange(n)] * 3, indexing="ij"), -1).reshape(-1, 3)
     position = grid * 2.0 * radius
     centre = position.mean(axis=0)

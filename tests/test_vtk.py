@@ -1,6 +1,5 @@
 """ParaView export read back with VTK's own XML reader: point and cell counts, and values
 equal to the results file; bond stresses against SPEC 2's formulas on hand-made bonds."""
-import shutil
 import xml.etree.ElementTree as ET
 
 import h5py

@@ -226,10 +226,12 @@ def _range_text(low, high, inc_low, inc_high):
 
 def _check_number(value, low, high, inc_low, inc_high, key, path):
     if not _is_number(value):
-        raise InputError(f"value {value!r}: expected a number in {_range_text(low, high, inc_low, inc_high)}",
+        allowed = _range_text(low, high, inc_low, inc_high)
+        raise InputError(f"value {value!r}: expected a number in {allowed}",
                          file=path, key=key)
     value = float(value)
-    ok = (value >= low if inc_low else value > low) and (value <= high if inc_high else value < high)
+    ok = ((value >= low if inc_low else value > low)
+          and (value <= high if inc_high else value < high))
     if math.isnan(value) or not ok:
         raise InputError(f"value {value!r} is outside the allowed range "
                          f"{_range_text(low, high, inc_low, inc_high)}", file=path, key=key)
@@ -439,7 +441,8 @@ def _wall(table, index, material_names, path):
         raise InputError("expected a table", file=path, key=where)
     kind = table.get("type")
     if kind not in ("plane", "mesh"):
-        raise InputError(f"value {kind!r}; allowed: 'plane', 'mesh'", file=path, key=f"{where}.type")
+        raise InputError(f"value {kind!r}; allowed: 'plane', 'mesh'", file=path,
+                         key=f"{where}.type")
     wall = _check_table(table, PLANE_KEYS if kind == "plane" else MESH_KEYS, where, path)
     if wall["material"] not in material_names:
         raise InputError(f"value {wall['material']!r} is not defined; defined materials: "

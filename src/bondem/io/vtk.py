@@ -78,7 +78,8 @@ def particles_polydata(position, radius, velocity, angular_velocity, material, f
     poly.SetPoints(_points(position))
     vertices = vtk.vtkCellArray()
     offsets = np.arange(n + 1, dtype=np.int64)
-    vertices.SetData(_array("offsets", offsets), _array("connectivity", np.arange(n, dtype=np.int64)))
+    vertices.SetData(_array("offsets", offsets),
+                     _array("connectivity", np.arange(n, dtype=np.int64)))
     poly.SetVerts(vertices)
     data = poly.GetPointData()
     data.AddArray(_array("radius", radius, np.float64))
@@ -159,7 +160,8 @@ def export_vtk(results_path, out_dir=None, *, every=1) -> Path:
     lines = ['<?xml version="1.0"?>',
              '<VTKFile type="Collection" version="0.1" byte_order="LittleEndian">',
              "  <Collection>"]
-    lines += [f'    <DataSet timestep="{float(t)!r}" group="" part="{part}" file={quoteattr(name)}/>'
+    lines += [f'    <DataSet timestep="{float(t)!r}" group="" part="{part}" '
+              f'file={quoteattr(name)}/>'
               for t, part, name in entries]
     lines += ["  </Collection>", "</VTKFile>", ""]
     pvd.write_text("\n".join(lines))
