@@ -185,3 +185,38 @@ def test_bonds_from_gap_match_lattice_bonds(tmp_path):
     key = lambda pairs: {tuple(p) for p in np.sort(pairs, axis=1).tolist()}  # noqa: E731
     assert key(generated.bond_pairs) == key(from_file.bond_pairs)
     np.testing.assert_array_equal(generated.bond_diameter, 1e-3)
+
+
+def test_walls_from_scene(tmp_path):
+    """A plane and an STL mesh wall (a 1 cm box written by trimesh) become bondem.walls
+    objects with the scene's material, velocity and scale."""
+    walls = pytest.importorskip("bondem.walls")
+    import trimesh
+    trimesh.creation.box(extents=(1.0, 1.0, 1.0)).export(tmp_path / "box.stl")
+    path = cube_scene(tmp_path, extra="""
+        [[walls]]
+        type = "plane"
+        point = [0.0, 0.0, -0.01]
+        normal = [0.0, 0.0, 2.0]
+        material = "glass"
+        velocity = [0.0, 0.0, 0.5]
+
+        [[walls]]
+        type = "mesh"
+        file = "box.stl"
+        material = "glass"
+        scale = 0.01
+        rotation_center = [0.0, 0.0, 0.05]
+        """)
+    _replace(path, "[particles]", "[particles]\noffset = [0.0, 0.0, 0.05]")
+    scene = load_scene(path)
+    plane, mesh = scene.simulation_options["walls"]
+    assert isinstance(plane, walls.PlaneWall) and isinstance(mesh, walls.MeshWall)
+    sim = scene.make_simulation()
+    np.testing.assert_allclose(sim.wall_positions()[0], [0.0, 0.0, -0.01])
+    assert len(sim.walls) == 2
+    result = CliRunner().invoke(main, ["info", str(path)])
+    assert result.exit_code == 0 and "walls:           2" in result.output
+    _replace(path, 'file = "box.stl"', 'file = "nobox.stl"')
+    result = CliRunner().invoke(main, ["info", str(path)])
+    assert result.exit_code == 2 and "walls.1.file" in result.stderr

@@ -87,6 +87,18 @@ def test_export_reads_back(tmp_path):
     np.testing.assert_array_equal(vtk_to_numpy(cells.GetArray("shear_stress")), tau)
     assert np.all(sigma[~r["bonds/active"][k]] == 0) and np.any(sigma != 0)
 
+    # fragment ids from the analysis' sidecar file when the results file has none
+    with h5py.File(results, "a") as f:
+        del f["particles/fragment"]
+    with h5py.File(results.with_name("results.fragments.h5"), "w") as f:
+        f.create_dataset("particles/fragment", data=np.tile(np.arange(N) % 5, (F, 1)))
+    result = CliRunner().invoke(main, ["export", "vtk", str(results), "--out",
+                                       str(tmp_path / "vtk2"), "--every", "2"])
+    assert result.exit_code == 0, result.output
+    assert len(list((tmp_path / "vtk2").glob("particles_*.vtp"))) == (F + 1) // 2
+    data = _read(tmp_path / "vtk2" / "particles_000002.vtp").GetPointData()
+    np.testing.assert_array_equal(vtk_to_numpy(data.GetArray("fragment")), np.arange(N) % 5)
+
 
 def test_export_bad_file_is_input_error(tmp_path):
     (tmp_path / "x.h5").write_text("not hdf5")
