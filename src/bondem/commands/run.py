@@ -35,3 +35,4 @@ def command(scene, out_dir, backend, resume, checkpoint_minutes, overrides, no_p
         click.echo(f"bondem: run failed: {error}", err=True)
         sys.exit(1)
     click.echo(f"results: {path}")
+    click.echo(f"ParaView: bondem export vtk {path}")
