@@ -23,9 +23,9 @@ Packing method: random insertion, then collective rearrangement by energy minimi
    Neighbour pairs come from ``scipy.spatial.cKDTree`` with a skin (Verlet list),
    rebuilt when a sphere moved more than half the skin; the FIRE loop is a Numba kernel
    (``bondem._packing_kernels``), serial and therefore bit-reproducible for a seed.
-Closed STL meshes use a signed-distance grid (voxel ``contains`` + Euclidean distance
-transform) during the minimisation and trimesh's exact signed distance at the end; a
-sphere found crossing the surface gets an extra wall margin and the minimisation resumes.
+Closed STL meshes use a signed-distance grid (exact point-triangle distances, sign from
+the winding number) during the minimisation and the exact distance at the end; a sphere
+found crossing the surface gets an extra wall margin and the minimisation resumes.
 
 Bonds: every pair whose surface gap d_ij - r_i - r_j is at most ``max_gap`` (m) gets a
 bond, optionally capped per particle (closest gaps first). See docs/generation.md.
@@ -155,6 +155,7 @@ class MeshVolume:
         if mesh.volume < 0:
             mesh.invert()
         self.mesh = mesh
+        self._triangles = np.ascontiguousarray(mesh.triangles, dtype=np.float64)
         self._grid = None
 
     @classmethod
@@ -175,24 +176,19 @@ class MeshVolume:
         return np.array(low, dtype=float), np.array(high, dtype=float)
 
     def signed_distance(self, points):
-        """Exact distance (m) of points to the surface, positive inside."""
-        import trimesh
-        return trimesh.proximity.signed_distance(self.mesh, points)
+        """Exact distance (m) of points (P,3) to the surface, positive inside."""
+        return K.mesh_signed_distance(np.ascontiguousarray(points, dtype=np.float64),
+                                      self._triangles)
 
     def prepare(self, spacing):
-        """Signed-distance grid with the given spacing (m): voxel centres tested with
-        ``contains``, distances by the Euclidean distance transform (error ~ spacing/2,
-        corrected at the end by the exact distance)."""
-        from scipy.ndimage import distance_transform_edt
+        """Signed-distance grid with the given spacing (m), exact at the nodes (trilinear
+        in between; the final check uses the exact distance)."""
         low, high = self.bounds()
         low, high = low - 2 * spacing, high + 2 * spacing
         shape = np.maximum(np.ceil((high - low) / spacing).astype(int) + 1, 2)
         axes = [low[k] + spacing * np.arange(shape[k]) for k in range(3)]
         points = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1).reshape(-1, 3)
-        inside = self.mesh.contains(points).reshape(shape)
-        # the surface lies half a voxel beyond the last inside centre
-        grid = np.where(inside, distance_transform_edt(inside) * spacing - 0.5 * spacing,
-                        -(distance_transform_edt(~inside) * spacing - 0.5 * spacing))
+        grid = self.signed_distance(points).reshape(shape)
         self._grid = (np.ascontiguousarray(grid), low, float(spacing))
 
     def _wall(self):
@@ -311,7 +307,8 @@ def pack_spheres(volume, *, radius=None, radius_distribution=None, solids_fracti
                          radius_distribution=radius_distribution, rng=rng)
     if isinstance(volume, MeshVolume):
         low, high = volume.bounds()
-        spacing = max(0.5 * float(radii.mean()), (np.prod(high - low) / 4e5) ** (1 / 3))
+        # grid cost is (nodes x triangles): at most ~1e5 nodes, finer than a radius
+        spacing = max(0.5 * float(radii.mean()), (np.prod(high - low) / 1e5) ** (1 / 3))
         volume.prepare(spacing)
     wall = volume._wall()
     position = _random_inside(volume, wall, radii, rng)
