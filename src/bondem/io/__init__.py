@@ -1,0 +1,1 @@
+"""Input and output: results (HDF5), checkpoints, ParaView (VTK), CSV files."""
