@@ -14,10 +14,10 @@ from bondem.generate import (Sphere, bonds_from_gap, coordination_number, max_ov
 RADIUS, FRACTION, MAX_GAP = 2.5e-4, 0.60, 1e-5
 
 
-def run(n):
-    container = Sphere((0, 0, 0), (n * RADIUS ** 3 / FRACTION) ** (1 / 3))
+def run(n, fraction=FRACTION):
+    container = Sphere((0, 0, 0), (n * RADIUS ** 3 / fraction) ** (1 / 3))
     start = time.perf_counter()
-    position, radius = pack_spheres(container, radius=RADIUS, solids_fraction=FRACTION, seed=1)
+    position, radius = pack_spheres(container, radius=RADIUS, solids_fraction=fraction, seed=1)
     packed = time.perf_counter() - start
     pairs, _ = bonds_from_gap(position, radius, MAX_GAP, diameter_ratio=0.5)
     bonded = time.perf_counter() - start - packed
@@ -28,6 +28,6 @@ def run(n):
 
 
 if __name__ == "__main__":
-    run(500)  # warm-up: JIT compilation
+    run(500, 0.5)  # warm-up: JIT compilation
     for arg in sys.argv[1:]:
         run(int(arg))
