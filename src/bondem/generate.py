@@ -286,7 +286,7 @@ def _check_count(n):
 
 # ----------------------------------------------------------------------------- packing
 def pack_spheres(volume, *, radius=None, radius_distribution=None, solids_fraction=0.55,
-                 seed=0, max_overlap=1e-3, max_iterations=200_000):
+                 seed=0, max_overlap=1e-3, max_iterations=50_000):
     """Dense random packing of spheres inside ``volume`` (Sphere, Box, Cylinder or
     MeshVolume).
 
