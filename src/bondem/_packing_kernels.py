@@ -2,10 +2,10 @@
 soft spheres in a container and its FIRE minimisation.
 
 Energy (all lengths in m, unit stiffness, unit mass; only the minimum matters):
-    U = 1/2 sum_pairs max(0, (r_i + r_j)(1 + delta) - d_ij)^2
-      + 1/2 sum_i sum_walls max(0, r_i (1 + delta) + margin_i - s_w(x_i))^2
-with s_w the distance of the centre to wall w (positive inside). The radii are inflated by
-delta so that the minimiser stops with the *true* overlaps strictly negative.
+    U = 1/2 sum_pairs max(0, (r_i + r_j)(1 + inflation) - d_ij)^2
+      + 1/2 sum_i sum_walls max(0, r_i (1 + wall_inflation) + margin_i - s_w(x_i))^2
+with s_w the distance of the centre to wall w (positive inside). Inflating the radii
+makes the minimiser stop with the true overlaps (penetrations) strictly negative.
 
 Walls: kind 0 sphere (center, radius), 1 box (low, high; six planes), 2 cylinder
 (center, axis, radius, half height; mantle and two caps), 3 signed-distance grid of a

@@ -8,7 +8,9 @@ Packing method: random insertion, then collective rearrangement by energy minimi
 2. Centres are placed uniformly at random (seeded ``numpy.random.default_rng``) where the
    sphere lies inside the container. At phi ~ 0.6 they overlap heavily.
 3. The overlaps are removed by minimising the harmonic overlap energy of soft spheres
-       U = 1/2 sum_pairs max(0, (r_i + r_j)(1 + delta) - d_ij)^2 + wall terms
+       U = 1/2 sum_pairs max(0, r_i + r_j - d_ij)^2
+         + 1/2 sum_i sum_walls max(0, r_i (1 + delta) - s_w(x_i))^2
+   (s_w: distance of the centre to wall w, positive inside; delta = ``max_overlap``)
    with the FIRE algorithm (Bitzek et al., Phys. Rev. Lett. 97, 170201, 2006), the
    container acting as a hard wall (a penalty on the part of a sphere outside it). This
    is the soft-sphere route to random close packings of O'Hern, Silbert, Liu & Nagel
