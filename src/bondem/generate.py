@@ -279,6 +279,7 @@ def sample_radii(target_volume, *, radius=None, radius_distribution=None, rng=No
 
 
 MAX_PARTICLES = 50_000_000
+SKIN = 1.0  # neighbour-list skin, in units of the smallest radius
 
 
 def _check_count(n):
@@ -358,7 +359,7 @@ def _relax_to(position, radii, wall, max_overlap, max_iterations, margin):
     # [dt, alpha, steps since the power was negative, dt_max]; unit mass and stiffness,
     # so the stiffest mode (~12 contacts) is stable up to dt ~ 0.5
     fire = np.array([0.05, 0.1, 0.0, 0.4])
-    skin = 0.4 * float(radii.min())
+    skin = SKIN * float(radii.min())
     cutoff = 2 * float(radii.max()) + skin
     done = builds = 0
     while done < max_iterations:
