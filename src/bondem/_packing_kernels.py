@@ -132,8 +132,8 @@ def penetrations(kind, params, grid, origin, spacing, position, reach):
 
 
 @numba.njit(**_jit)
-def overlap_forces(position, radius, inflation, wall_inflation, margin, pairs, kind, params, grid, origin,
-                   spacing, force):
+def overlap_forces(position, radius, inflation, wall_inflation, margin, pairs, kind, params,
+                   grid, origin, spacing, force):
     """Forces -dU/dx (unit stiffness) into ``force``; return the largest true pair overlap
     relative to the smaller radius and the largest true wall penetration relative to the
     radius (both without inflation)."""
@@ -174,14 +174,15 @@ def overlap_forces(position, radius, inflation, wall_inflation, margin, pairs, k
 
 
 @numba.njit(**_jit)
-def relax(position, velocity, radius, inflation, wall_inflation, margin, pairs, kind, params, grid, origin,
-          spacing, reference, half_skin, tolerance, max_iterations, fire):
+def relax(position, velocity, radius, inflation, wall_inflation, margin, pairs, kind, params,
+          grid, origin, spacing, reference, half_skin, tolerance, max_iterations, fire):
     """FIRE minimisation (Bitzek et al., PRL 97, 170201, 2006) of the overlap energy.
 
     Stops with CONVERGED once the largest true pair overlap is below ``tolerance`` (relative
     to the smaller radius) and no sphere crosses a wall; with REBUILD when a sphere moved
     more than ``half_skin`` (m) from ``reference`` (the neighbour list is then stale); or
-    with MAX_ITERATIONS. ``fire`` = [dt, alpha, steps since P < 0] is carried between calls.
+    with MAX_ITERATIONS. ``fire`` = [dt, alpha, steps since P < 0, dt_max] (time in units
+    of sqrt(mass / stiffness) = 1) is carried between calls.
     Returns (status, iterations, worst pair overlap, worst wall penetration).
     """
     n = position.shape[0]
@@ -192,8 +193,9 @@ def relax(position, velocity, radius, inflation, wall_inflation, margin, pairs, 
     # from throwing spheres across the container
     max_move = 0.1 * radius.min()
     dt, alpha, n_positive = fire[0], fire[1], int(fire[2])
-    worst_pair, worst_wall = overlap_forces(position, radius, inflation, wall_inflation, margin, pairs, kind,
-                                            params, grid, origin, spacing, force)
+    worst_pair, worst_wall = overlap_forces(position, radius, inflation, wall_inflation,
+                                            margin, pairs, kind, params, grid, origin,
+                                            spacing, force)
     status = MAX_ITERATIONS
     it = 0
     while it < max_iterations:
@@ -238,8 +240,9 @@ def relax(position, velocity, radius, inflation, wall_inflation, margin, pairs, 
                 dx2 += (position[i, a] - reference[i, a]) ** 2
             moved = max(moved, dx2)
         it += 1
-        worst_pair, worst_wall = overlap_forces(position, radius, inflation, wall_inflation, margin, pairs,
-                                                kind, params, grid, origin, spacing, force)
+        worst_pair, worst_wall = overlap_forces(position, radius, inflation, wall_inflation,
+                                                margin, pairs, kind, params, grid, origin,
+                                                spacing, force)
         if moved > half_skin * half_skin:
             status = REBUILD
             break
