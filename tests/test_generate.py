@@ -254,3 +254,11 @@ def test_generator_table_and_bond_table():
         with pytest.raises(InputError) as error:
             bonds_from_table(bad, position, radius, "s.toml")
         assert error.value.key == f"bonds.{key}"
+
+
+def test_jammed_request_fails_with_a_clear_error():
+    """0.64 in a sphere of R/r ~ 7 is above the jamming fraction with walls: the generator
+    must stop (stalled overlaps), not return overlapping spheres."""
+    container = Sphere((0, 0, 0), (250 * R ** 3 / 0.64) ** (1 / 3))
+    with pytest.raises(RuntimeError, match="jammed"):
+        pack_spheres(container, radius=R, solids_fraction=0.64, seed=0)

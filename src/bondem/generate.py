@@ -362,22 +362,40 @@ def _relax_to(position, radii, wall, max_overlap, max_iterations, margin):
     skin = SKIN * float(radii.min())
     cutoff = 2 * float(radii.max()) + skin
     done = builds = 0
+    pairs, previous = None, None
     while done < max_iterations:
-        pairs = _pairs_within(position, cutoff)
+        if pairs is None:
+            pairs = _pairs_within(position, cutoff)
+            reference = position.copy()
+            builds += 1
         # pairs uninflated (the minimiser stops once overlaps < max_overlap / 2); walls
         # inflated by max_overlap so that every sphere ends strictly inside
         status, iterations, worst_pair, worst_wall = K.relax(
             position, velocity, radii, 0.0, max_overlap, margin, pairs, kind, params,
-            grid, origin, spacing, position.copy(), 0.5 * skin, 0.5 * max_overlap,
-            max_iterations - done, fire)
+            grid, origin, spacing, reference, 0.5 * skin, 0.5 * max_overlap,
+            min(STALL_CHECK, max_iterations - done), fire)
         done += iterations
-        builds += 1
         if status == K.CONVERGED:
             return done, builds
-    raise RuntimeError(f"overlaps not removed after {max_iterations} iterations (largest "
-                       f"overlap {worst_pair:.3g} of the radius, wall {worst_wall:.3g}): "
-                       "the packing jammed; lower the solids fraction or use a larger "
-                       "container (walls lower the jamming fraction)")
+        if status == K.REBUILD:
+            pairs, previous = None, None
+            continue
+        # a whole chunk without a rebuild: jammed when the overlaps stopped shrinking
+        worst = max(worst_pair, worst_wall)
+        if previous is not None and worst > 0.98 * previous:
+            raise RuntimeError(_jammed(done, worst_pair, worst_wall))
+        previous = worst
+    raise RuntimeError(_jammed(done, worst_pair, worst_wall))
+
+
+STALL_CHECK = 5000  # FIRE iterations between checks that the overlaps still shrink
+
+
+def _jammed(done, worst_pair, worst_wall):
+    return (f"overlaps not removed after {done} iterations (largest overlap "
+            f"{worst_pair:.3g} of the radius, wall {worst_wall:.3g}): the packing jammed; "
+            "lower the solids fraction or use a larger container (walls lower the jamming "
+            "fraction)")
 
 
 def _pairs_within(position, cutoff):
