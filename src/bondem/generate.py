@@ -82,6 +82,7 @@ class Sphere:
         return SPHERE_VOLUME * self.radius ** 3
 
     def bounds(self):
+        """Axis-aligned bounding box (low, high), m."""
         return self.center - self.radius, self.center + self.radius
 
     def _wall(self):
@@ -107,6 +108,7 @@ class Box:
         return float(np.prod(self.high - self.low))
 
     def bounds(self):
+        """Axis-aligned bounding box (low, high), m."""
         return self.low.copy(), self.high.copy()
 
     def _wall(self):
@@ -138,6 +140,7 @@ class Cylinder:
         return math.pi * self.radius ** 2 * self.height
 
     def bounds(self):
+        """Axis-aligned bounding box (low, high), m."""
         # extent of a disc of radius R normal to a: R sqrt(1 - a_k^2) along axis k
         half = (self.radius * np.sqrt(np.clip(1 - self.axis ** 2, 0, 1))
                 + 0.5 * self.height * np.abs(self.axis))
@@ -174,6 +177,7 @@ class MeshVolume:
         return float(self.mesh.volume)
 
     def bounds(self):
+        """Axis-aligned bounding box (low, high), m."""
         low, high = self.mesh.bounds
         return np.array(low, dtype=float), np.array(high, dtype=float)
 
@@ -301,6 +305,9 @@ def pack_spheres(volume, *, radius=None, radius_distribution=None, solids_fracti
     Returns (position (N,3) m, radius (N,) m). Raises RuntimeError when the overlaps cannot
     be removed within ``max_iterations`` FIRE steps (fraction too close to jamming).
     """
+    if not isinstance(volume, (Sphere, Box, Cylinder, MeshVolume)):
+        raise TypeError(f"volume must be a Sphere, Box, Cylinder or MeshVolume, not "
+                        f"{type(volume).__name__}")
     if not 0 < solids_fraction < 0.66:
         raise ValueError(f"solids_fraction = {solids_fraction!r} is outside (0, 0.66)")
     if not 0 < max_overlap <= 0.05:
