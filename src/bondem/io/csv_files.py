@@ -1,0 +1,174 @@
+"""Particle and bond CSV files (SPEC 4).
+
+particles.csv: header ``x,y,z,radius,material`` (m, m, m, m, material name), optionally
+followed by ``vx,vy,vz`` (m/s) and ``wx,wy,wz`` (rad/s). bonds.csv: header
+``i,j,diameter,material`` with i, j 0-based rows of particles.csv, diameter in m and the
+bond material's name. Columns may come in any order; names are case-sensitive. Errors
+raise ``InputError`` naming the file, the line and the column.
+"""
+from __future__ import annotations
+
+import csv
+import math
+
+import numpy as np
+
+from ..errors import InputError
+
+PARTICLE_COLUMNS = ("x", "y", "z", "radius", "material")
+VELOCITY_COLUMNS = ("vx", "vy", "vz")
+ANGULAR_COLUMNS = ("wx", "wy", "wz")
+BOND_COLUMNS = ("i", "j", "diameter", "material")
+
+
+def _read(path, required, optional_groups, kinds):
+    """Rows of a CSV file as dict of columns; kinds: column -> 'float' | 'positive' |
+    'index' | 'name'."""
+    try:
+        handle = open(path, newline="", encoding="utf-8")
+    except OSError as error:
+        raise InputError(f"cannot open: {error.strerror}", file=str(path)) from None
+    with handle:
+        reader = csv.reader(handle)
+        header = next(reader, None)
+        if header is None:
+            raise InputError("empty file; expected a header line "
+                             + ",".join(required), file=str(path))
+        header = [h.strip() for h in header]
+        allowed = set(required).union(*optional_groups)
+        for name in header:
+            if name not in allowed:
+                raise InputError(f"line 1: unknown column {name!r}; allowed: "
+                                 + ", ".join(sorted(allowed)), file=str(path), key=name)
+        if len(set(header)) != len(header):
+            raise InputError("line 1: a column name repeats", file=str(path))
+        for name in required:
+            if name not in header:
+                raise InputError(f"line 1: missing column {name!r}; the header must name "
+                                 + ",".join(required), file=str(path), key=name)
+        for group in optional_groups:
+            present = [g for g in group if g in header]
+            if present and len(present) != len(group):
+                raise InputError(f"line 1: columns {','.join(group)} come together; found "
+                                 f"only {','.join(present)}", file=str(path))
+        columns = {name: [] for name in header}
+        for row in reader:
+            line = reader.line_num
+            if not row or all(not cell.strip() for cell in row):
+                continue
+            if len(row) != len(header):
+                raise InputError(f"line {line}: {len(row)} values, the header has "
+                                 f"{len(header)}", file=str(path))
+            for name, cell in zip(header, row):
+                columns[name].append(_cell(cell.strip(), kinds[name], path, line, name))
+    out = {}
+    for name, values in columns.items():
+        if kinds[name] == "name":
+            out[name] = np.array(values, dtype=object)
+        elif kinds[name] == "index":
+            out[name] = np.array(values, dtype=np.int64)
+        else:
+            out[name] = np.array(values, dtype=np.float64)
+    return out
+
+
+def _cell(text, kind, path, line, column):
+    if kind == "name":
+        if not text:
+            raise InputError(f"line {line}: empty material name", file=str(path), key=column)
+        return text
+    if kind == "index":
+        try:
+            value = int(text)
+        except ValueError:
+            raise InputError(f"line {line}: {text!r} is not an integer index >= 0",
+                             file=str(path), key=column) from None
+        if value < 0:
+            raise InputError(f"line {line}: {value} is not an integer index >= 0",
+                             file=str(path), key=column)
+        return value
+    try:
+        value = float(text)
+    except ValueError:
+        raise InputError(f"line {line}: {text!r} is not a number", file=str(path),
+                         key=column) from None
+    if not math.isfinite(value) or (kind == "positive" and value <= 0):
+        allowed = "a finite number > 0" if kind == "positive" else "a finite number"
+        raise InputError(f"line {line}: {text!r}; allowed: {allowed}", file=str(path),
+                         key=column)
+    return value
+
+
+def read_particles(path):
+    """Read particles.csv. Returns a dict of arrays: x, y, z, radius (m), material (names,
+    object array), and vx, vy, vz (m/s), wx, wy, wz (rad/s) when present."""
+    kinds = {name: "float" for name in ("x", "y", "z") + VELOCITY_COLUMNS + ANGULAR_COLUMNS}
+    kinds.update(radius="positive", material="name")
+    data = _read(path, PARTICLE_COLUMNS, (VELOCITY_COLUMNS, ANGULAR_COLUMNS), kinds)
+    if data["x"].size == 0:
+        raise InputError("no particle rows", file=str(path))
+    return data
+
+
+def read_bonds(path, n_particles=None):
+    """Read bonds.csv. Returns a dict of arrays: i, j (int64), diameter (m), material
+    (names). With ``n_particles`` the indices are checked against it, and i != j."""
+    kinds = {"i": "index", "j": "index", "diameter": "positive", "material": "name"}
+    data = _read(path, BOND_COLUMNS, (), kinds)
+    same = np.flatnonzero(data["i"] == data["j"])
+    if same.size:
+        raise InputError(f"bond {same[0]} (line {same[0] + 2}): i = j = {data['i'][same[0]]}",
+                         file=str(path), key="j")
+    if n_particles is not None:
+        for column in ("i", "j"):
+            bad = np.flatnonzero(data[column] >= n_particles)
+            if bad.size:
+                raise InputError(f"line {bad[0] + 2}: index {data[column][bad[0]]} is outside "
+                                 f"[0, {n_particles - 1}] (rows of the particle file)",
+                                 file=str(path), key=column)
+    return data
+
+
+
+def write_particles(path, position, radius, material_names, velocity=None,
+                    angular_velocity=None):
+    """Write particles.csv: position (N,3) m, radius (N,) m, material_names (N,) or one
+    name; velocity (N,3) m/s and angular_velocity (N,3) rad/s optional (a given angular
+    velocity without velocity writes zero velocities, as the columns come in order)."""
+    position = np.asarray(position, dtype=np.float64).reshape(-1, 3)
+    n = position.shape[0]
+    radius = np.asarray(radius, dtype=np.float64).reshape(n)
+    names = np.broadcast_to(np.asarray(material_names, dtype=object), (n,))
+    columns = [position[:, 0], position[:, 1], position[:, 2], radius]
+    header = list(PARTICLE_COLUMNS)
+    if velocity is not None or angular_velocity is not None:
+        v = np.zeros((n, 3)) if velocity is None else np.asarray(velocity, float).reshape(n, 3)
+        columns += [v[:, 0], v[:, 1], v[:, 2]]
+        header += VELOCITY_COLUMNS
+    if angular_velocity is not None:
+        w = np.asarray(angular_velocity, float).reshape(n, 3)
+        columns += [w[:, 0], w[:, 1], w[:, 2]]
+        header += ANGULAR_COLUMNS
+    # repr() of a float round-trips exactly
+    numbers = [list(map(repr, c.tolist())) for c in columns]
+    with open(path, "w", newline="", encoding="utf-8") as handle:
+        writer = csv.writer(handle, lineterminator="\n")
+        writer.writerow(header)
+        for k in range(n):
+            row = [numbers[0][k], numbers[1][k], numbers[2][k], numbers[3][k], names[k]]
+            row += [c[k] for c in numbers[4:]]
+            writer.writerow(row)
+
+
+def write_bonds(path, pairs, diameter, material_names):
+    """Write bonds.csv: pairs (B,2) particle rows, diameter (B,) m, material_names (B,)
+    or one name."""
+    pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
+    b = pairs.shape[0]
+    diameter = np.asarray(diameter, dtype=np.float64).reshape(b)
+    names = np.broadcast_to(np.asarray(material_names, dtype=object), (b,))
+    with open(path, "w", newline="", encoding="utf-8") as handle:
+        writer = csv.writer(handle, lineterminator="\n")
+        writer.writerow(BOND_COLUMNS)
+        writer.writerows(zip(pairs[:, 0].tolist(), pairs[:, 1].tolist(),
+                             map(repr, diameter.tolist()), names))
