@@ -74,3 +74,38 @@ def write_static(path, position, radius, pairs, active, time=None, mass=None, br
         for name, values in (energy or {}).items():
             f[f"energy/{name}"] = values
     return path
+
+
+def two_halves(glass, *, speed=0.5, strength=2e5, safety_factor=0.01, damping=0.1,
+               seed=0):
+    """A 4x3x3 bonded block (36 particles, radius 1 mm, touching) whose left and right
+    halves fly apart at +-speed (m/s, plus 10 % noise). Bonds within a half never break;
+    the 33 bonds across the middle plane have strength ``strength`` (Pa), low enough that
+    all of them break. Returns (simulation, cut (B,) bool: the bonds across the plane)."""
+    import bondem
+
+    grid = np.stack(np.meshgrid(np.arange(4), np.arange(3), np.arange(3), indexing="ij"),
+                    -1).reshape(-1, 3)
+    position = grid * 2e-3
+    distance = np.linalg.norm(position[:, None] - position[None], axis=-1)
+    i, j = np.nonzero(np.triu(distance < 2.9e-3, 1))   # nearest and face-diagonal pairs
+    left = grid[:, 0] < 1.5
+    cut = left[i] != left[j]
+    strong = bondem.BondMaterial(young_modulus=1e8, breakage="none", name="strong")
+    weak = bondem.BondMaterial(young_modulus=1e8, normal_strength=strength,
+                               tangential_strength=strength, name="weak")
+    rng = np.random.default_rng(seed)
+    velocity = (np.where(left[:, None], [-speed, 0.0, 0.0], [speed, 0.0, 0.0])
+                + rng.normal(0.0, 0.1 * speed, position.shape))
+    model, state = bondem.make_system(position, 1e-3, glass, velocity=velocity,
+                                      bonds=np.column_stack([i, j]), bond_diameter=1e-3,
+                                      bond_material=[strong, weak],
+                                      bond_material_index=cut.astype(int), damping=damping)
+    return bondem.Simulation(model, state, safety_factor=safety_factor), cut
+
+
+def record_run(sim, until, every):
+    """Run ``sim`` to ``until`` (s) keeping a frame every ``every`` (s); returns frames."""
+    recorder = Recorder(sim)
+    sim.run(until, every=every, callback=recorder)
+    return recorder.frames

@@ -76,7 +76,6 @@ def fragment_series(results):
     """
     pairs, mass, n = results.pairs, results.mass, results.n_particles
     active = results.active()
-    total = mass.sum()
     out = {"time": results.time, "fragments": [], "fragments_multi": [],
            "largest_fraction": [], "largest_count": []}
     for frame_active in active:
@@ -84,7 +83,8 @@ def fragment_series(results):
         counts, masses = fragment_sizes(labels, mass)
         out["fragments"].append(count)
         out["fragments_multi"].append(int(np.count_nonzero(counts > 1)))
-        out["largest_fraction"].append(masses[0] / total if count else 0.0)
+        # over the sum of fragment masses: exactly 1 for an intact body
+        out["largest_fraction"].append(masses[0] / masses.sum() if count else 0.0)
         out["largest_count"].append(int(counts[0]) if count else 0)
     for key in ("fragments", "fragments_multi", "largest_count"):
         out[key] = np.asarray(out[key], dtype=np.int64)
@@ -100,7 +100,7 @@ def frame_fragments(results, frame=-1):
                                 mass)
     counts, masses = fragment_sizes(labels, mass)
     return {"time": float(results.time[results.frame_index(frame)]), "labels": labels,
-            "counts": counts, "masses": masses, "total_mass": float(mass.sum())}
+            "counts": counts, "masses": masses, "total_mass": float(masses.sum())}
 
 
 def largest_fragment_fraction(path, frame=-1):
