@@ -158,3 +158,12 @@ def test_report_and_cli(run_file, tmp_path):
         assert result.exit_code == 2 and "--frames" in result.output
     result = runner.invoke(main, ["analyze", str(tmp_path / "missing.h5")])
     assert result.exit_code == 2 and "missing.h5" in result.output
+
+
+def test_first_break_time_is_the_exact_break_time(run_file):
+    path, sim, cut = run_file
+    with Results(path) as results:
+        numbers = key_numbers(results)
+        first_frame = results.time[np.argmax(~results.active().all(axis=1))]
+    assert numbers["first_break_time"] == np.nanmin(sim.state.bond_break_time)
+    assert numbers["first_break_time"] <= first_frame

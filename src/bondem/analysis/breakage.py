@@ -73,8 +73,14 @@ def radial_breakage(results, frame=-1, bins=10):
 
 
 def first_break_time(results):
-    """Time (s) of the first complete frame with a broken bond, None if none broke."""
-    broken = (~results.active()).any(axis=1)
-    if not broken.any():
+    """Time (s) the first bond broke: the smallest /bonds/break_time among bonds broken
+    by the last complete frame (exact, from the step it broke), else the time of the
+    first frame with a broken bond; None if no bond broke."""
+    broken_by_frame = (~results.active()).any(axis=1)
+    if not broken_by_frame.any():
         return None
-    return float(results.time[np.argmax(broken)])
+    break_time = results.break_time
+    broken = ~results.active(-1)
+    if break_time is not None and np.isfinite(break_time[broken]).any():
+        return float(np.nanmin(break_time[broken]))
+    return float(results.time[np.argmax(broken_by_frame)])

@@ -13,6 +13,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.collections import EllipseCollection  # noqa: E402
+from matplotlib.ticker import MaxNLocator  # noqa: E402
 
 from .breakage import MODES, radial_breakage  # noqa: E402
 from .fragments import frame_fragments, size_distribution  # noqa: E402
@@ -32,8 +33,10 @@ def plot_fragments(series):
             label="fragments of 2+ particles")
     ax.set_xlabel("time (ms)")
     ax.set_ylabel("fragments")
+    ax.yaxis.set_major_locator(MaxNLocator(integer=True))
     right = ax.twinx()
-    right.plot(t, series["largest_fraction"], color="tab:red", label="largest fragment")
+    right.step(t, series["largest_fraction"], where="post", color="tab:red",
+               label="largest fragment")
     right.set_ylabel("largest fragment mass fraction", color="tab:red")
     right.set_ylim(0, 1.05)
     lines = ax.get_lines() + right.get_lines()
@@ -51,6 +54,7 @@ def plot_breakage(series):
             ax.step(t, series[name], where="post", color=MODE_COLOURS[name], label=name)
     ax.set_xlabel("time (ms)")
     ax.set_ylabel("broken bonds")
+    ax.yaxis.set_major_locator(MaxNLocator(integer=True))
     ax.legend(fontsize=8)
     return fig
 
@@ -132,9 +136,9 @@ def body_picture_data(results, frame, view="xz"):
 
 
 def fragment_colours(labels, sizes):
-    """RGBA per particle: a distinct colour per fragment (tab20 cycle, 0 = largest),
+    """RGBA per particle: a distinct colour per fragment (tab10 cycle, 0 = largest),
     light grey for particles that are fragments on their own."""
-    palette = plt.get_cmap("tab20").colors
+    palette = [c for i, c in enumerate(plt.get_cmap("tab10").colors) if i != 7]  # no grey
     colours = np.array([(*palette[k % len(palette)], 1.0) for k in labels])
     alone = sizes[labels] == 1
     colours[alone] = (0.75, 0.75, 0.75, 1.0)
