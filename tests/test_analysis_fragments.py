@@ -143,3 +143,28 @@ def test_write_fragment_ids_into_closed_file(chain_file):
     assert ids[1].tolist() == [1, 1, 0, 0, 0, 0]
     assert ids[2].tolist() == [2, 2, 0, 0, 0, 1]  # {5} (mass 6) outweighs {0, 1} (3)
     write_fragment_ids(chain_file)  # again: replaces, does not fail
+
+
+def test_series_over_many_frames_match_frame_by_frame(tmp_path):
+    # 150 frames (more than one read block of 64); bonds break at random frames
+    rng = np.random.default_rng(7)
+    n, n_frames = 30, 150
+    pairs = np.array([(i, j) for i in range(n) for j in range(i + 1, n)
+                      if rng.random() < 0.15])
+    break_frame = rng.integers(1, 2 * n_frames, len(pairs))
+    active = np.arange(n_frames)[:, None] < break_frame[None, :]
+    mode = rng.integers(1, 4, len(pairs)).astype(np.int8)
+    mass = rng.uniform(1, 2, n)
+    path = write_static(tmp_path / "many.h5", rng.normal(size=(n, 3)), 0.1, pairs, active,
+                        mass=mass, break_mode=mode)
+    with Results(path) as results:
+        fragments = fragment_series(results)
+        broken = broken_series(results)
+    for f in (0, 63, 64, 65, 149):
+        count, labels = fragment_labels(pairs, active[f], n)
+        assert fragments["fragments"][f] == count
+        masses = np.bincount(labels, weights=mass)
+        assert fragments["largest_fraction"][f] == pytest.approx(masses.max() / mass.sum())
+    for code, name in enumerate(("tension", "compression", "shear"), start=1):
+        assert np.array_equal(broken[name], (~active & (mode == code)).sum(axis=1))
+    assert np.array_equal(broken["broken"], (~active).sum(axis=1))

@@ -5,6 +5,7 @@ SWMR mode, one frame at a time, flushed). It leaves one frame half written (in
 /bonds/active but not yet in /time): readers must count only complete frames. A 4-particle
 chain loses one bond per frame, so frame k has k + 1 fragments.
 """
+import json
 import subprocess
 import sys
 import textwrap
@@ -13,9 +14,11 @@ import time
 import h5py
 import numpy as np
 import pytest
+from click.testing import CliRunner
 
 from bondem.analysis import Results, fragment_series, largest_fragment_fraction
 from bondem.analysis import write_fragment_ids
+from bondem.cli import main
 
 WRITER = textwrap.dedent("""
     import sys, time, pathlib
@@ -87,6 +90,10 @@ def test_reading_while_another_process_writes(tmp_path):
             assert series["fragments"].tolist() == [1, 2, 3, 4]
             assert series["time"] == pytest.approx([0, 1e-3, 2e-3, 3e-3])
         assert largest_fragment_fraction(path) == pytest.approx(0.25)
+        result = CliRunner().invoke(main, ["analyze", str(path), "--json", "--out",
+                                           str(tmp_path / "analysis")])
+        assert result.exit_code == 0, result.output
+        assert json.loads(result.output)["fragments"] == 4
         # the writer owns the file: fragment ids go to a sidecar file
         written = write_fragment_ids(path)
         assert written == tmp_path / "results.fragments.h5"

@@ -21,17 +21,19 @@ def broken_series(results):
     """Broken bonds per frame of an open ``Results``: {"time": (F,) s, "broken": (F,),
     "fraction": (F,) broken / all bonds, "tension", "compression", "shear": (F,) counts
     by mode, "unknown": (F,) broken bonds without a recorded mode}."""
-    active = results.active()
     n_bonds = results.n_bonds
-    broken = ~active
     mode = results.break_mode
-    out = {"time": results.time, "broken": broken.sum(axis=1).astype(np.int64)}
-    out["fraction"] = out["broken"] / n_bonds if n_bonds else np.zeros(len(out["time"]))
     if mode is None:
         mode = np.zeros(n_bonds, dtype=np.int8)
-    for code, name in enumerate(MODES, start=1):
-        out[name] = (broken & (mode == code)[None, :]).sum(axis=1).astype(np.int64)
-    out["unknown"] = (broken & (mode == 0)[None, :]).sum(axis=1).astype(np.int64)
+    names = ("unknown", *MODES)                  # index = mode code
+    counts = np.zeros((results.n_frames, len(names)), dtype=np.int64)
+    for start, block in results.iter_active():
+        broken = ~block
+        for code in range(len(names)):
+            counts[start:start + len(block), code] = (broken & (mode == code)).sum(axis=1)
+    out = {"time": results.time, "broken": counts.sum(axis=1)}
+    out["fraction"] = out["broken"] / n_bonds if n_bonds else np.zeros(len(out["time"]))
+    out.update({name: counts[:, code] for code, name in enumerate(names)})
     return out
 
 
@@ -76,7 +78,7 @@ def first_break_time(results):
     """Time (s) the first bond broke: the smallest /bonds/break_time among bonds broken
     by the last complete frame (exact, from the step it broke), else the time of the
     first frame with a broken bond; None if no bond broke."""
-    broken_by_frame = (~results.active()).any(axis=1)
+    broken_by_frame = results.any_broken()
     if not broken_by_frame.any():
         return None
     break_time = results.break_time

@@ -75,10 +75,10 @@ def fragment_series(results):
     "largest_count": (F,) particles in the largest fragment}.
     """
     pairs, mass, n = results.pairs, results.mass, results.n_particles
-    active = results.active()
     out = {"time": results.time, "fragments": [], "fragments_multi": [],
            "largest_fraction": [], "largest_count": []}
-    for frame_active in active:
+    frames = (frame for _, block in results.iter_active() for frame in block)
+    for frame_active in frames:
         count, labels = fragment_labels(pairs, frame_active, n, mass)
         counts, masses = fragment_sizes(labels, mass)
         out["fragments"].append(count)
@@ -121,8 +121,10 @@ def write_fragment_ids(path):
     with Results(path) as results:
         pairs, mass, n = results.pairs, results.mass, results.n_particles
         time = results.time
-        labels = np.stack([fragment_labels(pairs, a, n, mass)[1] for a in results.active()])
-    labels = labels.astype(np.int32).reshape(len(time), n)
+        labels = np.zeros((len(time), n), dtype=np.int32)
+        for start, block in results.iter_active():
+            for k, frame_active in enumerate(block):
+                labels[start + k] = fragment_labels(pairs, frame_active, n, mass)[1]
     try:
         target = h5py.File(path, "r+")
         sidecar = False

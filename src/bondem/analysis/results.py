@@ -171,6 +171,23 @@ class Results:
             return np.asarray(self.frames("bonds/active"), dtype=bool)
         return np.asarray(self.frame("bonds/active", frame), dtype=bool)
 
+    def iter_active(self, block=64):
+        """Intact-bond flags of the complete frames, ``block`` frames at a time: yields
+        (first frame index, (k,B) bool) so that big runs need not fit in memory."""
+        for start in range(0, self.n_frames, block):
+            stop = min(start + block, self.n_frames)
+            if self.n_bonds == 0:
+                yield start, np.zeros((stop - start, 0), dtype=bool)
+            else:
+                yield start, np.asarray(self._dataset("bonds/active")[start:stop], dtype=bool)
+
+    def any_broken(self):
+        """(F,) bool: some bond is broken at that frame."""
+        out = np.zeros(self.n_frames, dtype=bool)
+        for start, block in self.iter_active():
+            out[start:start + len(block)] = ~block.all(axis=1)
+        return out
+
     def energy(self):
         """Energy terms {name: (F,) J} from /energy, or {} if the file has none."""
         if "energy" not in self.file:

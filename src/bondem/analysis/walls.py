@@ -44,7 +44,7 @@ def wall_curve(results, wall=None):
            "peak_force": float(compressive[peak]),
            "peak_displacement": float(displacement[peak]), "first_break_index": None,
            "first_break_force": None, "first_break_displacement": None}
-    broken = (~results.active()).any(axis=1) if results.n_bonds else np.zeros(0, bool)
+    broken = results.any_broken()
     if broken.any():
         first = int(np.argmax(broken))
         out.update(first_break_index=first, first_break_force=float(compressive[first]),
