@@ -4,9 +4,10 @@ import h5py
 import numpy as np
 import pytest
 
-from bondem.analysis import (Results, broken_bond_fraction, broken_series, fragment_labels,
-                             fragment_series, fragment_sizes, largest_fragment_fraction,
-                             radial_breakage, size_distribution, write_fragment_ids)
+from bondem.analysis import (Results, broken_bond_fraction, broken_series,
+                             count_distribution, fragment_labels, fragment_series,
+                             fragment_sizes, largest_fragment_fraction, radial_breakage,
+                             size_distribution, write_fragment_ids)
 
 from resultsfile import write_static
 
@@ -88,10 +89,12 @@ def test_bad_active_length_is_rejected():
         fragment_labels([[0, 1]], [True, False], 2)
 
 
-def test_size_distribution_is_cumulative_mass_fraction():
+def test_size_distributions_by_mass_and_by_count():
     masses, fraction = size_distribution([3.0, 1.0, 6.0])
     assert masses.tolist() == [1.0, 3.0, 6.0]
     assert fraction == pytest.approx([0.1, 0.4, 1.0])
+    sizes, number = count_distribution([5, 1, 1, 2, 1, 5])
+    assert sizes.tolist() == [1, 2, 5] and number.tolist() == [3, 1, 2]
 
 
 @pytest.fixture

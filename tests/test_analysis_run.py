@@ -111,6 +111,7 @@ def test_figures_and_their_data(run_file, tmp_path):
     sizes = figures["size_distribution"][1]
     assert sizes["counts"].tolist() == [18, 18]
     assert sizes["cumulative"] == pytest.approx([0.5, 1.0])
+    assert sizes["particles"].tolist() == [18] and sizes["number"].tolist() == [2]
     first, last = figures["bodies"][1]
     assert first["n_fragments"] == 1 and last["n_fragments"] == 2
     left = first["x"] < 3e-3

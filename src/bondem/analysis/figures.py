@@ -16,7 +16,7 @@ from matplotlib.collections import EllipseCollection  # noqa: E402
 from matplotlib.ticker import MaxNLocator  # noqa: E402
 
 from .breakage import MODES, radial_breakage  # noqa: E402
-from .fragments import frame_fragments, size_distribution  # noqa: E402
+from .fragments import count_distribution, frame_fragments, size_distribution  # noqa: E402
 from .summary import analyze  # noqa: E402
 
 MODE_COLOURS = {"tension": "tab:red", "compression": "tab:blue", "shear": "tab:green",
@@ -98,14 +98,20 @@ def plot_wall(curve):
 
 
 def plot_size_distribution(data):
-    """Cumulative mass fraction of fragments against fragment mass (sieve curve)."""
-    fig, ax = plt.subplots(figsize=(6, 3.6), layout="constrained")
+    """Fragment sizes at one frame: cumulative mass fraction against fragment mass (sieve
+    curve) and the number of fragments against particles per fragment."""
+    fig, (ax, right) = plt.subplots(1, 2, figsize=(8, 3.6), layout="constrained")
     ax.step(data["masses"], data["cumulative"], where="post", color="tab:blue")
     ax.set_xscale("log")
     ax.set_ylim(0, 1.05)
     ax.set_xlabel("fragment mass (kg)")
     ax.set_ylabel("cumulative mass fraction")
-    ax.set_title(f"t = {data['time'] * 1e3:.4g} ms, {len(data['masses'])} fragments",
+    right.bar(data["particles"], data["number"], color="tab:orange", edgecolor="k")
+    right.set_xscale("log" if data["particles"].max() > 20 else "linear")
+    right.set_xlabel("particles per fragment")
+    right.set_ylabel("fragments")
+    right.yaxis.set_major_locator(MaxNLocator(integer=True))
+    fig.suptitle(f"t = {data['time'] * 1e3:.4g} ms, {len(data['masses'])} fragments",
                  fontsize=9)
     return fig
 
@@ -186,8 +192,9 @@ def build_figures(results, frames=(0, -1), view="xz", data=None):
         figures["wall"] = (plot_wall(data["wall"]), data["wall"])
     last = frame_fragments(results, -1)
     masses, cumulative = size_distribution(last["masses"], last["total_mass"])
+    particles, number = count_distribution(last["counts"])
     sizes = {"time": last["time"], "masses": masses, "cumulative": cumulative,
-             "counts": last["counts"]}
+             "counts": last["counts"], "particles": particles, "number": number}
     figures["size_distribution"] = (plot_size_distribution(sizes), sizes)
     pictures = [body_picture_data(results, f, view) for f in frames]
     figures["bodies"] = (plot_bodies(pictures), pictures)

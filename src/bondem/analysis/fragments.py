@@ -66,6 +66,13 @@ def size_distribution(masses, total_mass=None):
     return masses, np.cumsum(masses) / total
 
 
+def count_distribution(counts):
+    """Fragments by particle count: (particles per fragment ascending, number of fragments
+    of that many particles). counts: (K,) particles in each fragment."""
+    sizes, number = np.unique(np.asarray(counts, dtype=np.int64), return_counts=True)
+    return sizes, number
+
+
 def fragment_series(results):
     """Per-frame fragment statistics of an open ``Results``.
 
