@@ -101,7 +101,8 @@ def plot_size_distribution(data):
     """Fragment sizes at one frame: cumulative mass fraction against fragment mass (sieve
     curve) and the number of fragments against particles per fragment."""
     fig, (ax, right) = plt.subplots(1, 2, figsize=(8, 3.6), layout="constrained")
-    ax.step(data["masses"], data["cumulative"], where="post", color="tab:blue")
+    ax.step(np.r_[data["masses"][:1], data["masses"]], np.r_[0.0, data["cumulative"]],
+            where="post", color="tab:blue", marker=".")
     ax.set_xscale("log")
     ax.set_ylim(0, 1.05)
     ax.set_xlabel("fragment mass (kg)")
@@ -109,6 +110,7 @@ def plot_size_distribution(data):
     right.bar(data["particles"], data["number"], color="tab:orange", edgecolor="k")
     right.set_xscale("log" if data["particles"].max() > 20 else "linear")
     right.set_xlabel("particles per fragment")
+    right.xaxis.set_major_locator(MaxNLocator(integer=True))
     right.set_ylabel("fragments")
     right.yaxis.set_major_locator(MaxNLocator(integer=True))
     fig.suptitle(f"t = {data['time'] * 1e3:.4g} ms, {len(data['masses'])} fragments",
