@@ -25,7 +25,8 @@ CAPTIONS = {
               "residual is relative to the initial kinetic energy.",
     "wall": "Force on the moving wall against its displacement; the first broken bond and "
             "the peak force are marked.",
-    "size_distribution": "Cumulative mass distribution of the fragments at the last frame.",
+    "size_distribution": "Fragment sizes at the last frame: cumulative mass distribution "
+                         "and number of fragments by particle count.",
 }
 UNITS = {"final_time": "s", "first_break_time": "s", "peak_wall_force": "N",
          "peak_wall_displacement": "m", "energy_reference": "J"}
