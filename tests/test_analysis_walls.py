@@ -1,0 +1,79 @@
+"""Wall force against displacement and the energy balance's bookkeeping on constructed
+files with known answers (compression between a fixed and a moving plate)."""
+import numpy as np
+import pytest
+
+from bondem.analysis import Results, energy_balance, key_numbers, wall_curve
+from bondem.analysis.figures import build_figures
+
+from resultsfile import write_static
+
+N_FRAMES = 21
+
+
+@pytest.fixture
+def plates(tmp_path):
+    """Two particles bonded, squeezed by plate 1 moving down 0.1 mm per frame from
+    z = 3 mm; plate 0 fixed at z = 0. The body pushes plate 1 up with a force that rises
+    linearly (1 N per frame) until frame 12, then falls; the bond breaks at frame 9."""
+    k = np.arange(N_FRAMES)
+    force_up = np.where(k <= 12, k * 1.0, 12.0 - 3.0 * (k - 12))
+    walls_force = np.zeros((N_FRAMES, 2, 3))
+    walls_force[:, 1, 2] = force_up
+    walls_force[:, 0, 2] = -force_up
+    walls_position = np.zeros((N_FRAMES, 2, 3))
+    walls_position[:, 1, 2] = 3e-3 - 1e-4 * k
+    active = (k < 9)[:, None]
+    position = [[0, 0, 1e-3], [0, 0, 2e-3]]
+    work = np.cumsum(force_up * 1e-4)  # J, plate work, kinetic energy starts at 0
+    energy = {"kinetic_translational": np.zeros(N_FRAMES), "bond_elastic": 0.6 * work,
+              "work_walls": work, "dissipated_contacts": 0.4 * work}
+    return write_static(tmp_path / "plates.h5", position, 5e-4, [[0, 1]], active,
+                        time=k * 1e-4, break_mode=[1], walls=(walls_force, walls_position),
+                        energy=energy)
+
+
+def test_force_displacement_curve(plates):
+    with Results(plates) as results:
+        curve = wall_curve(results)
+        fixed = wall_curve(results, wall=0)
+        with pytest.raises(IndexError):
+            wall_curve(results, wall=2)
+    assert curve["wall"] == 1                     # the plate that moved
+    assert curve["displacement"] == pytest.approx(1e-4 * np.arange(N_FRAMES))
+    assert curve["peak_index"] == 12 and curve["peak_force"] == pytest.approx(12.0)
+    assert curve["peak_displacement"] == pytest.approx(1.2e-3)
+    assert curve["first_break_index"] == 9 and curve["first_break_force"] == pytest.approx(9)
+    assert curve["first_break_displacement"] == pytest.approx(0.9e-3)
+    assert fixed["displacement"].tolist() == [0.0] * N_FRAMES
+    assert fixed["peak_force"] == pytest.approx(12.0)   # |F| for a wall that stays
+
+
+def test_energy_balance_of_a_run_from_rest_uses_the_work(plates):
+    with Results(plates) as results:
+        balance = energy_balance(results)
+        numbers = key_numbers(results)
+        figures = build_figures(results, frames=(0, -1))
+    assert balance["reference"] == pytest.approx(balance["work"].max())
+    assert balance["max_relative_error"] == pytest.approx(0.0, abs=1e-12)
+    assert numbers["peak_wall_force"] == pytest.approx(12.0)
+    assert numbers["energy_balance_error"] == pytest.approx(0.0, abs=1e-12)
+    assert figures["wall"][1]["peak_index"] == 12
+    assert figures["bodies"][1][1]["n_fragments"] == 2
+
+
+def test_unbalanced_energy_is_reported(tmp_path):
+    # 10 % of the initial kinetic energy vanishes without a loss term recording it
+    kinetic = np.array([1.0, 0.5, 0.0])
+    energy = {"kinetic_translational": kinetic, "bond_elastic": np.array([0.0, 0.45, 0.9])}
+    path = write_static(tmp_path / "leak.h5", [[0, 0, 0], [1, 0, 0]], 0.5, [[0, 1]],
+                        np.ones((3, 1), bool), energy=energy)
+    with Results(path) as results:
+        balance = energy_balance(results)
+    assert balance["relative_error"] == pytest.approx([0.0, -0.05, -0.1])
+    assert balance["max_relative_error"] == pytest.approx(0.1)
+    no_energy = write_static(tmp_path / "bare.h5", [[0, 0, 0]], 0.5, np.zeros((0, 2)),
+                             np.ones((2, 0), bool))
+    with Results(no_energy) as results:
+        assert energy_balance(results) is None and wall_curve(results) is None
+        assert key_numbers(results)["fragments"] == 1
