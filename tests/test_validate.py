@@ -1,0 +1,72 @@
+"""``bondem validate``: the quick suite passes through the command line, the table lists
+every quick case, a wrong reference makes rows fail (exit status 1), reference-data
+folders appear as cases, and the report files are written."""
+import csv
+
+import pytest
+from click.testing import CliRunner
+
+from bondem.cli import main
+from bondem.validation import load_cases, run_suite
+from bondem.validation import refdata, wave
+
+
+@pytest.fixture(scope="module")
+def quick_run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("validation")
+    result = CliRunner().invoke(main, ["validate", "--quick", "--out", str(out)])
+    return result, out
+
+
+def test_quick_suite_passes_and_lists_every_quick_case(quick_run):
+    result, out = quick_run
+    assert result.exit_code == 0, result.output
+    quick = [c.name for c in load_cases().values() if c.quick]
+    assert {"two_particle", "cantilever", "wave", "strength", "contact", "refdata"} <= set(quick)
+    lines = result.output.splitlines()
+    for name in quick:
+        assert any(line.startswith(name) for line in lines), name
+    assert " FAIL" not in result.output
+    with open(out / "validation.csv") as handle:
+        rows = list(csv.DictReader(handle))
+    assert {r["case"] for r in rows} >= set(quick)
+    assert all(r["pass"] in ("pass", "skip", "info") for r in rows)
+    # The physics cases really compared numbers (not only skipped rows).
+    compared = [r for r in rows if r["pass"] == "pass" and r["error"]]
+    assert len(compared) >= 15
+    markdown = (out / "validation.md").read_text().splitlines()
+    assert sum(line.endswith("| pass |") and not line.startswith("| case")
+               for line in markdown) == sum(r["pass"] == "pass" for r in rows)
+    assert list(out.glob("*.png"))
+
+
+def test_wrong_reference_fails_and_exits_1(monkeypatch):
+    # The reference stiffness 10 % too high: frequencies 4.9 % off, beyond 0.2 %.
+    right = wave._stiffness
+    monkeypatch.setattr(wave, "_stiffness", lambda p: 1.1 * right(p))
+    result = CliRunner().invoke(main, ["validate", "--quick", "--case", "wave"])
+    assert result.exit_code == 1, result.output
+    assert "FAIL" in result.output
+    rows = run_suite(quick=True, cases=["wave"])
+    assert rows and all(r.passed is False for r in rows)
+    assert all(abs(r.error) > 0.04 for r in rows)
+
+
+def test_unknown_case_is_bad_input():
+    result = CliRunner().invoke(main, ["validate", "--case", "nope"])
+    assert result.exit_code == 2
+    assert "--case" in result.output and "two_particle" in result.output
+
+
+def test_reference_folders_appear_as_cases(tmp_path, monkeypatch):
+    monkeypatch.setenv("BONDEM_REFDATA", str(tmp_path))
+    assert run_suite(cases=["refdata"])[0].note.startswith("none found")
+    folder = tmp_path / "musen_beam"
+    folder.mkdir()
+    (folder / "SCENE.md").write_text("# MUSEN cantilever\n\nparameters ...\n")
+    (folder / "tip.csv").write_text("time,tip_y\n0,0\n")
+    rows = run_suite(cases=["refdata"])
+    assert [r.case for r in rows] == ["refdata:musen_beam"]
+    assert rows[0].quantity == "MUSEN cantilever" and rows[0].passed is None
+    assert "tip.csv" in rows[0].note
+    assert refdata.read_columns(folder / "tip.csv")["tip_y"].tolist() == [0.0]
