@@ -91,17 +91,15 @@ def run(p, compat, quick=False):
             rows.append(info("cantilever", f"tip deflection Euler-Bernoulli (m) {label}",
                              euler, deflection,
                              f"shear term is {shear_share:.1%} of Timoshenko's deflection"))
-        points.append((length / bond_diameter, deflection / euler, timoshenko / euler))
+        points.append((length / bond_diameter, deflection / timoshenko,
+                       discrete / timoshenko, euler / timoshenko))
     points.sort()
-    slender = [x for x, _, _ in points]
-    curve = np.geomspace(min(slender) * 0.8, max(slender) * 1.2, 50) if slender else []
-    # w_T / w_EB = 1 + 3 E I / (G A L^2) = 1 + (3 E / (16 G)) / (L / d_b)^2
-    factor = 3 * young / (16 * shear_modulus)
-    plot = Plot("Cantilever tip deflection / Euler-Bernoulli", "slenderness L / d_b",
-                "w / w_EB", [
-                    Series("bondem", slender, [y for _, y, _ in points], "o"),
-                    Series("Timoshenko", list(curve),
-                           list(1 + factor / np.asarray(curve) ** 2), "-"),
-                    Series("Euler-Bernoulli", list(curve), [1.0] * len(curve), "--")],
-                logx=True)
+    x = [q[0] for q in points]
+    plot = Plot("Cantilever tip deflection / Timoshenko", "slenderness L / d_b",
+                "w / w_Timoshenko", [
+                    Series("bondem", x, [q[1] for q in points], "o"),
+                    Series("discrete chain (exact)", x, [q[2] for q in points], "x"),
+                    Series("Euler-Bernoulli", x, [q[3] for q in points], "s"),
+                    Series("Timoshenko", [min(x), max(x)] if x else [], [1.0, 1.0] if x else [],
+                           "--")], logx=True)
     return CaseResult(rows, [plot])

@@ -68,11 +68,14 @@ def skipped(case, quantity, reason):
     return Row(case, quantity, "", f"skipped: {reason}", None, None, None, reason)
 
 
-def info(case, quantity, reference, value, note):
+def info(case, quantity, reference, value, note, *, absolute=False):
     """An informational comparison: shown with its error, never a failure."""
     reference = float(reference)
     value = float(value)
-    error = (value - reference) / abs(reference) if reference else math.inf
+    if absolute:
+        error = value - reference
+    else:
+        error = (value - reference) / abs(reference) if reference else math.inf
     return Row(case, quantity, reference, value, error, None, None, f"info: {note}")
 
 
@@ -113,7 +116,8 @@ class Case:
 
 
 CASES: dict = {}
-_MODULES = ("two_particle", "cantilever", "wave", "strength", "contact", "refdata")
+_MODULES = ("two_particle", "cantilever", "wave", "strength", "rotation", "contact",
+            "refdata")
 
 
 def case(name, *, quick):
