@@ -7,8 +7,8 @@ import pytest
 from click.testing import CliRunner
 
 from bondem.cli import main
-from bondem.validation import load_cases, run_suite
-from bondem.validation import refdata, wave
+from bondem.validation import load_cases, load_parameters, run_suite
+from bondem.validation import refdata, strength, wave
 
 
 @pytest.fixture(scope="module")
@@ -22,7 +22,8 @@ def test_quick_suite_passes_and_lists_every_quick_case(quick_run):
     result, out = quick_run
     assert result.exit_code == 0, result.output
     quick = [c.name for c in load_cases().values() if c.quick]
-    assert {"two_particle", "cantilever", "wave", "strength", "contact", "refdata"} <= set(quick)
+    assert {"two_particle", "cantilever", "wave", "strength", "rotation", "contact",
+            "refdata"} <= set(quick)
     lines = result.output.splitlines()
     for name in quick:
         assert any(line.startswith(name) for line in lines), name
@@ -70,3 +71,16 @@ def test_reference_folders_appear_as_cases(tmp_path, monkeypatch):
     assert rows[0].quantity == "MUSEN cantilever" and rows[0].passed is None
     assert "tip.csv" in rows[0].note
     assert refdata.read_columns(folder / "tip.csv")["tip_y"].tolist() == [0.0]
+
+
+def test_musen_compat_switches_the_start_up_increment():
+    # In MUSEN-compatible mode the start-up increment is a full dt: the closed forms use
+    # (m + 2) instead of (m + 3/2). The stress-at-break rows (tolerance 1e-6) pass only if
+    # the simulation really switched: a half-step offset is 1.7e-3 relative here.
+    result = CliRunner().invoke(main, ["validate", "--compat", "musen", "--case", "strength"])
+    assert result.exit_code == 0, result.output
+    assert "MUSEN-compatible" in result.output
+    table = [line for line in result.output.splitlines() if line.startswith("strength  ")]
+    assert len(table) == 12 and all(line.rstrip().endswith("pass") for line in table)
+    spec = load_parameters("strength")
+    assert all(r.passed for r in strength.run(spec, None).rows)
