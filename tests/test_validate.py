@@ -84,3 +84,51 @@ def test_musen_compat_switches_the_start_up_increment():
     assert len(table) == 12 and all(line.rstrip().endswith("pass") for line in table)
     spec = load_parameters("strength")
     assert all(r.passed for r in strength.run(spec, None).rows)
+
+
+class _NumpyHertz:
+    """A plain NumPy Hertz law with Tsuji damping for two spheres (normal only): stands in
+    for bondem.contacts so that the contact case's measurement is tested before that
+    module exists."""
+
+    def accumulate(self, model, state, force, moment, increment_dt):
+        import math
+
+        import numpy as np
+        material = model.materials[0]
+        r = state.position[1] - state.position[0]
+        distance = np.linalg.norm(r)
+        radius = model.radius[0]
+        overlap = 2 * radius - distance
+        if overlap <= 0:
+            return
+        n = r / distance
+        e_star = material.young_modulus / (2 * (1 - material.poisson_ratio ** 2))
+        r_star, m_star = radius / 2, model.mass[0] / 2
+        e = material.restitution
+        beta = math.log(e) / math.sqrt(math.log(e) ** 2 + math.pi ** 2) if e < 1 else 0.0
+        stiffness = 2 * e_star * math.sqrt(r_star * overlap)
+        rate = -np.dot(state.velocity[1] - state.velocity[0], n)  # overlap rate
+        f = (4 / 3) * e_star * math.sqrt(r_star) * overlap ** 1.5 \
+            - 2 * math.sqrt(5 / 6) * beta * math.sqrt(stiffness * m_star) * rate
+        force[0] -= f * n
+        force[1] += f * n
+
+
+def test_contact_case_measures_restitution_and_contact_time(monkeypatch):
+    import sys
+    import types
+
+    import bondem
+    fake = types.ModuleType("bondem.contacts")
+    fake.ContactSettings = lambda model: model
+    monkeypatch.setitem(sys.modules, "bondem.contacts", fake)
+    original = bondem.Simulation
+
+    def simulation(model, state, *, contact=None, **options):
+        assert contact == "hertz_mindlin"
+        return original(model, state, laws=[_NumpyHertz()], **options)
+    monkeypatch.setattr(bondem, "Simulation", simulation)
+    rows = run_suite(cases=["contact"])
+    assert len(rows) == 4 and all(r.passed for r in rows), rows
+    assert abs(rows[0].bondem - 1.0) < 0.01 and abs(rows[2].bondem - 0.5) < 0.01

@@ -195,7 +195,9 @@ def table_lines(rows, markdown=False):
              "" if r.tolerance is None else f"{r.tolerance:.1e}", r.status] for r in rows]
     if markdown:
         lines = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
-        lines += ["| " + " | ".join(cells) + " |" for cells in body]
+        # A "|" inside a cell (e.g. |F_t|) would split the Markdown cell.
+        lines += ["| " + " | ".join(c.replace("|", "\\|") for c in cells) + " |"
+                  for cells in body]
         return lines
     widths = [max(len(h), *(len(b[k]) for b in body)) if body else len(h)
               for k, h in enumerate(header)]
