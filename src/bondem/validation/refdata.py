@@ -133,5 +133,9 @@ def run(p, compat, quick=False):
                                 f"no compare.toml (needs a runner); data: "
                                 f"{', '.join(r.data_files) or 'none'}"))
         else:
-            rows.extend(compare_run(r, compat))
+            try:
+                rows.extend(compare_run(r, compat))
+            except Exception as error:  # a broken folder is a failed row, not a crash
+                rows.append(Row(f"refdata:{r.name}", r.title, "", f"error: {error}", None,
+                                None, False, f"compare.toml could not be run: {error}"))
     return CaseResult(rows)
