@@ -18,7 +18,7 @@ from ..errors import InputError
               help="Write validation.csv, validation.md and plots (PNG) here.")
 @click.option("--case", "cases", multiple=True, metavar="NAME",
               help="Run only this case (repeatable): two_particle, cantilever, wave, "
-                   "strength, contact, refdata.")
+                   "strength, rotation, contact, refdata.")
 def command(quick, compat, out_dir, cases):
     """Run the validation suite against theory and reference data."""
     from ..validation import load_cases, run_suite, table_lines
