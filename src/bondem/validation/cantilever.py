@@ -13,8 +13,9 @@ deflection the trapezoid integral of the rotations, which differs from the conti
 1/(4 N^2) relative. Chen et al. (2022, Granular Matter 24) study the same beam for several
 slenderness ratios L/d_b and bond/particle diameter ratios d_b/d_p.
 A third row compares with that discrete answer, the Timoshenko deflection with its bending
-part times (1 - 1/(4 N^2)), to a tighter tolerance. The Euler-Bernoulli row is a pass/fail check only for slender beams, where the shear term
-is below a quarter of the tolerance; for short thick beams it is shown as information
+part times (1 - 1/(4 N^2)), to a tighter tolerance. The Euler-Bernoulli row is a
+pass/fail check only for slender beams, where the shear term is below a quarter of the
+tolerance; for short thick beams it is shown as information
 (the shear term is then the point: Timoshenko agrees, Euler-Bernoulli does not).
 """
 import numpy as np
@@ -77,7 +78,8 @@ def run(p, compat, quick=False):
         deflection, steps = tip_deflection(p, compat, n_bonds, bond_diameter)
         label = f"L/d_b={length / bond_diameter:g}, d_b/d_p={ratio:g}"
         rows.append(compare("cantilever", f"tip deflection Timoshenko (m) {label}",
-                            timoshenko, deflection, tolerance))
+                            timoshenko, deflection, tolerance,
+                            note=f"{steps} steps to equilibrium"))
         # The chain's own exact answer: the bending part short by 1/(4 N^2) (trapezoid
         # integral of midpoint-rule rotations); a sharp check of the bond's springs.
         discrete = euler * (1 - 1 / (4 * n_bonds ** 2)) + (timoshenko - euler)

@@ -1,7 +1,7 @@
 """Validation machinery: rows, the case registry, parameters from TOML, the suite runner,
 and the table / plot writers.
 
-A case is a function ``run(parameters, compat) -> CaseResult`` registered with
+A case is a function ``run(parameters, compat, quick=False) -> CaseResult`` registered with
 ``@case(name, quick=...)``. ``parameters`` is the case's TOML file under
 ``bondem/data/validation/NAME.toml`` (a small scene: particles, materials, loads, run
 settings and tolerances); ``compat`` is None (follow the SPEC) or "musen". A case returns
@@ -121,7 +121,7 @@ _MODULES = ("two_particle", "cantilever", "wave", "strength", "rotation", "conta
 
 
 def case(name, *, quick):
-    """Register ``function(parameters, compat) -> CaseResult`` as validation case ``name``;
+    """Register ``function(parameters, compat, quick=False) -> CaseResult`` as case ``name``;
     ``quick``: part of the ``--quick`` subset that runs in CI."""
     def register(function):
         doc = (function.__doc__ or "").strip().splitlines()

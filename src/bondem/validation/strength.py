@@ -85,8 +85,8 @@ def run(p, compat, quick=False):
         energy = state.bond_break_energy[0]
         if name == "bending":
             # Energy = axial part (known, tiny) + bending part M_t^2 / (2 k_b).
-            m_break = round(state.bond_break_time[0] / dt) if state.bond_break_time[0] == \
-                state.bond_break_time[0] else 0
+            broke = not np.isnan(state.bond_break_time[0])
+            m_break = round(state.bond_break_time[0] / dt) if broke else 0
             axial = 0.5 * k["k_n"] * (v_b * m_break * dt) ** 2
             stress_at_break = np.sqrt(max(2 * k["k_b"] * (energy - axial), 0.0)) \
                 * radius / second
