@@ -132,3 +132,38 @@ def test_contact_case_measures_restitution_and_contact_time(monkeypatch):
     rows = run_suite(cases=["contact"])
     assert len(rows) == 4 and all(r.passed for r in rows), rows
     assert abs(rows[0].bondem - 1.0) < 0.01 and abs(rows[2].bondem - 0.5) < 0.01
+
+
+def test_reference_folder_with_compare_toml_is_run_and_compared(tmp_path, monkeypatch):
+    # A free sphere moving at 0.5 m/s: x = 0.5 t exactly. A stand-in scene loader (the
+    # scene module's API: .model, .state, .simulation_options) feeds the runner.
+    import sys
+    import types
+
+    import bondem
+    fake = types.ModuleType("bondem.scene")
+
+    def load_scene(path):
+        material = bondem.Material(density=2500.0, young_modulus=1e8)
+        model, state = bondem.make_system([[0.0, 0.0, 0.0]], 1e-3, material,
+                                          velocity=[[0.5, 0.0, 0.0]])
+        return types.SimpleNamespace(model=model, state=state,
+                                     simulation_options={"time_step": 1e-6})
+    fake.load_scene = load_scene
+    monkeypatch.setitem(sys.modules, "bondem.scene", fake)
+    monkeypatch.setenv("BONDEM_REFDATA", str(tmp_path))
+    for name, factor in (("good", 1.0), ("bad", 1.01)):
+        folder = tmp_path / name
+        folder.mkdir()
+        (folder / "SCENE.md").write_text(f"# free flight ({name})\n")
+        (folder / "scene.toml").write_text("")
+        (folder / "x.csv").write_text("time,x\n" + "".join(
+            f"{t},{0.5 * t * factor}\n" for t in (1e-4, 2e-4, 3e-4)))
+        (folder / "compare.toml").write_text(
+            'scene = "scene.toml"\n[[compare]]\nfile = "x.csv"\ntime_column = "time"\n'
+            'column = "x"\nquantity = "particles/position"\nindex = [0, 0]\n'
+            'tolerance = 1e-9\n')
+    rows = {r.case: r for r in run_suite(cases=["refdata"])}
+    assert rows["refdata:good"].passed is True
+    assert rows["refdata:bad"].passed is False
+    assert abs(rows["refdata:bad"].error) > 5e-3

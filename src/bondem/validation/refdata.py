@@ -92,9 +92,12 @@ def compare_run(run, compat):
     except ImportError:
         return [skipped(f"refdata:{run.name}", run.title, "scene loader not available")]
     from bondem import Simulation
-    model, state, settings = load_scene(run.path / run.spec["scene"])
-    sim = Simulation(model, state, time_step=settings.get("time_step", "auto"),
-                     musen_compat=compat == "musen")
+    # Scene API of the scene issue: .model, .state, .simulation_options (Simulation kwargs).
+    scene = load_scene(run.path / run.spec["scene"])
+    options = dict(scene.simulation_options)
+    options["musen_compat"] = compat == "musen" or options.get("musen_compat", False)
+    state = scene.state
+    sim = Simulation(scene.model, state, **options)
     rows = []
     for item in run.spec.get("compare", []):
         data = read_columns(run.path / item["file"])
