@@ -113,11 +113,13 @@ def run(p, compat, quick=False):
     rows, bars = [], []
     run_p = p["run"]
     for axis in run_p["axes"]:
-        oblique = abs(axis[0]) > 0
-        label = "oblique axis" if oblique else "axis normal to the bond"
+        along = abs(axis[0]) / np.linalg.norm(axis)  # the bond starts along x
+        oblique = 1e-12 < along < 1 - 1e-12
+        label = ("oblique axis" if oblique else "axis along the bond" if along > 0.5
+                 else "axis normal to the bond")
         result = rigid_turn(p, axis)
         for name, (ours, musen, exact) in result.items():
-            if name == "normal_moment" and not oblique:
+            if name == "normal_moment" and along < 1e-12:
                 continue  # rotation normal to the bond: M_n turns with n, same check as F_t
             short = {"tangential_force": "F_t", "normal_moment": "M_n",
                      "tangential_moment": "M_t"}[name]
@@ -141,7 +143,7 @@ def run(p, compat, quick=False):
                         run_p["tolerance_transcription"], absolute=True))
     x = list(range(len(bars)))
     plot = Plot("Rigid quarter turn: direction error of the stored F_t",
-                "0 = axis normal to bond, 1 = oblique", "error (rad)", [
+                "0 = axis normal to bond, 1 = along it, 2 = oblique", "error (rad)", [
                     Series("bondem (SPEC T)", x, [max(b[1], 1e-17) for b in bars], "o"),
                     Series("MUSEN matrix M", x, [max(b[2], 1e-17) for b in bars], "s")],
                 logy=True)
