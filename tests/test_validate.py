@@ -1,0 +1,169 @@
+"""``bondem validate``: the quick suite passes through the command line, the table lists
+every quick case, a wrong reference makes rows fail (exit status 1), reference-data
+folders appear as cases, and the report files are written."""
+import csv
+
+import pytest
+from click.testing import CliRunner
+
+from bondem.cli import main
+from bondem.validation import load_cases, load_parameters, run_suite
+from bondem.validation import refdata, strength, wave
+
+
+@pytest.fixture(scope="module")
+def quick_run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("validation")
+    result = CliRunner().invoke(main, ["validate", "--quick", "--out", str(out)])
+    return result, out
+
+
+def test_quick_suite_passes_and_lists_every_quick_case(quick_run):
+    result, out = quick_run
+    assert result.exit_code == 0, result.output
+    quick = [c.name for c in load_cases().values() if c.quick]
+    assert {"two_particle", "cantilever", "wave", "strength", "rotation", "contact",
+            "refdata"} <= set(quick)
+    lines = result.output.splitlines()
+    for name in quick:
+        assert any(line.startswith(name) for line in lines), name
+    assert " FAIL" not in result.output
+    with open(out / "validation.csv") as handle:
+        rows = list(csv.DictReader(handle))
+    assert {r["case"] for r in rows} >= set(quick)
+    assert all(r["pass"] in ("pass", "skip", "info") for r in rows)
+    # The physics cases really compared numbers (not only skipped rows).
+    compared = [r for r in rows if r["pass"] == "pass" and r["error"]]
+    assert len(compared) >= 15
+    markdown = (out / "validation.md").read_text().splitlines()
+    assert sum(line.endswith("| pass |") and not line.startswith("| case")
+               for line in markdown) == sum(r["pass"] == "pass" for r in rows)
+    assert list(out.glob("*.png"))
+
+
+def test_wrong_reference_fails_and_exits_1(monkeypatch):
+    # The reference stiffness 10 % too high: frequencies 4.9 % off, beyond 0.2 %.
+    right = wave._stiffness
+    monkeypatch.setattr(wave, "_stiffness", lambda p: 1.1 * right(p))
+    result = CliRunner().invoke(main, ["validate", "--quick", "--case", "wave"])
+    assert result.exit_code == 1, result.output
+    assert "FAIL" in result.output
+    rows = run_suite(quick=True, cases=["wave"])
+    assert rows and all(r.passed is False for r in rows)
+    assert all(abs(r.error) > 0.04 for r in rows)
+
+
+def test_unknown_case_is_bad_input():
+    result = CliRunner().invoke(main, ["validate", "--case", "nope"])
+    assert result.exit_code == 2
+    assert "--case" in result.output and "two_particle" in result.output
+
+
+def test_reference_folders_appear_as_cases(tmp_path, monkeypatch):
+    monkeypatch.setenv("BONDEM_REFDATA", str(tmp_path))
+    assert run_suite(cases=["refdata"])[0].note.startswith("none found")
+    folder = tmp_path / "musen_beam"
+    folder.mkdir()
+    (folder / "SCENE.md").write_text("# MUSEN cantilever\n\nparameters ...\n")
+    (folder / "tip.csv").write_text("time,tip_y\n0,0\n")
+    rows = run_suite(cases=["refdata"])
+    assert [r.case for r in rows] == ["refdata:musen_beam"]
+    assert rows[0].quantity == "MUSEN cantilever" and rows[0].passed is None
+    assert "tip.csv" in rows[0].note
+    assert refdata.read_columns(folder / "tip.csv")["tip_y"].tolist() == [0.0]
+
+
+def test_musen_compat_switches_the_start_up_increment():
+    # In MUSEN-compatible mode the start-up increment is a full dt: the closed forms use
+    # (m + 2) instead of (m + 3/2). The stress-at-break rows (tolerance 1e-6) pass only if
+    # the simulation really switched: a half-step offset is 1.7e-3 relative here.
+    result = CliRunner().invoke(main, ["validate", "--compat", "musen", "--case", "strength"])
+    assert result.exit_code == 0, result.output
+    assert "MUSEN-compatible" in result.output
+    table = [line for line in result.output.splitlines() if line.startswith("strength  ")]
+    assert len(table) == 12 and all(line.rstrip().endswith("pass") for line in table)
+    spec = load_parameters("strength")
+    assert all(r.passed for r in strength.run(spec, None).rows)
+
+
+class _NumpyHertz:
+    """A plain NumPy Hertz law with Tsuji damping for two spheres (normal only): stands in
+    for bondem.contacts so that the contact case's measurement is tested before that
+    module exists."""
+
+    def accumulate(self, model, state, force, moment, increment_dt):
+        import math
+
+        import numpy as np
+        material = model.materials[0]
+        r = state.position[1] - state.position[0]
+        distance = np.linalg.norm(r)
+        radius = model.radius[0]
+        overlap = 2 * radius - distance
+        if overlap <= 0:
+            return
+        n = r / distance
+        e_star = material.young_modulus / (2 * (1 - material.poisson_ratio ** 2))
+        r_star, m_star = radius / 2, model.mass[0] / 2
+        e = material.restitution
+        beta = math.log(e) / math.sqrt(math.log(e) ** 2 + math.pi ** 2) if e < 1 else 0.0
+        stiffness = 2 * e_star * math.sqrt(r_star * overlap)
+        rate = -np.dot(state.velocity[1] - state.velocity[0], n)  # overlap rate
+        f = (4 / 3) * e_star * math.sqrt(r_star) * overlap ** 1.5 \
+            - 2 * math.sqrt(5 / 6) * beta * math.sqrt(stiffness * m_star) * rate
+        force[0] -= f * n
+        force[1] += f * n
+
+
+def test_contact_case_measures_restitution_and_contact_time(monkeypatch):
+    import sys
+    import types
+
+    import bondem
+    fake = types.ModuleType("bondem.contacts")
+    fake.ContactSettings = lambda model: model
+    monkeypatch.setitem(sys.modules, "bondem.contacts", fake)
+    original = bondem.Simulation
+
+    def simulation(model, state, *, contact=None, **options):
+        assert contact == "hertz_mindlin"
+        return original(model, state, laws=[_NumpyHertz()], **options)
+    monkeypatch.setattr(bondem, "Simulation", simulation)
+    rows = run_suite(cases=["contact"])
+    assert len(rows) == 4 and all(r.passed for r in rows), rows
+    assert abs(rows[0].bondem - 1.0) < 0.01 and abs(rows[2].bondem - 0.5) < 0.01
+
+
+def test_reference_folder_with_compare_toml_is_run_and_compared(tmp_path, monkeypatch):
+    # A free sphere moving at 0.5 m/s: x = 0.5 t exactly. A stand-in scene loader (the
+    # scene module's API: .model, .state, .simulation_options) feeds the runner.
+    import sys
+    import types
+
+    import bondem
+    fake = types.ModuleType("bondem.scene")
+
+    def load_scene(path):
+        material = bondem.Material(density=2500.0, young_modulus=1e8)
+        model, state = bondem.make_system([[0.0, 0.0, 0.0]], 1e-3, material,
+                                          velocity=[[0.5, 0.0, 0.0]])
+        return types.SimpleNamespace(model=model, state=state,
+                                     simulation_options={"time_step": 1e-6})
+    fake.load_scene = load_scene
+    monkeypatch.setitem(sys.modules, "bondem.scene", fake)
+    monkeypatch.setenv("BONDEM_REFDATA", str(tmp_path))
+    for name, factor in (("good", 1.0), ("bad", 1.01)):
+        folder = tmp_path / name
+        folder.mkdir()
+        (folder / "SCENE.md").write_text(f"# free flight ({name})\n")
+        (folder / "scene.toml").write_text("")
+        (folder / "x.csv").write_text("time,x\n" + "".join(
+            f"{t},{0.5 * t * factor}\n" for t in (1e-4, 2e-4, 3e-4)))
+        (folder / "compare.toml").write_text(
+            'scene = "scene.toml"\n[[compare]]\nfile = "x.csv"\ntime_column = "time"\n'
+            'column = "x"\nquantity = "particles/position"\nindex = [0, 0]\n'
+            'tolerance = 1e-9\n')
+    rows = {r.case: r for r in run_suite(cases=["refdata"])}
+    assert rows["refdata:good"].passed is True
+    assert rows["refdata:bad"].passed is False
+    assert abs(rows["refdata:bad"].error) > 5e-3
