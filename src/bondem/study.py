@@ -327,8 +327,10 @@ def _number(value):
 # --- the table ------------------------------------------------------------------------------
 
 def _format(value):
-    if isinstance(value, float):
-        return repr(value)  # round-trips exactly
+    if isinstance(value, (float, np.floating)):
+        return repr(float(value))  # round-trips exactly
+    if isinstance(value, np.integer):
+        return str(int(value))
     return str(value)
 
 
