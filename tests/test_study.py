@@ -197,7 +197,7 @@ def test_interrupted_study_resumes_only_missing_cases(tmp_path, serial_rows):
                                env=env, start_new_session=True, stdout=subprocess.DEVNULL,
                                stderr=subprocess.DEVNULL)
     table = out / "table.csv"
-    deadline = time.monotonic() + 60
+    deadline = time.monotonic() + 120
     try:
         while time.monotonic() < deadline:
             if table.exists() and len(read_table(table)) >= 3:
@@ -287,3 +287,37 @@ def test_fit_command_on_a_table_with_a_plot(tmp_path):
     assert plot.stat().st_size > 10_000
     result = CliRunner().invoke(main, ["study", "fit", str(table.path), "--quantity", "nope"])
     assert result.exit_code == 2 and "--quantity" in result.output
+
+
+FLAKY = """\
+from pathlib import Path
+from bondem.impact import cluster_impact
+
+def run(params, case_dir, seed):
+    if case_dir.name == "00001" and not Path(__file__).with_name("fixed").exists():
+        raise RuntimeError("solver diverged")
+    return cluster_impact(params, case_dir, seed)
+"""
+
+
+def test_failed_case_is_recorded_and_rerun_on_resume(tmp_path, serial_rows):
+    (tmp_path / "flaky_study.py").write_text(FLAKY)
+    study = write_study(tmp_path, runner="flaky_study:run")
+    path = run_study(study, scheduler="serial", progress=False, out_dir=tmp_path / "o")
+    rows = read_table(path)
+    assert rows[1]["status"] == "error: RuntimeError: solver diverged"
+    assert np.isnan(rows[1]["peak_wall_force"]) and rows[0]["status"] == "ok"
+    (tmp_path / "fixed").write_text("")
+    run_study(study, scheduler="serial", resume=True, progress=False, out_dir=tmp_path / "o")
+    assert without_timing(read_table(path)) == without_timing(serial_rows)
+
+
+def test_example_study_loads_and_its_first_case_runs(tmp_path):
+    example = Path(__file__).resolve().parents[1] / "examples" / "study_cluster_impact.toml"
+    study = load_study(example)
+    all_cases = cases(study)
+    assert len(all_cases) >= 50
+    first = dict(all_cases[0], params={**all_cases[0]["params"], "duration": 2e-4})
+    row = run_case(study, first, tmp_path)
+    assert row["status"] == "ok" and row["specific_energy"] == pytest.approx(
+        0.5 * first["params"]["impact_velocity"] ** 2)

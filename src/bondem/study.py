@@ -435,7 +435,7 @@ def default_out_dir(study: Study) -> Path:
 
 
 def run_study(study, *, scheduler=None, workers=None, resume=False, progress=True,
-              out_dir=None, retries=3):
+              out_dir=None, retries=2):
     """Run every case of a study on Dask and collect the table; returns its path.
 
     study: a Study or a study file path; scheduler: None (a LocalCluster of ``workers``

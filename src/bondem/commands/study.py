@@ -114,7 +114,7 @@ def broken_outcome(columns, table, velocity, energy, quantity, threshold):
     values = columns[quantity]
     specific_energy = x if energy is not None else 0.5 * x ** 2
     if quantity == "largest_fragment_fraction":
-        outcome = values < 1.0 - threshold
+        outcome = values < 1.0 - max(threshold, 1e-9)  # a mass sum may round to 1 - eps
     else:
         outcome = values > threshold
     return specific_energy, outcome.astype(np.float64)
