@@ -141,8 +141,12 @@ def test_cluster_impact_is_linear_elastic_below_breakage():
 # --- Dask ---------------------------------------------------------------------------------
 
 def test_dask_study_gives_the_same_table_as_serial_runs(tmp_path, client, serial_rows):
-    path = run_study(write_study(tmp_path), scheduler=client, progress=False, out_dir=tmp_path / "o")
-    rows = read_table(path)
+    # Through the command line, to the cluster's scheduler by its address.
+    result = CliRunner().invoke(main, ["study", str(write_study(tmp_path)), "--out",
+                                       str(tmp_path / "o"), "--no-progress", "--scheduler",
+                                       client.scheduler.address])
+    assert result.exit_code == 0, result.output
+    rows = read_table(tmp_path / "o" / "table.csv")
     assert without_timing(rows) == without_timing(serial_rows)
     assert len(rows) == 12 and all(r["status"] == "ok" for r in rows)
     broken = [r["broken_bond_fraction"] > 0 for r in rows]

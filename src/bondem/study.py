@@ -268,7 +268,16 @@ class _SceneRunner:
         if self.seed_key:
             overrides[self.seed_key] = seed
         scene = load_scene(self.scene, overrides=overrides)
-        results = run_scene(scene, case_dir, progress=False)
+        results = None
+        if (Path(case_dir) / "checkpoint.npz").is_file():
+            # A retry after a worker died: continue from the case's last checkpoint; a
+            # checkpoint of another scene text is refused by run_scene, then start afresh.
+            try:
+                results = run_scene(scene, case_dir, progress=False, resume=True)
+            except InputError:
+                results = None
+        if results is None:
+            results = run_scene(scene, case_dir, progress=False)
         return scene_quantities(results, self.quantities)
 
 
