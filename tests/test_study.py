@@ -54,7 +54,9 @@ def without_timing(rows):
 def client():
     """One LocalCluster (2 single-threaded worker processes) shared by the Dask tests."""
     from distributed import Client, LocalCluster
-    env = {"NUMBA_NUM_THREADS": "1", "PYTHONPATH": SRC}
+    # Two numba threads per worker process, so that the single thread of every case
+    # (test below) comes from run_case, not from the environment.
+    env = {"NUMBA_NUM_THREADS": "2", "PYTHONPATH": SRC}
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
                       dashboard_address=None, env=env) as cluster, Client(cluster) as c:
         yield c
@@ -177,6 +179,25 @@ def test_killed_worker_loses_no_case_and_the_study_completes(tmp_path, client, s
     lines = path.read_text().splitlines()
     assert len(lines) == 1 + 12  # one row per case, none twice
     assert without_timing(rows) == without_timing(serial_rows)
+
+
+THREADS = """\
+import os, numba
+
+def run(params, case_dir, seed):
+    return {"threads": numba.get_num_threads(), "pool": numba.config.NUMBA_NUM_THREADS,
+            "pid": os.getpid()}
+"""
+
+
+def test_cases_run_single_threaded_on_separate_worker_processes(tmp_path, client):
+    (tmp_path / "threads_study.py").write_text(THREADS)
+    study = tmp_path / "threads.toml"
+    study.write_text('[study]\nrunner = "threads_study:run"\nquantities = ["threads", "pool", '
+                     '"pid"]\n[parameters]\nk = { range = [0, 1, 8] }\n')
+    rows = read_table(run_study(study, scheduler=client, progress=False, out_dir=tmp_path / "o"))
+    assert [r["threads"] for r in rows] == [1] * 8 and {r["pool"] for r in rows} == {2}
+    assert os.getpid() not in {r["pid"] for r in rows}
 
 
 LOGGER = """\
