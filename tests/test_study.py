@@ -346,3 +346,50 @@ def test_example_study_loads_and_its_first_case_runs(tmp_path):
     row = run_case(study, first, tmp_path)
     assert row["status"] == "ok" and row["specific_energy"] == pytest.approx(
         0.5 * first["params"]["impact_velocity"] ** 2)
+
+
+def test_scene_runner_passes_overrides_and_reads_the_results(tmp_path, monkeypatch):
+    """The default runner's plumbing, with stand-ins for bondem.scene, bondem.runner and
+    bondem.analysis (separate parts of bondem): each case loads the base scene with its
+    parameters (and its seed under seed_key) as overrides, runs into its own folder, and
+    the table gets the quantities of that folder's results.h5."""
+    import types
+    calls = []
+
+    def load_scene(path, overrides=None):
+        calls.append((Path(path), dict(overrides)))
+        return dict(overrides)
+
+    def run_scene(scene, out_dir, *, progress=True, resume=False):
+        assert progress is False and not resume
+        path = Path(out_dir) / "results.h5"
+        with h5py.File(path, "w") as handle:
+            handle["/walls/force"] = np.array([[[0.0, 0.0, scene["walls.0.velocity.2"]]]])
+            handle.attrs["fraction"] = scene["simulation.end_time"]
+        return path
+
+    def attribute(path, frame=-1):
+        with h5py.File(path, "r") as handle:
+            return float(handle.attrs["fraction"])
+
+    modules = {"bondem.scene": {"load_scene": load_scene},
+               "bondem.runner": {"run_scene": run_scene}, "bondem.analysis": {},
+               "bondem.analysis.breakage": {"broken_bond_fraction": attribute},
+               "bondem.analysis.fragments": {"largest_fragment_fraction": attribute}}
+    for name, content in modules.items():
+        module = types.ModuleType(name)
+        module.__dict__.update(content)
+        monkeypatch.setitem(sys.modules, name, module)
+    (tmp_path / "base.toml").write_text("# base scene\n")
+    study = tmp_path / "s.toml"
+    study.write_text('[study]\nscene = "base.toml"\nseed_key = "particles.seed"\n'
+                     '[parameters]\n"simulation.end_time" = [1e-3, 2e-3]\n'
+                     '"walls.0.velocity.2" = [-3.0]\n')
+    rows = read_table(run_study(study, scheduler="serial", progress=False, out_dir=tmp_path / "o"))
+    expected = cases(load_study(study))
+    assert [c[0] for c in calls] == [tmp_path / "base.toml"] * 2
+    assert [c[1] for c in calls] == [{**c["params"], "particles.seed": c["seed"]} for c in expected]
+    assert [r["broken_bond_fraction"] for r in rows] == [1e-3, 2e-3]
+    assert [r["largest_fragment_fraction"] for r in rows] == [1e-3, 2e-3]
+    assert [r["peak_wall_force"] for r in rows] == [3.0, 3.0]
+    assert (tmp_path / "o" / "cases" / "00001" / "results.h5").is_file()
