@@ -1,0 +1,238 @@
+"""Contact settings and the contact law the Simulation runs (SPEC section 3).
+
+``ContactSettings`` chooses the pair law (``physics.contact_hertz`` / ``contact_linear``);
+``ContactLaw`` is the object in ``Simulation.laws``: each step it refreshes the Verlet lists
+(``neighbors``, ``walls``) when some particle or wall moved more than skin/2, computes every
+listed contact and adds the loads per particle.
+
+All contact history lives in ``state.extra`` as NumPy arrays, so a checkpoint of
+``state.arrays()`` resumes bit for bit:
+    contact_pairs (M,2) int64        Verlet list of particle pairs (i < j, sorted)
+    contact_spring (M,3) m           tangential spring of each pair (0 when apart)
+    contact_reference_position (N,3) m  positions at the last rebuild
+    contact_reference_time (1,) s    time of the last rebuild (walls move from there)
+    contact_counters (3,)            [dissipated J, work of walls J, rebuilds]
+    wall_pairs (K,2) int64           (particle, wall element) candidates, sorted
+    wall_spring (K,3) m              tangential spring of each wall candidate
+Everything else (CSR indices, bond lookup) is derived from these and rebuilt on demand.
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from .backends import cpu_contacts as kernels
+from .neighbors import build_pairs, carry_history, max_displacement
+from .walls import WallSet, build_wall_pairs
+
+MODELS = {"hertz_mindlin": kernels.MODEL_HERTZ, "linear": kernels.MODEL_LINEAR, "none": -1}
+
+
+@dataclass(frozen=True)
+class ContactSettings:
+    """Contact options.
+
+    model: "hertz_mindlin" | "linear" | "none" (no particle-particle contacts; walls then
+    use Hertz-Mindlin); bonded_pairs: also give contact forces to pairs joined by an intact
+    bond; rolling_resistance: apply the materials' rolling friction; skin: Verlet skin (m),
+    None for 0.2 times the mean radius; linear_stiffness: k_n (N/m) of the linear model,
+    None for the Hertz stiffness at an overlap of 1 % of R* (see contact_linear).
+    """
+    model: str = "hertz_mindlin"
+    bonded_pairs: bool = False
+    rolling_resistance: bool = True
+    skin: float | None = None
+    linear_stiffness: float | None = None
+
+    def __post_init__(self):
+        if self.model not in MODELS:
+            raise ValueError(f"contact model = {self.model!r}; allowed: "
+                             + ", ".join(repr(k) for k in MODELS))
+        if self.skin is not None and not (self.skin > 0.0 and math.isfinite(self.skin)):
+            raise ValueError(f"contact skin = {self.skin!r} m; allowed range (0, inf)")
+        if self.linear_stiffness is not None and not (
+                self.linear_stiffness > 0.0 and math.isfinite(self.linear_stiffness)):
+            raise ValueError(f"contact linear_stiffness = {self.linear_stiffness!r} N/m; "
+                             "allowed range (0, inf)")
+
+
+def _csr_by(index, n):
+    """(start (n+1,), order) grouping rows by ``index`` (stable)."""
+    order = np.argsort(index, kind="stable").astype(np.int64)
+    start = np.zeros(n + 1, dtype=np.int64)
+    np.cumsum(np.bincount(index, minlength=n), out=start[1:])
+    return start, order
+
+
+class ContactLaw:
+    """Particle-particle and particle-wall contacts on the CPU.
+
+    model: the Model; settings: ContactSettings; walls: PlaneWall / MeshWall objects.
+    After each step ``wall_force`` (W,3) N and ``wall_torque`` (W,3) N m (about each wall's
+    reference point) hold the loads on the walls.
+    """
+
+    name = "contacts"
+
+    def __init__(self, model, settings=None, walls=()):
+        self.settings = settings if settings is not None else ContactSettings()
+        self.pair_law = MODELS[self.settings.model]
+        self.wall_law = self.pair_law if self.pair_law >= 0 else kernels.MODEL_HERTZ
+        self.walls = WallSet(walls)
+        table = model.material_table()
+        self._materials = (table["young_modulus"], table["poisson_ratio"],
+                           table["restitution"], table["friction"], table["rolling_friction"])
+        wm = [w.material for w in self.walls.walls]
+        self._wall_materials = tuple(np.array([getattr(m, k) for m in wm], dtype=np.float64)
+                                     for k in ("young_modulus", "poisson_ratio", "restitution",
+                                               "friction", "rolling_friction"))
+        n = model.n_particles
+        self.skin = (self.settings.skin if self.settings.skin is not None
+                     else 0.2 * float(model.radius.mean()) if n else 0.0)
+        self._box_length = model.box_length
+        self._linear_stiffness = float(self.settings.linear_stiffness or 0.0)
+        cutoff = 2.0 * float(model.radius.max(initial=0.0)) + self.skin
+        if np.any(model.periodic & (self._box_length < 2.0 * cutoff)):
+            raise ValueError(f"periodic box lengths {self._box_length[model.periodic].tolist()} "
+                             f"m must be at least twice the contact cut-off {cutoff:.3g} m")
+        bonds = np.sort(model.bond_pairs, axis=1)
+        self._bond_key = bonds[:, 0] * np.int64(n) + bonds[:, 1]
+        self._bond_order = np.argsort(self._bond_key, kind="stable")
+        self._derived_for = None
+        self.wall_force = np.zeros((self.walls.n_walls, 3))
+        self.wall_torque = np.zeros((self.walls.n_walls, 3))
+
+    # -- lists ------------------------------------------------------------------------
+    def _rebuild(self, model, state):
+        extra = state.extra
+        position = state.position
+        if self.pair_law >= 0:
+            pairs = build_pairs(position, model.radius, self.skin, model.periodic,
+                                model.box_low, model.box_high)
+            spring = carry_history(extra.get("contact_pairs", np.zeros((0, 2), np.int64)),
+                                   extra.get("contact_spring", np.zeros((0, 3))), pairs,
+                                   model.n_particles)
+        else:
+            pairs, spring = np.zeros((0, 2), np.int64), np.zeros((0, 3))
+        rows = self.walls.elements(state.time)
+        wall_pairs = build_wall_pairs(position, model.radius, self.skin, rows,
+                                      self.walls.element_type)
+        wall_spring = carry_history(extra.get("wall_pairs", np.zeros((0, 2), np.int64)),
+                                    extra.get("wall_spring", np.zeros((0, 3))), wall_pairs,
+                                    max(1, self.walls.n_elements))
+        extra["contact_pairs"] = pairs
+        extra["contact_spring"] = spring
+        extra["wall_pairs"] = wall_pairs
+        extra["wall_spring"] = wall_spring
+        extra["contact_reference_position"] = position.copy()
+        extra["contact_reference_time"] = np.array([state.time])
+        counters = extra.setdefault("contact_counters", np.zeros(3))
+        counters[2] += 1.0
+
+    def _needs_rebuild(self, model, state):
+        extra = state.extra
+        if "contact_pairs" not in extra:
+            return True
+        moved = max_displacement(state.position, extra["contact_reference_position"],
+                                 self._box_length, model.periodic)
+        moved += self.walls.max_displacement(state.time - extra["contact_reference_time"][0])
+        return moved > 0.5 * self.skin
+
+    def _derive(self, model, state):
+        """CSR indices and bond lookup for the current lists (cached per list object)."""
+        extra = state.extra
+        key = (extra["contact_pairs"], extra["wall_pairs"])
+        if self._derived_for is not None and all(a is b for a, b in zip(key, self._derived_for)):
+            return
+        n = model.n_particles
+        pairs = extra["contact_pairs"]
+        self._i_start = np.zeros(n + 1, dtype=np.int64)
+        np.cumsum(np.bincount(pairs[:, 0], minlength=n), out=self._i_start[1:])
+        self._j_start, self._j_order = _csr_by(pairs[:, 1], n)
+        self._pair_bond = np.full(pairs.shape[0], -1, dtype=np.int64)
+        if self._bond_key.size and pairs.shape[0] and not self.settings.bonded_pairs:
+            key_pairs = pairs[:, 0] * np.int64(n) + pairs[:, 1]
+            sorted_keys = self._bond_key[self._bond_order]
+            where = np.minimum(np.searchsorted(sorted_keys, key_pairs), sorted_keys.size - 1)
+            hit = sorted_keys[where] == key_pairs
+            self._pair_bond[hit] = self._bond_order[where[hit]]
+        m = pairs.shape[0]
+        self._force = np.zeros((m, 3))
+        self._moment_i = np.zeros((m, 3))
+        self._moment_j = np.zeros((m, 3))
+        self._energy = np.zeros(m)
+        self._dissipated = np.zeros(m)
+        wall_pairs = extra["wall_pairs"]
+        k = wall_pairs.shape[0]
+        self._wall_start = np.zeros(n + 1, dtype=np.int64)
+        np.cumsum(np.bincount(wall_pairs[:, 0], minlength=n), out=self._wall_start[1:])
+        self._w_distance = np.zeros(k)
+        self._w_point = np.zeros((k, 3))
+        self._w_feature = np.zeros(k, dtype=np.int64)
+        self._w_force = np.zeros((k, 3))
+        self._w_moment = np.zeros((k, 3))
+        self._w_energy = np.zeros(k)
+        self._w_dissipated = np.zeros(k)
+        self._w_work = np.zeros(k)
+        self._derived_for = key
+
+    # -- the law ----------------------------------------------------------------------
+    def accumulate(self, model, state, force, moment, increment_dt):
+        """Add contact and wall loads (N, N m) for the state at the start of the step;
+        advance the tangential springs by ``increment_dt`` (s)."""
+        if self._needs_rebuild(model, state):
+            self._rebuild(model, state)
+        self._derive(model, state)
+        extra = state.extra
+        counters = extra["contact_counters"]
+        use_rolling = bool(self.settings.rolling_resistance)
+        if extra["contact_pairs"].shape[0]:
+            kernels.particle_contacts(
+                self.pair_law, extra["contact_pairs"], self._pair_bond, state.bond_active,
+                state.position, state.velocity, state.angular_velocity, model.radius,
+                model.mass, model.material, *self._materials, use_rolling,
+                self._linear_stiffness, self._box_length, model.periodic,
+                extra["contact_spring"], increment_dt, self._force, self._moment_i,
+                self._moment_j, self._energy, self._dissipated)
+            kernels.gather_pair_loads(self._i_start, self._j_start, self._j_order, self._force,
+                                      self._moment_i, self._moment_j, force, moment)
+            counters[0] += float(self._dissipated.sum())
+        if self.walls.n_walls:
+            rows = self.walls.elements(state.time)
+            wall_pairs = extra["wall_pairs"]
+            if wall_pairs.shape[0]:
+                kernels.wall_contacts(
+                    self.wall_law, self._wall_start, wall_pairs, rows,
+                    self.walls.element_type, self.walls.element_wall, self.walls.velocity,
+                    self.walls.angular_velocity, self.walls.centers(state.time),
+                    *self._wall_materials, state.position, state.velocity,
+                    state.angular_velocity, model.radius, model.mass, model.material,
+                    *self._materials, use_rolling, self._linear_stiffness,
+                    extra["wall_spring"], increment_dt, self._w_distance, self._w_point,
+                    self._w_feature, self._w_force, self._w_moment, self._w_energy,
+                    self._w_dissipated, self._w_work)
+                kernels.gather_wall_loads(self._wall_start, self._w_force, self._w_moment,
+                                          force, moment)
+                counters[0] += float(self._w_dissipated.sum())
+                counters[1] += float(self._w_work.sum())
+            kernels.wall_totals(wall_pairs, self.walls.element_wall, self._w_point,
+                                self._w_force, self._w_moment, state.position, model.radius,
+                                self.walls.positions(state.time), self.wall_force,
+                                self.wall_torque)
+
+    def contact_count(self, state):
+        """Number of particle-particle contacts touching in the last step."""
+        return int(np.count_nonzero(np.any(self._force != 0.0, axis=1))) \
+            if self._derived_for is not None else 0
+
+    def energy_terms(self, model, state):
+        """contact_elastic (J stored in the contact springs, last step),
+        dissipated_contacts and work_walls (J, cumulative)."""
+        counters = state.extra.get("contact_counters", np.zeros(3))
+        elastic = 0.0
+        if self._derived_for is not None:
+            elastic = float(self._energy.sum()) + float(self._w_energy.sum())
+        return {"contact_elastic": elastic, "dissipated_contacts": float(counters[0]),
+                "work_walls": float(counters[1])}
