@@ -222,10 +222,12 @@ class ContactLaw:
                                 self.walls.positions(state.time), self.wall_force,
                                 self.wall_torque)
 
-    def contact_count(self, state):
-        """Number of particle-particle contacts touching in the last step."""
-        return int(np.count_nonzero(np.any(self._force != 0.0, axis=1))) \
-            if self._derived_for is not None else 0
+    def touching(self):
+        """(particle pairs, particle-wall contacts) that carried a load in the last step."""
+        if self._derived_for is None:
+            return 0, 0
+        return (int(np.count_nonzero(np.any(self._force != 0.0, axis=1))),
+                int(np.count_nonzero(np.any(self._w_force != 0.0, axis=1))))
 
     def energy_terms(self, model, state):
         """contact_elastic (J stored in the contact springs, last step),

@@ -190,7 +190,7 @@ def wall_contacts(law, wall_start, wall_pairs, rows, types, element_wall, wall_v
                         continue
                     if d2 < d - tol:
                         point = (scratch_point[c, 0], scratch_point[c, 1], scratch_point[c, 2])
-                        inside, _ = _element_contact(point, radius[p], rows[e2], types[e2])
+                        inside, _, _ = _element_contact(point, radius[p], rows[e2], types[e2])
                         if inside < tol:
                             keep = False
                             break
