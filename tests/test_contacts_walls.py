@@ -1,0 +1,73 @@
+"""Walls: a sphere pressed on a mesh of many small triangles feels the force of a plane,
+wherever it sits (face, edge, shared vertex): Hertz F = 4/3 E* sqrt(R) delta^(3/2) once,
+not once per triangle. A moving plane does work 1/2 m (2V)^2 on a resting sphere it hits
+elastically (infinite-mass wall). A spinning mesh gives a falling sphere the sliding friction impulse.
+"""
+import math
+
+import numpy as np
+import pytest
+
+import bondem
+from bondem.contacts import ContactSettings
+from bondem.walls import MeshWall, PlaneWall
+from contacttools import collide, effective_modulus, flat_mesh
+
+RADIUS = 1e-3
+
+
+@pytest.fixture
+def glass_e1():
+    return bondem.Material(density=2500.0, young_modulus=1e8, poisson_ratio=0.3,
+                           restitution=1.0, friction=0.3)
+
+
+@pytest.mark.parametrize("x, y", [(0.0, 0.0), (0.25e-3, 0.0), (0.25e-3, 0.25e-3),
+                                  (0.1e-3, 0.3e-3), (0.123e-3, 0.377e-3)])
+@pytest.mark.parametrize("wall_kind", ["plane", "mesh"])
+def test_pressed_sphere_feels_one_hertz_force(glass_e1, wall_kind, x, y):
+    delta = 2e-5
+    if wall_kind == "plane":
+        wall = PlaneWall((0, 0, 0), (0, 0, 1), glass_e1)
+    else:
+        wall = flat_mesh(4e-3, 16, glass_e1)  # triangles of 0.5 mm legs, radius 1 mm
+    model, state = bondem.make_system([[x, y, RADIUS - delta]], RADIUS, glass_e1, fixed=True)
+    sim = bondem.Simulation(model, state, contact=ContactSettings(), walls=[wall])
+    sim.step(1)
+    hertz = 4 / 3 * effective_modulus(glass_e1) * math.sqrt(RADIUS) * delta ** 1.5
+    assert sim.contacts.touching()[1] == 1
+    assert sim.wall_force[0] == pytest.approx([0.0, 0.0, -hertz], rel=1e-9, abs=1e-12 * hertz)
+    # Torque about the reference point (the origin) of a vertical force at (x, y, 0).
+    assert sim.wall_torque[0] == pytest.approx([-y * hertz, x * hertz, 0.0], rel=1e-9,
+                                               abs=1e-12 * hertz * RADIUS)
+
+
+def test_moving_plane_work(glass_e1):
+    speed = 0.2
+    model, state = bondem.make_system([[0.0, 0.0, RADIUS + 1e-6]], RADIUS, glass_e1)
+    wall = PlaneWall((0, 0, 0), (0, 0, 1), glass_e1, velocity=(0, 0, speed))
+    sim, steps = collide(model, state, walls=[wall])
+    assert state.velocity[0, 2] == pytest.approx(2 * speed, rel=0.01)
+    terms = sim.energy_terms()
+    gained = 0.5 * model.mass[0] * (2 * speed) ** 2
+    assert terms["work_walls"] == pytest.approx(gained, rel=0.01)
+    assert terms["dissipated_contacts"] == pytest.approx(0.0, abs=1e-9 * gained)
+    assert sim.wall_positions()[0] == pytest.approx([0, 0, speed * state.time])
+
+
+def test_rotating_mesh_friction_impulse():
+    """A sphere falls (V_n) on a flat mesh spinning about z; at radius rho the surface
+    moves at w rho along +y, fast enough for gross sliding, so the sphere leaves with
+    v_y = mu (1 + e) V_n (rigid-body theory, see test_contacts_oblique), 3 %."""
+    omega, rho, v_n, mu, e = 100.0, 20e-3, 0.2, 0.3, 0.9
+    rough = bondem.Material(density=2500.0, young_modulus=1e8, poisson_ratio=0.3,
+                            restitution=e, friction=mu)
+    mesh = flat_mesh(30e-3, 8, rough)
+    wall = MeshWall(mesh.vertices, mesh.triangles, rough, angular_velocity=(0, 0, omega))
+    model, state = bondem.make_system([[rho, 0.0, RADIUS + 1e-7]], RADIUS, rough,
+                                      velocity=[[0, 0, -v_n]])
+    sim, _ = collide(model, state, walls=[wall])
+    assert state.velocity[0, 2] == pytest.approx(e * v_n, rel=0.01)
+    assert state.velocity[0, 1] == pytest.approx(mu * (1 + e) * v_n, rel=0.03)
+    assert abs(state.velocity[0, 0]) < 0.05 * state.velocity[0, 1]
+    assert sim.energy_terms()["work_walls"] > 0.0
