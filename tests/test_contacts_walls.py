@@ -71,3 +71,22 @@ def test_rotating_mesh_friction_impulse():
     assert state.velocity[0, 1] == pytest.approx(mu * (1 + e) * v_n, rel=0.03)
     assert abs(state.velocity[0, 0]) < 0.05 * state.velocity[0, 1]
     assert sim.energy_terms()["work_walls"] > 0.0
+
+
+def test_mesh_from_stl_matches_arrays(tmp_path, glass_e1):
+    """An STL written by trimesh loads back (scaled mm -> m) and presses like a plane."""
+    import trimesh
+    mesh = flat_mesh(4.0, 8, glass_e1)  # in mm
+    path = tmp_path / "floor.stl"
+    trimesh.Trimesh(mesh.vertices, mesh.triangles).export(path)
+    wall = MeshWall.from_stl(path, glass_e1, scale=1e-3)
+    assert wall.triangles.shape == (128, 3)
+    assert np.allclose(wall.vertices.min(0), [-4e-3, -4e-3, 0.0])
+    delta = 1e-5
+    model, state = bondem.make_system([[0.0, 0.0, RADIUS - delta]], RADIUS, glass_e1, fixed=True)
+    sim = bondem.Simulation(model, state, contact=ContactSettings(), walls=[wall])
+    sim.step(1)
+    hertz = 4 / 3 * effective_modulus(glass_e1) * math.sqrt(RADIUS) * delta ** 1.5
+    assert sim.wall_force[0, 2] == pytest.approx(-hertz, rel=1e-9)
+    with pytest.raises(ValueError, match="cannot read"):
+        MeshWall.from_stl(tmp_path / "missing.stl", glass_e1)

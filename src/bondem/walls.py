@@ -116,11 +116,17 @@ class MeshWall:
     @classmethod
     def from_stl(cls, path, material, scale=1.0, **motion):
         """Load an STL file (trimesh); coordinates multiplied by ``scale`` (to metres)."""
+        import pathlib
+
         import trimesh
+        if not pathlib.Path(path).is_file():
+            raise ValueError(f"{path}: cannot read STL file (no such file)")
         try:
             mesh = trimesh.load_mesh(str(path), file_type="stl", process=True)
-        except (OSError, ValueError) as error:
+        except Exception as error:  # trimesh raises many kinds on malformed files
             raise ValueError(f"{path}: cannot read as STL ({error})") from error
+        if not hasattr(mesh, "faces") or len(mesh.faces) == 0:
+            raise ValueError(f"{path}: the STL file holds no triangles")
         return cls(np.asarray(mesh.vertices) * float(scale), np.asarray(mesh.faces), material,
                    **motion)
 
