@@ -86,3 +86,20 @@ def test_linear_spring_dashpot_exact():
     after = (state.velocity[1, 0] - state.velocity[0, 0]) / (2 * SPEED)
     assert after == pytest.approx(0.3, rel=0.01)
     assert steps * sim.time_step == pytest.approx(t_c, rel=0.02)
+
+
+def test_linear_stiffness_limits_auto_time_step():
+    """The linear law's sqrt(m*/k_n) enters the automatic step; a stiff spring wins over
+    the Rayleigh step, and a larger given step is refused."""
+    glass = material(0.5)
+    model, state = bondem.make_system([[0, 0, 0], [3e-3, 0, 0]], RADIUS, glass)
+    stiffness = 1e9
+    settings = ContactSettings(model="linear", linear_stiffness=stiffness)
+    sim = bondem.Simulation(model, state, contact=settings)
+    expected = 0.2 * math.sqrt(0.5 * model.mass[0] / stiffness)
+    assert sim.time_step == pytest.approx(expected, rel=1e-12)
+    assert sim.time_step_cause == "contact_linear"
+    with pytest.raises(ValueError, match="stable limit"):
+        bondem.Simulation(model, state, contact=settings, time_step=10 * expected / 0.2)
+    with pytest.raises(ValueError, match="contact model"):
+        ContactSettings(model="hooke")

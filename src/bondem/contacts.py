@@ -58,6 +58,23 @@ class ContactSettings:
                              "allowed range (0, inf)")
 
 
+def contact_time_scales(model, settings):
+    """Extra time scales (s) of the contact law: for the linear model sqrt(m*/k_n) of the
+    lightest self-pair (m* = m/2); Hertz-Mindlin is covered by the Rayleigh step."""
+    if settings is None or settings.model != "linear" or model.n_particles == 0:
+        return {}
+    table = model.material_table()
+    young = table["young_modulus"][model.material]
+    poisson = table["poisson_ratio"][model.material]
+    if settings.linear_stiffness is not None:
+        stiffness = np.full(model.n_particles, settings.linear_stiffness)
+    else:
+        e_star = young / (2.0 * (1.0 - poisson ** 2))
+        stiffness = (2.0 * e_star * math.sqrt(kernels.LINEAR_REFERENCE_OVERLAP)
+                     * 0.5 * model.radius)
+    return {"contact_linear": float(np.sqrt(0.5 * model.mass / stiffness).min())}
+
+
 def _csr_by(index, n):
     """(start (n+1,), order) grouping rows by ``index`` (stable)."""
     order = np.argsort(index, kind="stable").astype(np.int64)

@@ -26,6 +26,12 @@ class Simulation:
         self.model = model
         self.state = state
         stable, cause = stable_time_step(model, safety_factor)
+        scales = time_scales(model)
+        if contact is not None:
+            from .contacts import contact_time_scales
+            scales.update(contact_time_scales(model, contact))
+            cause = min(scales, key=scales.get)
+            stable = safety_factor * scales[cause]
         if isinstance(time_step, str):
             if time_step != "auto":
                 raise ValueError(f"time_step = {time_step!r}; expected a number (s) or 'auto'")
@@ -33,7 +39,7 @@ class Simulation:
         time_step = float(time_step)
         if not (time_step > 0.0 and math.isfinite(time_step)):
             raise ValueError(f"time_step = {time_step!r}; must be a positive number of seconds")
-        critical = min(time_scales(model).values())
+        critical = min(scales.values())
         if time_step > critical and not force_time_step:
             raise ValueError(f"time_step = {time_step:.3g} s exceeds the stable limit "
                              f"{critical:.3g} s ({cause}); use a smaller step or force it")
