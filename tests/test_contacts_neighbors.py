@@ -133,3 +133,36 @@ def test_resume_is_bit_identical():
     for name in a:
         assert np.array_equal(a[name], b[name]), name
     assert state.extra["contact_counters"][2] >= 2
+
+
+RUN_GAS = """
+import sys, numpy as np
+sys.path.insert(0, {tests!r})
+import bondem
+from bondem.contacts import ContactSettings
+from test_contacts_neighbors import gas
+model, state = gas(n_side=5, seed=7)
+sim = bondem.Simulation(model, state, contact=ContactSettings(skin=1e-4))
+sim.step(200)
+np.savez({out!r}, **{{k.replace('/', '_'): v for k, v in state.arrays().items()}})
+"""
+
+
+def test_same_bits_with_one_and_two_threads(tmp_path):
+    """Per-contact rows gathered through CSR: no atomics, so thread count changes nothing."""
+    import os
+    import pathlib
+    import subprocess
+    import sys
+    tests = str(pathlib.Path(__file__).parent)
+    results = []
+    for threads in (1, 2):
+        out = str(tmp_path / f"run{threads}.npz")
+        env = dict(os.environ, NUMBA_NUM_THREADS=str(threads))
+        subprocess.run([sys.executable, "-c", RUN_GAS.format(tests=tests, out=out)], env=env,
+                       check=True, timeout=300)
+        results.append(np.load(out))
+    one, two = results
+    assert one.files == two.files
+    for name in one.files:
+        assert np.array_equal(one[name], two[name]), name
