@@ -7,6 +7,7 @@
   brute-force overlapping pairs at every checked step (the skin/2 rebuild rule is safe),
   and total linear momentum is conserved to round-off (forces equal and opposite).
 - Bonded pairs get no contact force by default; they do with bonded_pairs=True.
+- Energy: kinetic + contact stored + dissipated is conserved (1e-3).
 - A run resumed from a copy of the state reproduces the uninterrupted run bit for bit.
 """
 import numpy as np
@@ -97,6 +98,22 @@ def test_periodic_gas_momentum_and_contacts():
     assert state.extra["contact_counters"][2] > 2  # the list was rebuilt during the run
     assert np.allclose(model.mass @ state.velocity, momentum0, rtol=0, atol=1e-12 * scale)
     assert sim.energy_terms()["dissipated_contacts"] > 0.0
+
+
+@pytest.mark.parametrize("friction, rolling", [(0.0, 0.0), (0.5, 0.1)])
+def test_periodic_gas_energy_balance(friction, rolling):
+    """kinetic + stored in contacts + dissipated (damping, sliding, rolling) stays equal to
+    the initial kinetic energy; the work balance per contact is second order, so 1e-3 of
+    the initial energy at the default step, with most of it dissipated."""
+    model, state = gas(n_side=5, seed=7, friction=friction, rolling=rolling)
+    sim = bondem.Simulation(model, state, contact=ContactSettings(skin=1e-4))
+    initial = sum(sim.kinetic_energy())
+    sim.step(600)
+    terms = sim.energy_terms()
+    total = (terms["kinetic_translational"] + terms["kinetic_rotational"]
+             + terms["contact_elastic"] + terms["dissipated_contacts"])
+    assert total == pytest.approx(initial, rel=1e-3)
+    assert terms["dissipated_contacts"] > 0.5 * initial
 
 
 def test_touching_pairs_equal_brute_force_each_step():

@@ -11,9 +11,16 @@ All contact history lives in ``state.extra`` as NumPy arrays, so a checkpoint of
     contact_spring (M,3) m           tangential spring of each pair (0 when apart)
     contact_reference_position (N,3) m  positions at the last rebuild
     contact_reference_time (1,) s    time of the last rebuild (walls move from there)
-    contact_counters (3,)            [dissipated J, work of walls J, rebuilds]
+    contact_force, contact_moment_i, contact_moment_j (M,3)  last loads of each pair (N, N m)
+    contact_energy (M,) J            energy stored in each pair at the last evaluation
+    contact_counters (4,)            [dissipated J, work of walls J, rebuilds, time of the
+                                     last evaluation s]
     wall_pairs (K,2) int64           (particle, wall element) candidates, sorted
     wall_spring (K,3) m              tangential spring of each wall candidate
+    wall_force_rows, wall_moment_rows (K,3), wall_energy_rows (K,)  as for pairs
+The last loads and energies serve the work balance that books the dissipated energy:
+per contact, minus the work of its loads over the step (trapezoidal) minus the change of
+its stored energy; with the leapfrog this closes the energy balance to O(dt^2).
 Everything else (CSR indices, bond lookup) is derived from these and rebuilt on demand.
 """
 from __future__ import annotations
@@ -27,6 +34,10 @@ from .backends import cpu_contacts as kernels
 from .neighbors import build_pairs, carry_history, max_displacement
 from .walls import WallSet, build_wall_pairs
 
+PAIR_HISTORY = {"contact_spring": (3,), "contact_force": (3,), "contact_moment_i": (3,),
+                "contact_moment_j": (3,), "contact_energy": ()}
+WALL_HISTORY = {"wall_spring": (3,), "wall_force_rows": (3,), "wall_moment_rows": (3,),
+                "wall_energy_rows": ()}
 MODELS = {"hertz_mindlin": kernels.MODEL_HERTZ, "linear": kernels.MODEL_LINEAR, "none": -1}
 
 
@@ -118,6 +129,7 @@ class ContactLaw:
         self._bond_key = bonds[:, 0] * np.int64(n) + bonds[:, 1]
         self._bond_order = np.argsort(self._bond_key, kind="stable")
         self._derived_for = None
+        self._last_state = None
         self.wall_force = np.zeros((self.walls.n_walls, 3))
         self.wall_torque = np.zeros((self.walls.n_walls, 3))
 
@@ -125,27 +137,29 @@ class ContactLaw:
     def _rebuild(self, model, state):
         extra = state.extra
         position = state.position
+        empty2 = np.zeros((0, 2), np.int64)
         if self.pair_law >= 0:
             pairs = build_pairs(position, model.radius, self.skin, model.periodic,
                                 model.box_low, model.box_high)
-            spring = carry_history(extra.get("contact_pairs", np.zeros((0, 2), np.int64)),
-                                   extra.get("contact_spring", np.zeros((0, 3))), pairs,
-                                   model.n_particles)
         else:
-            pairs, spring = np.zeros((0, 2), np.int64), np.zeros((0, 3))
+            pairs = empty2
+        old_pairs = extra.get("contact_pairs", empty2)
+        for name, shape in PAIR_HISTORY.items():
+            extra[name] = carry_history(old_pairs, extra.get(name, np.zeros((0,) + shape)),
+                                        pairs, model.n_particles)
+        extra["contact_pairs"] = pairs
         rows = self.walls.elements(state.time)
         wall_pairs = build_wall_pairs(position, model.radius, self.skin, rows,
                                       self.walls.element_type)
-        wall_spring = carry_history(extra.get("wall_pairs", np.zeros((0, 2), np.int64)),
-                                    extra.get("wall_spring", np.zeros((0, 3))), wall_pairs,
-                                    max(1, self.walls.n_elements))
-        extra["contact_pairs"] = pairs
-        extra["contact_spring"] = spring
+        old_wall_pairs = extra.get("wall_pairs", empty2)
+        for name, shape in WALL_HISTORY.items():
+            extra[name] = carry_history(old_wall_pairs,
+                                        extra.get(name, np.zeros((0,) + shape)), wall_pairs,
+                                        max(1, self.walls.n_elements))
         extra["wall_pairs"] = wall_pairs
-        extra["wall_spring"] = wall_spring
         extra["contact_reference_position"] = position.copy()
         extra["contact_reference_time"] = np.array([state.time])
-        counters = extra.setdefault("contact_counters", np.zeros(3))
+        counters = extra.setdefault("contact_counters", np.array([0.0, 0.0, 0.0, state.time]))
         counters[2] += 1.0
 
     def _needs_rebuild(self, model, state):
@@ -175,12 +189,7 @@ class ContactLaw:
             where = np.minimum(np.searchsorted(sorted_keys, key_pairs), sorted_keys.size - 1)
             hit = sorted_keys[where] == key_pairs
             self._pair_bond[hit] = self._bond_order[where[hit]]
-        m = pairs.shape[0]
-        self._force = np.zeros((m, 3))
-        self._moment_i = np.zeros((m, 3))
-        self._moment_j = np.zeros((m, 3))
-        self._energy = np.zeros(m)
-        self._dissipated = np.zeros(m)
+        self._dissipated = np.zeros(pairs.shape[0])
         wall_pairs = extra["wall_pairs"]
         k = wall_pairs.shape[0]
         self._wall_start = np.zeros(n + 1, dtype=np.int64)
@@ -188,9 +197,6 @@ class ContactLaw:
         self._w_distance = np.zeros(k)
         self._w_point = np.zeros((k, 3))
         self._w_feature = np.zeros(k, dtype=np.int64)
-        self._w_force = np.zeros((k, 3))
-        self._w_moment = np.zeros((k, 3))
-        self._w_energy = np.zeros(k)
         self._w_dissipated = np.zeros(k)
         self._w_work = np.zeros(k)
         self._derived_for = key
@@ -199,11 +205,14 @@ class ContactLaw:
     def accumulate(self, model, state, force, moment, increment_dt):
         """Add contact and wall loads (N, N m) for the state at the start of the step;
         advance the tangential springs by ``increment_dt`` (s)."""
+        self._last_state = state
         if self._needs_rebuild(model, state):
             self._rebuild(model, state)
         self._derive(model, state)
         extra = state.extra
         counters = extra["contact_counters"]
+        moved_dt = state.time - counters[3]  # 0 after the start-up kick: nothing moved
+        counters[3] = state.time
         use_rolling = bool(self.settings.rolling_resistance)
         if extra["contact_pairs"].shape[0]:
             kernels.particle_contacts(
@@ -211,10 +220,12 @@ class ContactLaw:
                 state.position, state.velocity, state.angular_velocity, model.radius,
                 model.mass, model.material, *self._materials, use_rolling,
                 self._linear_stiffness, self._box_length, model.periodic,
-                extra["contact_spring"], increment_dt, self._force, self._moment_i,
-                self._moment_j, self._energy, self._dissipated)
-            kernels.gather_pair_loads(self._i_start, self._j_start, self._j_order, self._force,
-                                      self._moment_i, self._moment_j, force, moment)
+                extra["contact_spring"], increment_dt, moved_dt, extra["contact_force"],
+                extra["contact_moment_i"], extra["contact_moment_j"], extra["contact_energy"],
+                self._dissipated)
+            kernels.gather_pair_loads(self._i_start, self._j_start, self._j_order,
+                                      extra["contact_force"], extra["contact_moment_i"],
+                                      extra["contact_moment_j"], force, moment)
             counters[0] += float(self._dissipated.sum())
         if self.walls.n_walls:
             rows = self.walls.elements(state.time)
@@ -227,31 +238,33 @@ class ContactLaw:
                     *self._wall_materials, state.position, state.velocity,
                     state.angular_velocity, model.radius, model.mass, model.material,
                     *self._materials, use_rolling, self._linear_stiffness,
-                    extra["wall_spring"], increment_dt, self._w_distance, self._w_point,
-                    self._w_feature, self._w_force, self._w_moment, self._w_energy,
-                    self._w_dissipated, self._w_work)
-                kernels.gather_wall_loads(self._wall_start, self._w_force, self._w_moment,
-                                          force, moment)
+                    extra["wall_spring"], increment_dt, moved_dt, self._w_distance,
+                    self._w_point, self._w_feature, extra["wall_force_rows"],
+                    extra["wall_moment_rows"], extra["wall_energy_rows"], self._w_dissipated,
+                    self._w_work)
+                kernels.gather_wall_loads(self._wall_start, extra["wall_force_rows"],
+                                          extra["wall_moment_rows"], force, moment)
                 counters[0] += float(self._w_dissipated.sum())
                 counters[1] += float(self._w_work.sum())
             kernels.wall_totals(wall_pairs, self.walls.element_wall, self._w_point,
-                                self._w_force, self._w_moment, state.position, model.radius,
-                                self.walls.positions(state.time), self.wall_force,
-                                self.wall_torque)
+                                extra["wall_force_rows"], extra["wall_moment_rows"],
+                                state.position, model.radius, self.walls.positions(state.time),
+                                self.wall_force, self.wall_torque)
 
     def touching(self):
         """(particle pairs, particle-wall contacts) that carried a load in the last step."""
-        if self._derived_for is None:
+        if self._last_state is None:
             return 0, 0
-        return (int(np.count_nonzero(np.any(self._force != 0.0, axis=1))),
-                int(np.count_nonzero(np.any(self._w_force != 0.0, axis=1))))
+        extra = self._last_state.extra
+        return (int(np.count_nonzero(np.any(extra["contact_force"] != 0.0, axis=1))),
+                int(np.count_nonzero(np.any(extra["wall_force_rows"] != 0.0, axis=1))))
 
     def energy_terms(self, model, state):
-        """contact_elastic (J stored in the contact springs, last step),
+        """contact_elastic (J stored in the contacts at the last evaluation),
         dissipated_contacts and work_walls (J, cumulative)."""
-        counters = state.extra.get("contact_counters", np.zeros(3))
-        elastic = 0.0
-        if self._derived_for is not None:
-            elastic = float(self._energy.sum()) + float(self._w_energy.sum())
+        extra = state.extra
+        counters = extra.get("contact_counters", np.zeros(4))
+        elastic = float(extra["contact_energy"].sum()) + float(extra["wall_energy_rows"].sum()) \
+            if "contact_energy" in extra else 0.0
         return {"contact_elastic": elastic, "dissipated_contacts": float(counters[0]),
                 "work_walls": float(counters[1])}

@@ -49,16 +49,30 @@ def _pair_law(law, n, overlap, v_rel, w_rel, spring, young_i, poisson_i, young_j
 def particle_contacts(law, pairs, pair_bond, bond_active, position, velocity,
                       angular_velocity, radius, mass, material, young, poisson, restitution,
                       friction, rolling, use_rolling, linear_stiffness, box_length, periodic,
-                      spring, dt, out_force, out_moment_i, out_moment_j, out_energy,
+                      spring, dt, moved_dt, force_c, moment_i_c, moment_j_c, energy_c,
                       out_dissipated):
-    """Loads of every listed pair (force on i, moments on i and j) and its energies.
+    """Loads of every listed pair (force on i, moments on i and j) and its stored energy,
+    written over the previous step's rows, which are read first for the work balance.
 
     Pairs not touching, or joined by an intact bond (pair_bond >= 0), get zero loads and
-    their tangential spring is reset.
+    their tangential spring is reset. out_dissipated: J removed by the contact since the
+    previous evaluation, moved_dt (s) ago: minus the work of its loads on the particles
+    (trapezoidal in the loads, with the velocities that moved the particles) minus the
+    change of its stored energy.
     """
     for c in prange(pairs.shape[0]):
         i = pairs[c, 0]
         j = pairs[c, 1]
+        vi = (velocity[i, 0], velocity[i, 1], velocity[i, 2])
+        vj = (velocity[j, 0], velocity[j, 1], velocity[j, 2])
+        wi = (angular_velocity[i, 0], angular_velocity[i, 1], angular_velocity[i, 2])
+        wj = (angular_velocity[j, 0], angular_velocity[j, 1], angular_velocity[j, 2])
+        # Work of the previous loads over the step just made (their half of the trapezoid).
+        work = 0.0
+        for k in range(3):
+            work += (force_c[c, k] * (vi[k] - vj[k]) + moment_i_c[c, k] * wi[k]
+                     + moment_j_c[c, k] * wj[k])
+        previous_energy = energy_c[c]
         r = np.empty(3)
         for k in range(3):
             d = position[j, k] - position[i, k]
@@ -71,25 +85,21 @@ def particle_contacts(law, pairs, pair_bond, bond_active, position, velocity,
         if overlap <= 0.0 or bonded or distance == 0.0:
             for k in range(3):
                 spring[c, k] = 0.0
-                out_force[c, k] = 0.0
-                out_moment_i[c, k] = 0.0
-                out_moment_j[c, k] = 0.0
-            out_energy[c] = 0.0
-            out_dissipated[c] = 0.0
+                force_c[c, k] = 0.0
+                moment_i_c[c, k] = 0.0
+                moment_j_c[c, k] = 0.0
+            energy_c[c] = 0.0
+            out_dissipated[c] = -0.5 * moved_dt * work + previous_energy
             continue
         n = (r[0] / distance, r[1] / distance, r[2] / distance)
         arm_i = radius[i] - 0.5 * overlap
         arm_j = radius[j] - 0.5 * overlap
-        vi = (velocity[i, 0], velocity[i, 1], velocity[i, 2])
-        vj = (velocity[j, 0], velocity[j, 1], velocity[j, 2])
-        wi = (angular_velocity[i, 0], angular_velocity[i, 1], angular_velocity[i, 2])
-        wj = (angular_velocity[j, 0], angular_velocity[j, 1], angular_velocity[j, 2])
         v_rel = contact_relative_velocity(n, vi, vj, wi, wj, arm_i, arm_j)
         w_rel = (wi[0] - wj[0], wi[1] - wj[1], wi[2] - wj[2])
         a = material[i]
         b = material[j]
         mu_r = 0.5 * (rolling[a] + rolling[b]) if use_rolling else 0.0
-        force_i, torque, f_t, xi, energy, dissipated = _pair_law(
+        force_i, torque, f_t, xi, energy = _pair_law(
             law, n, overlap, v_rel, w_rel, (spring[c, 0], spring[c, 1], spring[c, 2]),
             young[a], poisson[a], young[b], poisson[b],
             0.5 * (restitution[a] + restitution[b]), 0.5 * (friction[a] + friction[b]), mu_r,
@@ -98,11 +108,12 @@ def particle_contacts(law, pairs, pair_bond, bond_active, position, velocity,
         moment_i, moment_j = contact_moments(n, f_t, torque, arm_i, arm_j)
         for k in range(3):
             spring[c, k] = xi[k]
-            out_force[c, k] = force_i[k]
-            out_moment_i[c, k] = moment_i[k]
-            out_moment_j[c, k] = moment_j[k]
-        out_energy[c] = energy
-        out_dissipated[c] = dissipated
+            force_c[c, k] = force_i[k]
+            moment_i_c[c, k] = moment_i[k]
+            moment_j_c[c, k] = moment_j[k]
+            work += force_i[k] * (vi[k] - vj[k]) + moment_i[k] * wi[k] + moment_j[k] * wj[k]
+        energy_c[c] = energy
+        out_dissipated[c] = -0.5 * moved_dt * work - (energy - previous_energy)
 
 
 @numba.njit(**_jit)
@@ -155,11 +166,12 @@ def wall_contacts(law, wall_start, wall_pairs, rows, types, element_wall, wall_v
                   wall_omega, wall_center, wall_young, wall_poisson, wall_restitution,
                   wall_friction, wall_rolling, position, velocity, angular_velocity, radius,
                   mass, material, young, poisson, restitution, friction, rolling, use_rolling,
-                  linear_stiffness, spring, dt, scratch_distance, scratch_point,
-                  scratch_feature, out_force, out_moment, out_energy, out_dissipated,
-                  out_work):
-    """Loads of every particle-wall candidate (force and moment on the particle), its
-    energies and the work the moving wall did on the particle in this step (J).
+                  linear_stiffness, spring, dt, moved_dt, scratch_distance, scratch_point,
+                  scratch_feature, force_c, moment_c, energy_c, out_dissipated, out_work):
+    """Loads of every particle-wall candidate (force and moment on the particle) and its
+    stored energy, written over the previous step's rows (read first); out_work: J done
+    by the moving wall since the previous evaluation, out_dissipated: J removed (work of
+    the wall - work on the particle - change of stored energy, trapezoidal as for pairs).
 
     A triangle hit whose closest point is on an edge or vertex is dropped when another hit
     of the same wall is strictly closer and contains that point (the point is not a local
@@ -176,8 +188,23 @@ def wall_contacts(law, wall_start, wall_pairs, rows, types, element_wall, wall_v
             scratch_feature[c] = feature
             for k in range(3):
                 scratch_point[c, k] = q[k]
+        vi = (velocity[p, 0], velocity[p, 1], velocity[p, 2])
+        wi = (angular_velocity[p, 0], angular_velocity[p, 1], angular_velocity[p, 2])
         for c in range(wall_start[p], wall_start[p + 1]):
             e = wall_pairs[c, 1]
+            w = element_wall[e]
+            om = (wall_omega[w, 0], wall_omega[w, 1], wall_omega[w, 2])
+            q = (scratch_point[c, 0], scratch_point[c, 1], scratch_point[c, 2])
+            lever = (q[0] - wall_center[w, 0], q[1] - wall_center[w, 1], q[2] - wall_center[w, 2])
+            v_wall = (wall_velocity[w, 0] + om[1] * lever[2] - om[2] * lever[1],
+                      wall_velocity[w, 1] + om[2] * lever[0] - om[0] * lever[2],
+                      wall_velocity[w, 2] + om[0] * lever[1] - om[1] * lever[0])
+            on_particle = 0.0
+            by_wall = 0.0
+            for k in range(3):
+                on_particle += force_c[c, k] * vi[k] + moment_c[c, k] * wi[k]
+                by_wall += force_c[c, k] * v_wall[k]
+            previous_energy = energy_c[c]
             d = scratch_distance[c]
             keep = d < radius[p] and d > -radius[p] and (types[e] == PLANE or d > 0.0)
             if keep and scratch_feature[c] != FACE:
@@ -189,8 +216,7 @@ def wall_contacts(law, wall_start, wall_pairs, rows, types, element_wall, wall_v
                     if d2 >= radius[p]:
                         continue
                     if d2 < d - tol:
-                        point = (scratch_point[c, 0], scratch_point[c, 1], scratch_point[c, 2])
-                        inside, _, _ = _element_contact(point, radius[p], rows[e2], types[e2])
+                        inside, _, _ = _element_contact(q, radius[p], rows[e2], types[e2])
                         if inside < tol:
                             keep = False
                             break
@@ -204,33 +230,23 @@ def wall_contacts(law, wall_start, wall_pairs, rows, types, element_wall, wall_v
             if not keep:
                 for k in range(3):
                     spring[c, k] = 0.0
-                    out_force[c, k] = 0.0
-                    out_moment[c, k] = 0.0
-                out_energy[c] = 0.0
-                out_dissipated[c] = 0.0
-                out_work[c] = 0.0
+                    force_c[c, k] = 0.0
+                    moment_c[c, k] = 0.0
+                energy_c[c] = 0.0
+                out_work[c] = 0.5 * moved_dt * by_wall
+                out_dissipated[c] = 0.5 * moved_dt * (by_wall - on_particle) + previous_energy
                 continue
-            w = element_wall[e]
             if types[e] == PLANE:
                 n = (-rows[e, 1, 0], -rows[e, 1, 1], -rows[e, 1, 2])
             else:
-                n = ((scratch_point[c, 0] - x[0]) / d, (scratch_point[c, 1] - x[1]) / d,
-                     (scratch_point[c, 2] - x[2]) / d)
-            q = (scratch_point[c, 0], scratch_point[c, 1], scratch_point[c, 2])
+                n = ((q[0] - x[0]) / d, (q[1] - x[1]) / d, (q[2] - x[2]) / d)
             overlap = radius[p] - d
             arm = d
-            om = (wall_omega[w, 0], wall_omega[w, 1], wall_omega[w, 2])
-            lever = (q[0] - wall_center[w, 0], q[1] - wall_center[w, 1], q[2] - wall_center[w, 2])
-            v_wall = (wall_velocity[w, 0] + om[1] * lever[2] - om[2] * lever[1],
-                      wall_velocity[w, 1] + om[2] * lever[0] - om[0] * lever[2],
-                      wall_velocity[w, 2] + om[0] * lever[1] - om[1] * lever[0])
-            vi = (velocity[p, 0], velocity[p, 1], velocity[p, 2])
-            wi = (angular_velocity[p, 0], angular_velocity[p, 1], angular_velocity[p, 2])
             v_rel = contact_relative_velocity(n, vi, v_wall, wi, (0.0, 0.0, 0.0), arm, 0.0)
             w_rel = (wi[0] - om[0], wi[1] - om[1], wi[2] - om[2])
             a = material[p]
             mu_r = 0.5 * (rolling[a] + wall_rolling[w]) if use_rolling else 0.0
-            force_i, torque, f_t, xi, energy, dissipated = _pair_law(
+            force_i, torque, f_t, xi, energy = _pair_law(
                 law, n, overlap, v_rel, w_rel, (spring[c, 0], spring[c, 1], spring[c, 2]),
                 young[a], poisson[a], wall_young[w], wall_poisson[w],
                 0.5 * (restitution[a] + wall_restitution[w]),
@@ -239,13 +255,17 @@ def wall_contacts(law, wall_start, wall_pairs, rows, types, element_wall, wall_v
             moment_i, _ = contact_moments(n, f_t, torque, arm, 0.0)
             for k in range(3):
                 spring[c, k] = xi[k]
-                out_force[c, k] = force_i[k]
-                out_moment[c, k] = moment_i[k]
-            out_energy[c] = energy
-            out_dissipated[c] = dissipated
-            out_work[c] = (force_i[0] * v_wall[0] + force_i[1] * v_wall[1]
-                           + force_i[2] * v_wall[2] + torque[0] * om[0] + torque[1] * om[1]
-                           + torque[2] * om[2]) * dt
+                force_c[c, k] = force_i[k]
+                moment_c[c, k] = moment_i[k]
+                on_particle += force_i[k] * vi[k] + moment_i[k] * wi[k]
+                # The rolling torque is the couple about the contact point, turning with the
+                # wall at w_wall; the previous one is not kept, so the current one counts
+                # for the whole step.
+                by_wall += force_i[k] * v_wall[k] + 2.0 * torque[k] * om[k]
+            energy_c[c] = energy
+            out_work[c] = 0.5 * moved_dt * by_wall
+            out_dissipated[c] = (0.5 * moved_dt * (by_wall - on_particle)
+                                 - (energy - previous_energy))
 
 
 @numba.njit(**_jit)

@@ -28,9 +28,10 @@ Rolling resistance (constant directional torque, EDEM's "type A", Ai et al. 2011
     w_roll = (w_i - w_j) tangential part,  M_r = -mu_r R* max(f_n, 0) w_roll / |w_roll| on i
 Loads: on i  F = -f_n n + F_t,  M = a_i n x F_t + M_r; on j the opposite force and
 M = a_j n x F_t - M_r, which conserves angular momentum exactly (a_i + a_j = |x_j - x_i|).
-Energies: stored 8/15 E* sqrt(R*) delta^(5/2) + S_t |xi|^2 / 2; dissipated per step:
-damping c v^2 dt (normal and, while sticking, tangential), sliding |F_t . v_t| dt,
-rolling |M_r| |w_roll| dt.
+Stored energy: 8/15 E* sqrt(R*) delta^(5/2) + S_t |xi|^2 / 2. The energy dissipated by
+damping, sliding and rolling is booked by the loops from the work balance of each contact
+(work of its loads over the step, trapezoidal, minus the change of its stored energy),
+which also takes up Mindlin's non-conservative part (S_t changing under a held xi).
 """
 import math
 
@@ -89,7 +90,7 @@ def friction_and_rolling(n, v_t, w_rel, spring, f_n, k_t, c_t, friction, rolling
     n: unit normal i -> j; v_t: tangential relative velocity (m/s); w_rel = w_i - w_j
     (rad/s); spring: previous tangential displacement (m); f_n: normal force (N, > 0
     repulsive); k_t: tangential stiffness (N/m); c_t: tangential damping (N s/m).
-    Returns (F_t on i in N, rolling torque on i in N m, new spring in m, dissipated J).
+    Returns (F_t on i in N, rolling torque on i in N m, new spring in m).
     """
     xi = add(carry_to_plane(spring, n), scale(v_t, dt))
     f_t = add(scale(xi, k_t), scale(v_t, c_t))
@@ -99,17 +100,13 @@ def friction_and_rolling(n, v_t, w_rel, spring, f_n, k_t, c_t, friction, rolling
         f_t = scale(f_t, limit / magnitude) if magnitude > 0.0 else f_t
         # Sliding: the spring holds exactly the Coulomb force, so a reversal unloads it.
         xi = scale(f_t, 1.0 / k_t)
-        dissipated = abs(dot(f_t, v_t)) * dt
-    else:
-        dissipated = c_t * dot(v_t, v_t) * dt
     w_roll = sub(w_rel, scale(n, dot(w_rel, n)))
     w_roll_size = norm(w_roll)
     torque = (0.0, 0.0, 0.0)
     if rolling_friction > 0.0 and w_roll_size > 0.0:
         torque_size = rolling_friction * r_star * max(f_n, 0.0)
         torque = scale(w_roll, -torque_size / w_roll_size)
-        dissipated += torque_size * w_roll_size * dt
-    return f_t, torque, xi, dissipated
+    return f_t, torque, xi
 
 
 @physics
@@ -121,7 +118,7 @@ def hertz_mindlin(n, overlap, v_rel, w_rel, spring, e_star, g_star, r_star, m_st
     w_rel: w_i - w_j (rad/s); spring: tangential displacement (m); E*, G* (Pa), R* (m),
     m* (kg), beta from ``restitution_beta``; dt: s.
     Returns (force on i N, rolling torque on i N m, F_t on i N, new spring m,
-    elastic energy J, dissipated energy J in this step).
+    elastic energy J).
     """
     v_n = dot(v_rel, n)
     v_t = sub(v_rel, scale(n, v_n))
@@ -131,11 +128,10 @@ def hertz_mindlin(n, overlap, v_rel, w_rel, spring, e_star, g_star, r_star, m_st
     c_n = -2.0 * SQRT_5_6 * beta * math.sqrt(s_n * m_star)
     c_t = -2.0 * SQRT_5_6 * beta * math.sqrt(s_t * m_star)
     f_n = 2.0 / 3.0 * s_n * overlap - c_n * v_n
-    f_t, torque, xi, dissipated = friction_and_rolling(n, v_t, w_rel, spring, f_n, s_t, c_t,
-                                                      friction, rolling_friction, r_star, dt)
-    dissipated += c_n * v_n * v_n * dt
+    f_t, torque, xi = friction_and_rolling(n, v_t, w_rel, spring, f_n, s_t, c_t, friction,
+                                           rolling_friction, r_star, dt)
     energy = 0.4 * (2.0 / 3.0) * s_n * overlap * overlap + 0.5 * s_t * dot(xi, xi)
-    return add(scale(n, -f_n), f_t), torque, f_t, xi, energy, dissipated
+    return add(scale(n, -f_n), f_t), torque, f_t, xi, energy
 
 
 @physics

@@ -26,8 +26,7 @@ def linear_spring_dashpot(n, overlap, v_rel, w_rel, spring, k_n, k_t, r_star, m_
     c_n = -2.0 * beta * math.sqrt(k_n * m_star)
     c_t = -2.0 * beta * math.sqrt(k_t * m_star)
     f_n = k_n * overlap - c_n * v_n
-    f_t, torque, xi, dissipated = friction_and_rolling(n, v_t, w_rel, spring, f_n, k_t, c_t,
-                                                      friction, rolling_friction, r_star, dt)
-    dissipated += c_n * v_n * v_n * dt
+    f_t, torque, xi = friction_and_rolling(n, v_t, w_rel, spring, f_n, k_t, c_t, friction,
+                                           rolling_friction, r_star, dt)
     energy = 0.5 * k_n * overlap * overlap + 0.5 * k_t * dot(xi, xi)
-    return add(scale(n, -f_n), f_t), torque, f_t, xi, energy, dissipated
+    return add(scale(n, -f_n), f_t), torque, f_t, xi, energy
