@@ -92,3 +92,31 @@ def test_mesh_from_stl_matches_arrays(tmp_path, glass_e1):
     assert sim.wall_force[0, 2] == pytest.approx(-hertz, rel=1e-9)
     with pytest.raises(ValueError, match="cannot read"):
         MeshWall.from_stl(tmp_path / "missing.stl", glass_e1)
+
+
+def test_rolling_resistance_decelerates_at_five_sevenths_mu_r_g():
+    """A sphere rolling on a plane under gravity with a constant rolling torque
+    mu_r R m g: rolling without slipping gives a = -(5/7) mu_r g (I = 2/5 m R^2). 2 %."""
+    mu_r, v0, g = 0.1, 0.05, 9.81
+    material = bondem.Material(density=2500.0, young_modulus=1e8, poisson_ratio=0.3,
+                               restitution=0.3, friction=0.8, rolling_friction=mu_r)
+    mass = 2500.0 * 4 / 3 * math.pi * RADIUS ** 3
+    e_star = effective_modulus(material)
+    resting = (3 * mass * g / (4 * e_star * math.sqrt(RADIUS))) ** (2 / 3)
+    model, state = bondem.make_system([[0.0, 0.0, RADIUS - resting]], RADIUS, material,
+                                      velocity=[[v0, 0, 0]], angular_velocity=[[0, v0 / RADIUS, 0]],
+                                      gravity=(0, 0, -g))
+    sim = bondem.Simulation(model, state, contact=ContactSettings(),
+                            walls=[PlaneWall((0, 0, 0), (0, 0, 1), material)])
+    duration = 5e-3
+    sim.run(until=duration)
+    expected = v0 - 5 / 7 * mu_r * g * state.time
+    assert state.velocity[0, 0] - v0 == pytest.approx(expected - v0, rel=0.02)
+    assert state.angular_velocity[0, 1] * RADIUS == pytest.approx(state.velocity[0, 0], rel=0.02)
+    without = bondem.make_system([[0.0, 0.0, RADIUS - resting]], RADIUS, material,
+                                 velocity=[[v0, 0, 0]], angular_velocity=[[0, v0 / RADIUS, 0]],
+                                 gravity=(0, 0, -g))
+    free = bondem.Simulation(*without, contact=ContactSettings(rolling_resistance=False),
+                             walls=[PlaneWall((0, 0, 0), (0, 0, 1), material)])
+    free.run(until=duration)
+    assert free.state.velocity[0, 0] == pytest.approx(v0, rel=1e-3)
