@@ -6,7 +6,7 @@ from scipy.integrate import solve_ivp
 
 import bondem
 from bondem.contacts import ContactSettings
-from bondem.walls import MeshWall, PlaneWall
+from bondem.walls import MeshWall
 
 
 def effective_modulus(material):

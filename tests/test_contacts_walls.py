@@ -1,7 +1,8 @@
 """Walls: a sphere pressed on a mesh of many small triangles feels the force of a plane,
 wherever it sits (face, edge, shared vertex): Hertz F = 4/3 E* sqrt(R) delta^(3/2) once,
 not once per triangle. A moving plane does work 1/2 m (2V)^2 on a resting sphere it hits
-elastically (infinite-mass wall). A spinning mesh gives a falling sphere the sliding friction impulse.
+elastically (infinite-mass wall). A spinning mesh gives a falling sphere the sliding
+friction impulse; a rolling torque decelerates a rolling sphere at 5/7 mu_r g.
 """
 import math
 

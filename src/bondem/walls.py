@@ -22,6 +22,9 @@ from numba import prange
 
 from .model import Material
 from .neighbors import grid_shape
+from .physics import compile_physics
+
+closest_point_on_triangle = compile_physics(numba.njit(cache=False)).closest_point_on_triangle
 
 PLANE, TRIANGLE = 0, 1
 
@@ -206,45 +209,9 @@ class WallSet:
 
 @numba.njit(cache=True, nogil=True)
 def _triangle_distance_sq(p, a, b, c):
-    # Ericson's closest point, inlined here for the candidate search only.
-    ab0, ab1, ab2 = b[0] - a[0], b[1] - a[1], b[2] - a[2]
-    ac0, ac1, ac2 = c[0] - a[0], c[1] - a[1], c[2] - a[2]
-    ap0, ap1, ap2 = p[0] - a[0], p[1] - a[1], p[2] - a[2]
-    d1 = ab0 * ap0 + ab1 * ap1 + ab2 * ap2
-    d2 = ac0 * ap0 + ac1 * ap1 + ac2 * ap2
-    if d1 <= 0.0 and d2 <= 0.0:
-        q0, q1, q2 = a[0], a[1], a[2]
-    else:
-        bp0, bp1, bp2 = p[0] - b[0], p[1] - b[1], p[2] - b[2]
-        d3 = ab0 * bp0 + ab1 * bp1 + ab2 * bp2
-        d4 = ac0 * bp0 + ac1 * bp1 + ac2 * bp2
-        cp0, cp1, cp2 = p[0] - c[0], p[1] - c[1], p[2] - c[2]
-        d5 = ab0 * cp0 + ab1 * cp1 + ab2 * cp2
-        d6 = ac0 * cp0 + ac1 * cp1 + ac2 * cp2
-        vc = d1 * d4 - d3 * d2
-        vb = d5 * d2 - d1 * d6
-        va = d3 * d6 - d5 * d4
-        if d3 >= 0.0 and d4 <= d3:
-            q0, q1, q2 = b[0], b[1], b[2]
-        elif vc <= 0.0 and d1 >= 0.0 and d3 <= 0.0:
-            t = d1 / (d1 - d3)
-            q0, q1, q2 = a[0] + t * ab0, a[1] + t * ab1, a[2] + t * ab2
-        elif d6 >= 0.0 and d5 <= d6:
-            q0, q1, q2 = c[0], c[1], c[2]
-        elif vb <= 0.0 and d2 >= 0.0 and d6 <= 0.0:
-            t = d2 / (d2 - d6)
-            q0, q1, q2 = a[0] + t * ac0, a[1] + t * ac1, a[2] + t * ac2
-        elif va <= 0.0 and (d4 - d3) >= 0.0 and (d5 - d6) >= 0.0:
-            t = (d4 - d3) / ((d4 - d3) + (d5 - d6))
-            q0, q1, q2 = b[0] + t * (c[0] - b[0]), b[1] + t * (c[1] - b[1]), b[2] + t * (c[2] - b[2])
-        else:
-            den = 1.0 / (va + vb + vc)
-            v = vb * den
-            w = vc * den
-            q0 = a[0] + ab0 * v + ac0 * w
-            q1 = a[1] + ab1 * v + ac1 * w
-            q2 = a[2] + ab2 * v + ac2 * w
-    return (p[0] - q0) ** 2 + (p[1] - q1) ** 2 + (p[2] - q2) ** 2
+    q, _ = closest_point_on_triangle((p[0], p[1], p[2]), (a[0], a[1], a[2]),
+                                     (b[0], b[1], b[2]), (c[0], c[1], c[2]))
+    return (p[0] - q[0]) ** 2 + (p[1] - q[1]) ** 2 + (p[2] - q[2]) ** 2
 
 
 @numba.njit(cache=True, nogil=True)
