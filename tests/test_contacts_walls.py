@@ -121,3 +121,21 @@ def test_rolling_resistance_decelerates_at_five_sevenths_mu_r_g():
                              walls=[PlaneWall((0, 0, 0), (0, 0, 1), material)])
     free.run(until=duration)
     assert free.state.velocity[0, 0] == pytest.approx(v0, rel=1e-3)
+
+
+def test_rolling_torque_does_not_chatter_at_rest():
+    """A sphere resting on a plane, nudged to a tiny spin, is stopped by the rolling torque
+    and stays stopped: the torque is capped at what stops the relative rolling in one step
+    (an uncapped constant torque would flip it by mu_r R m g dt / I ~ 0.01 rad/s each step)."""
+    g = 9.81
+    material = bondem.Material(density=2500.0, young_modulus=1e8, poisson_ratio=0.3,
+                               restitution=0.3, friction=0.8, rolling_friction=0.1)
+    mass = 2500.0 * 4 / 3 * math.pi * RADIUS ** 3
+    resting = (3 * mass * g / (4 * effective_modulus(material) * math.sqrt(RADIUS))) ** (2 / 3)
+    model, state = bondem.make_system([[0.0, 0.0, RADIUS - resting]], RADIUS, material,
+                                      angular_velocity=[[0.0, 1e-3, 0.0]], gravity=(0, 0, -g))
+    sim = bondem.Simulation(model, state, contact=ContactSettings(),
+                            walls=[PlaneWall((0, 0, 0), (0, 0, 1), material)])
+    sim.step(200)
+    assert np.abs(state.angular_velocity).max() < 1e-6
+    assert np.abs(state.velocity[0, :2]).max() < 1e-8

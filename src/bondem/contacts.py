@@ -218,7 +218,7 @@ class ContactLaw:
             kernels.particle_contacts(
                 self.pair_law, extra["contact_pairs"], self._pair_bond, state.bond_active,
                 state.position, state.velocity, state.angular_velocity, model.radius,
-                model.mass, model.material, *self._materials, use_rolling,
+                model.mass, model.inertia, model.material, *self._materials, use_rolling,
                 self._linear_stiffness, self._box_length, model.periodic,
                 extra["contact_spring"], increment_dt, moved_dt, extra["contact_force"],
                 extra["contact_moment_i"], extra["contact_moment_j"], extra["contact_energy"],
@@ -236,7 +236,7 @@ class ContactLaw:
                     self.walls.element_type, self.walls.element_wall, self.walls.velocity,
                     self.walls.angular_velocity, self.walls.centers(state.time),
                     *self._wall_materials, state.position, state.velocity,
-                    state.angular_velocity, model.radius, model.mass, model.material,
+                    state.angular_velocity, model.radius, model.mass, model.inertia, model.material,
                     *self._materials, use_rolling, self._linear_stiffness,
                     extra["wall_spring"], increment_dt, moved_dt, self._w_distance,
                     self._w_point, self._w_feature, extra["wall_force_rows"],

@@ -30,27 +30,27 @@ _jit = dict(parallel=True, cache=True, fastmath=False, nogil=True)
 
 @numba.njit(cache=True, nogil=True)
 def _pair_law(law, n, overlap, v_rel, w_rel, spring, young_i, poisson_i, young_j, poisson_j,
-              restitution, friction, rolling, r_star, m_star, linear_stiffness, dt):
+              restitution, friction, rolling, r_star, m_star, i_star, linear_stiffness, dt):
     e_star = effective_young_modulus(young_i, poisson_i, young_j, poisson_j)
     g_star = effective_shear_modulus(young_i, poisson_i, young_j, poisson_j)
     beta = restitution_beta(restitution)
     if law == MODEL_HERTZ:
         return hertz_mindlin(n, overlap, v_rel, w_rel, spring, e_star, g_star, r_star, m_star,
-                             beta, friction, rolling, dt)
+                             i_star, beta, friction, rolling, dt)
     k_n = linear_stiffness
     if k_n <= 0.0:
         k_n = 2.0 * e_star * np.sqrt(LINEAR_REFERENCE_OVERLAP) * r_star
     return linear_spring_dashpot(n, overlap, v_rel, w_rel, spring, k_n,
-                                 4.0 * k_n * g_star / e_star, r_star, m_star, beta, friction,
-                                 rolling, dt)
+                                 4.0 * k_n * g_star / e_star, r_star, m_star, i_star, beta,
+                                 friction, rolling, dt)
 
 
 @numba.njit(**_jit)
 def particle_contacts(law, pairs, pair_bond, bond_active, position, velocity,
-                      angular_velocity, radius, mass, material, young, poisson, restitution,
-                      friction, rolling, use_rolling, linear_stiffness, box_length, periodic,
-                      spring, dt, moved_dt, force_c, moment_i_c, moment_j_c, energy_c,
-                      out_dissipated):
+                      angular_velocity, radius, mass, inertia, material, young, poisson,
+                      restitution, friction, rolling, use_rolling, linear_stiffness, box_length,
+                      periodic, spring, dt, moved_dt, force_c, moment_i_c, moment_j_c,
+                      energy_c, out_dissipated):
     """Loads of every listed pair (force on i, moments on i and j) and its stored energy,
     written over the previous step's rows, which are read first for the work balance.
 
@@ -104,7 +104,8 @@ def particle_contacts(law, pairs, pair_bond, bond_active, position, velocity,
             young[a], poisson[a], young[b], poisson[b],
             0.5 * (restitution[a] + restitution[b]), 0.5 * (friction[a] + friction[b]), mu_r,
             radius[i] * radius[j] / (radius[i] + radius[j]),
-            mass[i] * mass[j] / (mass[i] + mass[j]), linear_stiffness, dt)
+            mass[i] * mass[j] / (mass[i] + mass[j]),
+            inertia[i] * inertia[j] / (inertia[i] + inertia[j]), linear_stiffness, dt)
         moment_i, moment_j = contact_moments(n, f_t, torque, arm_i, arm_j)
         for k in range(3):
             spring[c, k] = xi[k]
@@ -165,8 +166,9 @@ def _element_contact(x, radius, rows, etype):
 def wall_contacts(law, wall_start, wall_pairs, rows, types, element_wall, wall_velocity,
                   wall_omega, wall_center, wall_young, wall_poisson, wall_restitution,
                   wall_friction, wall_rolling, position, velocity, angular_velocity, radius,
-                  mass, material, young, poisson, restitution, friction, rolling, use_rolling,
-                  linear_stiffness, spring, dt, moved_dt, scratch_distance, scratch_point,
+                  mass, inertia, material, young, poisson, restitution, friction, rolling,
+                  use_rolling, linear_stiffness, spring, dt, moved_dt, scratch_distance,
+                  scratch_point,
                   scratch_feature, force_c, moment_c, energy_c, out_dissipated, out_work):
     """Loads of every particle-wall candidate (force and moment on the particle) and its
     stored energy, written over the previous step's rows (read first); out_work: J done
@@ -250,7 +252,7 @@ def wall_contacts(law, wall_start, wall_pairs, rows, types, element_wall, wall_v
                 law, n, overlap, v_rel, w_rel, (spring[c, 0], spring[c, 1], spring[c, 2]),
                 young[a], poisson[a], wall_young[w], wall_poisson[w],
                 0.5 * (restitution[a] + wall_restitution[w]),
-                0.5 * (friction[a] + wall_friction[w]), mu_r, radius[p], mass[p],
+                0.5 * (friction[a] + wall_friction[w]), mu_r, radius[p], mass[p], inertia[p],
                 linear_stiffness, dt)
             moment_i, _ = contact_moments(n, f_t, torque, arm, 0.0)
             for k in range(3):

@@ -26,6 +26,8 @@ Tangential (Mindlin 1949 no-slip stiffness, EDEM form):
     Coulomb: if |F_t| > mu max(f_n, 0): F_t scaled to mu max(f_n, 0) and xi = F_t / S_t
 Rolling resistance (constant directional torque, EDEM's "type A", Ai et al. 2011):
     w_roll = (w_i - w_j) tangential part,  M_r = -mu_r R* max(f_n, 0) w_roll / |w_roll| on i
+    capped at |w_roll| I* / dt (1/I* = 1/I_i + 1/I_j; wall: I* = I_i), the torque that just
+    stops the relative rolling in one step, so that a resting contact does not chatter.
 Loads: on i  F = -f_n n + F_t,  M = a_i n x F_t + M_r; on j the opposite force and
 M = a_j n x F_t - M_r, which conserves angular momentum exactly (a_i + a_j = |x_j - x_i|).
 Stored energy: 8/15 E* sqrt(R*) delta^(5/2) + S_t |xi|^2 / 2. The energy dissipated by
@@ -84,12 +86,13 @@ def carry_to_plane(spring, n):
 
 @physics
 def friction_and_rolling(n, v_t, w_rel, spring, f_n, k_t, c_t, friction, rolling_friction,
-                         r_star, dt):
+                         r_star, i_star, dt):
     """Tangential spring-dashpot with Coulomb limit, and the rolling resistance torque.
 
     n: unit normal i -> j; v_t: tangential relative velocity (m/s); w_rel = w_i - w_j
     (rad/s); spring: previous tangential displacement (m); f_n: normal force (N, > 0
-    repulsive); k_t: tangential stiffness (N/m); c_t: tangential damping (N s/m).
+    repulsive); k_t: tangential stiffness (N/m); c_t: tangential damping (N s/m);
+    i_star: reduced moment of inertia (kg m^2) that caps the rolling torque.
     Returns (F_t on i in N, rolling torque on i in N m, new spring in m).
     """
     xi = add(carry_to_plane(spring, n), scale(v_t, dt))
@@ -104,19 +107,20 @@ def friction_and_rolling(n, v_t, w_rel, spring, f_n, k_t, c_t, friction, rolling
     w_roll_size = norm(w_roll)
     torque = (0.0, 0.0, 0.0)
     if rolling_friction > 0.0 and w_roll_size > 0.0:
-        torque_size = rolling_friction * r_star * max(f_n, 0.0)
+        torque_size = min(rolling_friction * r_star * max(f_n, 0.0),
+                          w_roll_size * i_star / dt)
         torque = scale(w_roll, -torque_size / w_roll_size)
     return f_t, torque, xi
 
 
 @physics
-def hertz_mindlin(n, overlap, v_rel, w_rel, spring, e_star, g_star, r_star, m_star, beta,
-                  friction, rolling_friction, dt):
+def hertz_mindlin(n, overlap, v_rel, w_rel, spring, e_star, g_star, r_star, m_star, i_star,
+                  beta, friction, rolling_friction, dt):
     """One step of the Hertz-Mindlin law for a contact with overlap > 0 (m).
 
     n: unit normal from i to j; v_rel: velocity of j's surface relative to i's (m/s);
     w_rel: w_i - w_j (rad/s); spring: tangential displacement (m); E*, G* (Pa), R* (m),
-    m* (kg), beta from ``restitution_beta``; dt: s.
+    m* (kg), I* (kg m^2), beta from ``restitution_beta``; dt: s.
     Returns (force on i N, rolling torque on i N m, F_t on i N, new spring m,
     elastic energy J).
     """
@@ -129,7 +133,7 @@ def hertz_mindlin(n, overlap, v_rel, w_rel, spring, e_star, g_star, r_star, m_st
     c_t = -2.0 * SQRT_5_6 * beta * math.sqrt(s_t * m_star)
     f_n = 2.0 / 3.0 * s_n * overlap - c_n * v_n
     f_t, torque, xi = friction_and_rolling(n, v_t, w_rel, spring, f_n, s_t, c_t, friction,
-                                           rolling_friction, r_star, dt)
+                                           rolling_friction, r_star, i_star, dt)
     energy = 0.4 * (2.0 / 3.0) * s_n * overlap * overlap + 0.5 * s_t * dot(xi, xi)
     return add(scale(n, -f_n), f_t), torque, f_t, xi, energy
 

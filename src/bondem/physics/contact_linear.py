@@ -17,8 +17,8 @@ from .vector import add, dot, scale, sub
 
 
 @physics
-def linear_spring_dashpot(n, overlap, v_rel, w_rel, spring, k_n, k_t, r_star, m_star, beta,
-                          friction, rolling_friction, dt):
+def linear_spring_dashpot(n, overlap, v_rel, w_rel, spring, k_n, k_t, r_star, m_star, i_star,
+                          beta, friction, rolling_friction, dt):
     """One step of the linear law for a contact with overlap > 0 (m); arguments and
     results as ``hertz_mindlin`` but with stiffnesses k_n, k_t in N/m."""
     v_n = dot(v_rel, n)
@@ -27,6 +27,6 @@ def linear_spring_dashpot(n, overlap, v_rel, w_rel, spring, k_n, k_t, r_star, m_
     c_t = -2.0 * beta * math.sqrt(k_t * m_star)
     f_n = k_n * overlap - c_n * v_n
     f_t, torque, xi = friction_and_rolling(n, v_t, w_rel, spring, f_n, k_t, c_t, friction,
-                                           rolling_friction, r_star, dt)
+                                           rolling_friction, r_star, i_star, dt)
     energy = 0.5 * k_n * overlap * overlap + 0.5 * k_t * dot(xi, xi)
     return add(scale(n, -f_n), f_t), torque, f_t, xi, energy
