@@ -128,13 +128,19 @@ def test_touching_pairs_equal_brute_force_each_step():
 
 
 def test_bonded_pairs_get_no_contact_force(glass, binder):
-    position = [[0.0, 0.0, 0.0], [1.8e-3, 0.0, 0.0]]  # overlap 0.2 mm
-    for bonded_pairs, moves in ((False, False), (True, True)):
+    position = [[0.0, 0.0, 0.0], [1.8e-3, 0.0, 0.0]]  # overlap 0.2 mm, bond at rest
+    for bonded_pairs in (False, True):
         model, state = bondem.make_system(position, 1e-3, glass, bonds=[[0, 1]],
                                           bond_diameter=1e-3, bond_material=binder)
-        sim = bondem.Simulation(model, state, contact=ContactSettings(bonded_pairs=bonded_pairs))
+        sim = bondem.Simulation(model, state,
+                                contact=ContactSettings(bonded_pairs=bonded_pairs))
         sim.step(20)
-        assert (np.abs(state.velocity).max() > 1e-6) == moves
+        assert (np.abs(state.velocity).max() > 1e-6) == bonded_pairs
+        if not bonded_pairs:
+            # Once the bond is broken the pair repels (the exclusion reads bond_active).
+            state.bond_active[:] = False
+            sim.step(20)
+            assert state.velocity[0, 0] < -1e-6 and state.velocity[1, 0] > 1e-6
 
 
 def test_resume_is_bit_identical():
