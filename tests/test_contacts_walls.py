@@ -139,3 +139,28 @@ def test_rolling_torque_does_not_chatter_at_rest():
     sim.step(200)
     assert np.abs(state.angular_velocity).max() < 1e-6
     assert np.abs(state.velocity[0, :2]).max() < 1e-8
+
+
+def test_tangential_force_carries_across_triangles(glass_e1):
+    """A pressed sphere dragged slowly (prescribed velocity, sticking: the spring needs
+    ~18 steps to reach the Coulomb limit) across the vertex shared by six triangles feels at
+    every step the same wall force as on a plane: the tangential spring passes from
+    triangle to triangle (no reset at edges), 1e-9."""
+    delta, velocity = 2e-5, (0.05, 0.02, 0.0)
+    start = [0.5e-3 - 2e-7, 0.5e-3 - 1e-7, RADIUS - delta]  # just before the vertex
+    histories, elements = [], set()
+    for wall in (PlaneWall((0, 0, 0), (0, 0, 1), glass_e1), flat_mesh(4e-3, 16, glass_e1)):
+        model, state = bondem.make_system([start], RADIUS, glass_e1, fixed=True,
+                                          velocity=[velocity])
+        sim = bondem.Simulation(model, state, contact=ContactSettings(), walls=[wall])
+        forces = []
+        for _ in range(12):
+            sim.step(1)
+            forces.append(sim.wall_force[0].copy())
+            active = np.any(state.extra["wall_force_rows"] != 0.0, axis=1)
+            elements.update(state.extra["wall_pairs"][active, 1].tolist())
+        histories.append(np.array(forces))
+    plane, mesh = histories
+    assert len(elements) >= 3  # the plane, and at least two triangles in turn
+    assert np.abs(plane[-1, 0]) > 0.3 * np.abs(plane[:, 0]).max() > 0.0
+    assert np.allclose(mesh, plane, rtol=1e-9, atol=1e-9 * np.abs(plane).max())

@@ -175,10 +175,11 @@ def wall_contacts(law, wall_start, wall_pairs, rows, types, element_wall, wall_v
     by the moving wall since the previous evaluation, out_dissipated: J removed (work of
     the wall - work on the particle - change of stored energy, trapezoidal as for pairs).
 
-    A triangle hit whose closest point is on an edge or vertex is dropped when another hit
-    of the same wall is strictly closer and contains that point (the point is not a local
-    minimum of the distance to the mesh), or is equally close at the same point and comes
-    earlier (a shared edge or vertex counted once).
+    A triangle hit at point q is dropped when another touching triangle of the same wall
+    contains q (within 1e-9 r) and has its own closest point elsewhere (then strictly
+    closer: q is no local minimum of the distance to the mesh), or at q too and comes
+    earlier in the list (a shared edge or vertex counted once). No distance comparison,
+    so a centre just beside an edge is not counted twice.
     """
     for p in prange(wall_start.shape[0] - 1):
         x = position[p]
@@ -190,6 +191,47 @@ def wall_contacts(law, wall_start, wall_pairs, rows, types, element_wall, wall_v
             scratch_feature[c] = feature
             for k in range(3):
                 scratch_point[c, k] = q[k]
+        # Which hits count (scratch_feature becomes 1 for kept, 0 for dropped).
+        for c in range(wall_start[p], wall_start[p + 1]):
+            e = wall_pairs[c, 1]
+            q = (scratch_point[c, 0], scratch_point[c, 1], scratch_point[c, 2])
+            d = scratch_distance[c]
+            keep = d < radius[p] and d > -radius[p] and (types[e] == PLANE or d > 0.0)
+            if keep and types[e] != PLANE:
+                for c2 in range(wall_start[p], wall_start[p + 1]):
+                    e2 = wall_pairs[c2, 1]
+                    if c2 == c or element_wall[e2] != element_wall[e] or types[e2] == PLANE:
+                        continue
+                    if scratch_distance[c2] >= radius[p]:
+                        continue
+                    inside, _, _ = _element_contact(q, radius[p], rows[e2], types[e2])
+                    if inside >= tol:
+                        continue
+                    gap = 0.0
+                    for k in range(3):
+                        gap += (scratch_point[c, k] - scratch_point[c2, k]) ** 2
+                    # Triangle e2 holds q: its own closest point is then either elsewhere
+                    # and strictly closer (q is no local minimum) or q itself (a shared
+                    # edge or vertex, counted once, by the first hit).
+                    if gap > tol * tol or c2 < c:
+                        keep = False
+                        break
+            scratch_feature[c] = 1 if keep else 0
+        # A sphere moving across a mesh changes triangles: a new hit takes over the spring
+        # of a hit of the same wall that ended now, so the tangential force carries on.
+        for c in range(wall_start[p], wall_start[p + 1]):
+            if scratch_feature[c] != 1 or spring[c, 0] != 0.0 or spring[c, 1] != 0.0 \
+                    or spring[c, 2] != 0.0:
+                continue
+            for c2 in range(wall_start[p], wall_start[p + 1]):
+                if scratch_feature[c2] == 0 and element_wall[wall_pairs[c2, 1]] == \
+                        element_wall[wall_pairs[c, 1]] and (spring[c2, 0] != 0.0 or
+                                                            spring[c2, 1] != 0.0 or
+                                                            spring[c2, 2] != 0.0):
+                    for k in range(3):
+                        spring[c, k] = spring[c2, k]
+                        spring[c2, k] = 0.0
+                    break
         vi = (velocity[p, 0], velocity[p, 1], velocity[p, 2])
         wi = (angular_velocity[p, 0], angular_velocity[p, 1], angular_velocity[p, 2])
         for c in range(wall_start[p], wall_start[p + 1]):
@@ -208,27 +250,7 @@ def wall_contacts(law, wall_start, wall_pairs, rows, types, element_wall, wall_v
                 by_wall += force_c[c, k] * v_wall[k]
             previous_energy = energy_c[c]
             d = scratch_distance[c]
-            keep = d < radius[p] and d > -radius[p] and (types[e] == PLANE or d > 0.0)
-            if keep and scratch_feature[c] != FACE:
-                for c2 in range(wall_start[p], wall_start[p + 1]):
-                    e2 = wall_pairs[c2, 1]
-                    if c2 == c or element_wall[e2] != element_wall[e] or types[e2] == PLANE:
-                        continue
-                    d2 = scratch_distance[c2]
-                    if d2 >= radius[p]:
-                        continue
-                    if d2 < d - tol:
-                        inside, _, _ = _element_contact(q, radius[p], rows[e2], types[e2])
-                        if inside < tol:
-                            keep = False
-                            break
-                    elif c2 < c and abs(d2 - d) <= tol:
-                        gap = 0.0
-                        for k in range(3):
-                            gap += (scratch_point[c, k] - scratch_point[c2, k]) ** 2
-                        if gap <= tol * tol:
-                            keep = False
-                            break
+            keep = scratch_feature[c] == 1
             if not keep:
                 for k in range(3):
                     spring[c, k] = 0.0
