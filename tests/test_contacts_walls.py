@@ -164,3 +164,23 @@ def test_tangential_force_carries_across_triangles(glass_e1):
     assert len(elements) >= 3  # the plane, and at least two triangles in turn
     assert np.abs(plane[-1, 0]) > 0.3 * np.abs(plane[:, 0]).max() > 0.0
     assert np.allclose(mesh, plane, rtol=1e-9, atol=1e-9 * np.abs(plane).max())
+
+
+def test_pressed_sphere_near_edges_and_vertices(glass_e1):
+    """As above at 40 spots: random, and 1e-8 m to 1e-12 m beside edges, diagonals and
+    vertices (where a distance tolerance would count two triangles): one Hertz force."""
+    rng = np.random.default_rng(11)
+    spots = list(rng.uniform(-1e-3, 1e-3, (20, 2)))
+    for offset in (1e-8, 1e-10, 1e-12, 0.0):
+        spots += [(0.5e-3 + offset, 0.2e-3), (0.3e-3 + offset, 0.3e-3),  # edge, diagonal
+                  (0.5e-3 + offset, 0.5e-3 - offset), (-offset, 0.5e-3 + offset),
+                  (1e-3 - offset, 0.75e-3)]
+    delta = 2e-5
+    hertz = 4 / 3 * effective_modulus(glass_e1) * math.sqrt(RADIUS) * delta ** 1.5
+    mesh = flat_mesh(4e-3, 16, glass_e1)
+    for x, y in spots:
+        model, state = bondem.make_system([[x, y, RADIUS - delta]], RADIUS, glass_e1,
+                                          fixed=True)
+        sim = bondem.Simulation(model, state, contact=ContactSettings(), walls=[mesh])
+        sim.step(1)
+        assert sim.wall_force[0, 2] == pytest.approx(-hertz, rel=1e-9), (x, y)
