@@ -175,6 +175,7 @@ class WallSet:
         self.velocity = np.array([w.velocity for w in self.walls]).reshape(-1, 3)
         self.angular_velocity = np.array([w.angular_velocity for w in self.walls]).reshape(-1, 3)
         self.extent = np.array([w.extent() for w in self.walls])
+        self._static_rows = None
 
     @property
     def n_walls(self):
@@ -185,10 +186,16 @@ class WallSet:
         return self.element_type.shape[0]
 
     def elements(self, time):
-        """(E,3,3) element rows at ``time`` (s)."""
+        """(E,3,3) element rows at ``time`` (s); computed once when no wall moves."""
         if not self.walls:
             return np.zeros((0, 3, 3))
-        return np.ascontiguousarray(np.concatenate([w.elements(time)[0] for w in self.walls]))
+        static = not (np.any(self.velocity) or np.any(self.angular_velocity))
+        if static and self._static_rows is not None:
+            return self._static_rows
+        rows = np.ascontiguousarray(np.concatenate([w.elements(time)[0] for w in self.walls]))
+        if static:
+            self._static_rows = rows
+        return rows
 
     def centers(self, time):
         """(W,3) rotation centres (m) at ``time`` (s)."""
