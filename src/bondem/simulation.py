@@ -17,14 +17,21 @@ class Simulation:
     times the smallest time scale, see ``timestep``); a given step above the smallest time
     scale raises ValueError unless force_time_step; musen_compat: reproduce MUSEN's
     numerical choices where they differ from the SPEC; laws: extra force laws (contacts,
-    walls) with ``accumulate(model, state, force, moment, increment_dt)``.
+    walls) with ``accumulate(model, state, force, moment, increment_dt)``; contact: a
+    ``ContactSettings`` (None: no particle contacts); walls: PlaneWall / MeshWall objects.
     """
 
     def __init__(self, model, state, *, time_step="auto", safety_factor=0.2,
-                 force_time_step=False, musen_compat=False, laws=()):
+                 force_time_step=False, musen_compat=False, laws=(), contact=None, walls=()):
         self.model = model
         self.state = state
         stable, cause = stable_time_step(model, safety_factor)
+        scales = time_scales(model)
+        if contact is not None:
+            from .contacts import contact_time_scales
+            scales.update(contact_time_scales(model, contact))
+            cause = min(scales, key=scales.get)
+            stable = safety_factor * scales[cause]
         if isinstance(time_step, str):
             if time_step != "auto":
                 raise ValueError(f"time_step = {time_step!r}; expected a number (s) or 'auto'")
@@ -32,7 +39,7 @@ class Simulation:
         time_step = float(time_step)
         if not (time_step > 0.0 and math.isfinite(time_step)):
             raise ValueError(f"time_step = {time_step!r}; must be a positive number of seconds")
-        critical = min(time_scales(model).values())
+        critical = min(scales.values())
         if time_step > critical and not force_time_step:
             raise ValueError(f"time_step = {time_step:.3g} s exceeds the stable limit "
                              f"{critical:.3g} s ({cause}); use a smaller step or force it")
@@ -40,11 +47,33 @@ class Simulation:
         self.time_step_cause = cause
         self.musen_compat = bool(musen_compat)
         self.bonds = cpu.ElasticBonds(model)
+        self.contacts = None
+        if contact is not None or len(walls):
+            from .contacts import ContactLaw, ContactSettings
+            if contact is None:
+                contact = ContactSettings(model="none")
+            self.contacts = ContactLaw(model, contact, walls)
+            laws = (self.contacts, *laws)
+        self.walls = list(walls)
         self.laws = [self.bonds, *laws]
         self.integrator = cpu.Integrator(model)
         n = model.n_particles
         self.force = np.zeros((n, 3))
         self.moment = np.zeros((n, 3))
+
+    @property
+    def wall_force(self):
+        """(W,3) N: total force on each wall in the last step."""
+        return self.contacts.wall_force if self.contacts else np.zeros((0, 3))
+
+    @property
+    def wall_torque(self):
+        """(W,3) N m: torque on each wall about its reference point in the last step."""
+        return self.contacts.wall_torque if self.contacts else np.zeros((0, 3))
+
+    def wall_positions(self):
+        """(W,3) m: each wall's reference point at the current time."""
+        return np.array([w.position(self.state.time) for w in self.walls]).reshape(-1, 3)
 
     def step(self, steps=1):
         """Advance by ``steps`` time steps (the start-up half kick comes first, once)."""

@@ -1,0 +1,330 @@
+"""Walls: infinite planes and triangle meshes, moving by translation and rotation.
+
+A wall has a particle ``Material`` (its E, nu, e, mu, mu_r meet the particle's as in
+``physics.contact_hertz``) and a rigid motion: constant velocity v (m/s) and, for meshes,
+constant angular velocity w (rad/s) about the axis through ``rotation_center`` (which
+travels with v). At time t a mesh vertex X0 is at
+    c(t) + R(w t) (X0 - c0),  c(t) = c0 + v t
+and the wall's surface velocity at a point q is v + w x (q - c(t)). Planes only translate.
+
+All walls are flattened into *elements* for the kernels: a plane is one element (type
+PLANE: row 0 its point, row 1 its unit normal), a mesh contributes one TRIANGLE element per
+face (rows: its three vertices). A plane pushes particles towards its normal side (it is
+one-sided); a triangle is two-sided.
+"""
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+from numba import prange
+
+from .model import Material
+from .neighbors import grid_shape
+from .physics import compile_physics
+
+closest_point_on_triangle = compile_physics(numba.njit(cache=False)).closest_point_on_triangle
+
+PLANE, TRIANGLE = 0, 1
+
+
+def _vector(name, value):
+    array = np.asarray(value, dtype=np.float64)
+    if array.shape != (3,) or not np.all(np.isfinite(array)):
+        raise ValueError(f"{name} = {value!r}: expected three finite numbers")
+    return array
+
+
+def rotation_matrix(angular_velocity, time):
+    """Rotation by |w| t about w / |w| (Rodrigues), (3,3); identity for w = 0."""
+    w = np.asarray(angular_velocity, dtype=np.float64)
+    speed = float(np.linalg.norm(w))
+    if speed == 0.0 or time == 0.0:
+        return np.eye(3)
+    k = w / speed
+    angle = speed * time
+    kx = np.array([[0.0, -k[2], k[1]], [k[2], 0.0, -k[0]], [-k[1], k[0], 0.0]])
+    return np.eye(3) + math.sin(angle) * kx + (1.0 - math.cos(angle)) * (kx @ kx)
+
+
+class PlaneWall:
+    """Infinite plane through ``point`` (m) with outward ``normal`` (the particles' side),
+    a particle ``material`` and a constant ``velocity`` (m/s)."""
+
+    def __init__(self, point, normal, material, velocity=(0.0, 0.0, 0.0)):
+        self.point = _vector("point", point)
+        normal = _vector("normal", normal)
+        length = float(np.linalg.norm(normal))
+        if length == 0.0:
+            raise ValueError("normal = (0, 0, 0): a plane needs a non-zero normal")
+        self.normal = normal / length
+        if not isinstance(material, Material):
+            raise ValueError("material: expected a bondem.Material")
+        self.material = material
+        self.velocity = _vector("velocity", velocity)
+        self.angular_velocity = np.zeros(3)
+
+    def position(self, time):
+        """Reference point (m) at ``time`` (s): the given point moved with the wall."""
+        return self.point + self.velocity * time
+
+    def center(self, time):
+        """Rotation centre (m) at ``time`` (s): the reference point for a plane."""
+        return self.position(time)
+
+    def extent(self):
+        """Largest distance (m) of the wall's geometry from its rotation centre (0: planes
+        do not rotate)."""
+        return 0.0
+
+    def elements(self, time):
+        """(E,3,3) element rows and (E,) types at ``time`` (s)."""
+        rows = np.zeros((1, 3, 3))
+        rows[0, 0] = self.position(time)
+        rows[0, 1] = self.normal
+        return rows, np.array([PLANE], dtype=np.int8)
+
+
+class MeshWall:
+    """Triangle mesh: vertices (V,3) m, triangles (T,3) vertex indices, a particle
+    ``material``, constant ``velocity`` (m/s) and ``angular_velocity`` (rad/s) about an
+    axis through ``rotation_center`` (m), which moves with the velocity."""
+
+    def __init__(self, vertices, triangles, material, velocity=(0.0, 0.0, 0.0),
+                 angular_velocity=(0.0, 0.0, 0.0), rotation_center=(0.0, 0.0, 0.0)):
+        vertices = np.ascontiguousarray(vertices, dtype=np.float64)
+        triangles = np.ascontiguousarray(triangles, dtype=np.int64)
+        if vertices.ndim != 2 or vertices.shape[1] != 3 or not np.all(np.isfinite(vertices)):
+            raise ValueError(f"vertices: shape {vertices.shape}; expected (V, 3) finite numbers")
+        if triangles.ndim != 2 or triangles.shape[1] != 3 or triangles.shape[0] == 0:
+            raise ValueError(f"triangles: shape {triangles.shape}; expected (T, 3), T >= 1")
+        if triangles.min() < 0 or triangles.max() >= vertices.shape[0]:
+            raise ValueError(f"triangles: vertex indices must lie in [0, {vertices.shape[0] - 1}]")
+        area = 0.5 * np.linalg.norm(np.cross(vertices[triangles[:, 1]] - vertices[triangles[:, 0]],
+                                             vertices[triangles[:, 2]] - vertices[triangles[:, 0]]),
+                                    axis=1)
+        if np.any(area <= 0.0):
+            bad = int(np.flatnonzero(area <= 0.0)[0])
+            raise ValueError(f"triangles: triangle {bad} has zero area")
+        if not isinstance(material, Material):
+            raise ValueError("material: expected a bondem.Material")
+        self.vertices = vertices
+        self.triangles = triangles
+        self.material = material
+        self.velocity = _vector("velocity", velocity)
+        self.angular_velocity = _vector("angular_velocity", angular_velocity)
+        self.rotation_center = _vector("rotation_center", rotation_center)
+
+    @classmethod
+    def from_stl(cls, path, material, scale=1.0, **motion):
+        """Load an STL file (trimesh); coordinates multiplied by ``scale`` (to metres)."""
+        import pathlib
+
+        import trimesh
+        if not pathlib.Path(path).is_file():
+            raise ValueError(f"{path}: cannot read STL file (no such file)")
+        try:
+            mesh = trimesh.load_mesh(str(path), file_type="stl", process=True)
+        except Exception as error:  # trimesh raises many kinds on malformed files
+            raise ValueError(f"{path}: cannot read as STL ({error})") from error
+        if not hasattr(mesh, "faces") or len(mesh.faces) == 0:
+            raise ValueError(f"{path}: the STL file holds no triangles")
+        return cls(np.asarray(mesh.vertices) * float(scale), np.asarray(mesh.faces), material,
+                   **motion)
+
+    def center(self, time):
+        """Rotation centre (m) at ``time`` (s)."""
+        return self.rotation_center + self.velocity * time
+
+    def position(self, time):
+        """Reference point (m) at ``time`` (s): the rotation centre, moved with the wall."""
+        return self.center(time)
+
+    def extent(self):
+        """Largest distance (m) of a vertex from the rotation centre."""
+        return float(np.linalg.norm(self.vertices - self.rotation_center, axis=1).max())
+
+    def current_vertices(self, time):
+        """Vertices (V,3) m at ``time`` (s)."""
+        rotation = rotation_matrix(self.angular_velocity, time)
+        return self.center(time) + (self.vertices - self.rotation_center) @ rotation.T
+
+    def elements(self, time):
+        """(T,3,3) triangle vertex rows and (T,) types at ``time`` (s)."""
+        return (np.ascontiguousarray(self.current_vertices(time)[self.triangles]),
+                np.full(self.triangles.shape[0], TRIANGLE, dtype=np.int8))
+
+
+class WallSet:
+    """All walls flattened into elements: ``element_wall`` (E,) wall index,
+    ``element_type`` (E,), and per-wall motion arrays for the kernels."""
+
+    def __init__(self, walls):
+        self.walls = list(walls)
+        for k, wall in enumerate(self.walls):
+            if not isinstance(wall, (PlaneWall, MeshWall)):
+                raise ValueError(f"walls[{k}]: expected a PlaneWall or MeshWall, got {wall!r}")
+        types, owners = [], []
+        for k, wall in enumerate(self.walls):
+            _, t = wall.elements(0.0)
+            types.append(t)
+            owners.append(np.full(t.shape[0], k, dtype=np.int64))
+        self.element_type = np.concatenate(types) if types else np.zeros(0, dtype=np.int8)
+        self.element_wall = np.concatenate(owners) if owners else np.zeros(0, dtype=np.int64)
+        self.velocity = np.array([w.velocity for w in self.walls]).reshape(-1, 3)
+        self.angular_velocity = np.array([w.angular_velocity for w in self.walls]).reshape(-1, 3)
+        self.extent = np.array([w.extent() for w in self.walls])
+        self._static_rows = None
+
+    @property
+    def n_walls(self):
+        return len(self.walls)
+
+    @property
+    def n_elements(self):
+        return self.element_type.shape[0]
+
+    def elements(self, time):
+        """(E,3,3) element rows at ``time`` (s); computed once when no wall moves."""
+        if not self.walls:
+            return np.zeros((0, 3, 3))
+        static = not (np.any(self.velocity) or np.any(self.angular_velocity))
+        if static and self._static_rows is not None:
+            return self._static_rows
+        rows = np.ascontiguousarray(np.concatenate([w.elements(time)[0] for w in self.walls]))
+        if static:
+            self._static_rows = rows
+        return rows
+
+    def centers(self, time):
+        """(W,3) rotation centres (m) at ``time`` (s)."""
+        return np.array([w.center(time) for w in self.walls]).reshape(-1, 3)
+
+    def positions(self, time):
+        """(W,3) reference points (m) at ``time`` (s)."""
+        return np.array([w.position(time) for w in self.walls]).reshape(-1, 3)
+
+    def max_displacement(self, elapsed):
+        """Bound (m) on how far any wall point moved in ``elapsed`` seconds."""
+        if not self.walls:
+            return 0.0
+        speed = np.linalg.norm(self.velocity, axis=1)
+        turn = np.linalg.norm(self.angular_velocity, axis=1)
+        return float(np.max(speed * elapsed + self.extent * np.minimum(turn * elapsed, 2.0)))
+
+
+@numba.njit(cache=True, nogil=True)
+def _triangle_distance_sq(p, a, b, c):
+    q, _ = closest_point_on_triangle((p[0], p[1], p[2]), (a[0], a[1], a[2]),
+                                     (b[0], b[1], b[2]), (c[0], c[1], c[2]))
+    return (p[0] - q[0]) ** 2 + (p[1] - q[1]) ** 2 + (p[2] - q[2]) ** 2
+
+
+@numba.njit(cache=True, nogil=True)
+def _bin_triangles(rows, types, reach, low, width, counts):
+    """Each triangle listed in every cell its box, grown by ``reach``, overlaps."""
+    n_cells = counts[0] * counts[1] * counts[2]
+    start = np.zeros(n_cells + 1, dtype=np.int64)
+    fill = np.zeros(0, dtype=np.int64)
+    items = np.zeros(0, dtype=np.int64)
+    for pass_ in range(2):
+        if pass_ == 1:
+            for c in range(n_cells):
+                start[c + 1] += start[c]
+            fill = start[:-1].copy()
+            items = np.empty(start[-1], dtype=np.int64)
+        for e in range(rows.shape[0]):
+            if types[e] != TRIANGLE:
+                continue
+            lo = np.empty(3, dtype=np.int64)
+            hi = np.empty(3, dtype=np.int64)
+            for k in range(3):
+                a = min(rows[e, 0, k], rows[e, 1, k], rows[e, 2, k]) - reach
+                b = max(rows[e, 0, k], rows[e, 1, k], rows[e, 2, k]) + reach
+                lo[k] = min(max(int(np.floor((a - low[k]) / width[k])), 0), counts[k] - 1)
+                hi[k] = min(max(int(np.floor((b - low[k]) / width[k])), 0), counts[k] - 1)
+            for x in range(lo[0], hi[0] + 1):
+                for y in range(lo[1], hi[1] + 1):
+                    for z in range(lo[2], hi[2] + 1):
+                        c = (x * counts[1] + y) * counts[2] + z
+                        if pass_ == 0:
+                            start[c + 1] += 1
+                        else:
+                            items[fill[c]] = e
+                            fill[c] += 1
+    return start, items
+
+
+@numba.njit(parallel=True, cache=True, nogil=True)
+def _wall_pass(position, radius, skin, rows, types, low, width, counts, cell_start, items,
+               row_start, out_e, fill):
+    n = position.shape[0]
+    for p in prange(n):
+        found = 0
+        x = position[p]
+        reach = radius[p] + skin
+        for e in range(rows.shape[0]):
+            if types[e] == PLANE:
+                d = ((x[0] - rows[e, 0, 0]) * rows[e, 1, 0] + (x[1] - rows[e, 0, 1]) * rows[e, 1, 1]
+                     + (x[2] - rows[e, 0, 2]) * rows[e, 1, 2])
+                if -radius[p] < d < reach:
+                    if fill:
+                        out_e[row_start[p] + found] = e
+                    found += 1
+        inside = True
+        cell = np.empty(3, dtype=np.int64)
+        for k in range(3):
+            ik = int(np.floor((x[k] - low[k]) / width[k]))
+            if ik < 0 or ik >= counts[k]:
+                inside = False
+            cell[k] = ik
+        if inside:
+            c = (cell[0] * counts[1] + cell[1]) * counts[2] + cell[2]
+            for s in range(cell_start[c], cell_start[c + 1]):
+                e = items[s]
+                if _triangle_distance_sq(x, rows[e, 0], rows[e, 1], rows[e, 2]) < reach * reach:
+                    if fill:
+                        out_e[row_start[p] + found] = e
+                    found += 1
+        if fill:
+            a = row_start[p]
+            for s in range(a + 1, a + found):
+                v = out_e[s]
+                t = s - 1
+                while t >= a and out_e[t] > v:
+                    out_e[t + 1] = out_e[t]
+                    t -= 1
+                out_e[t + 1] = v
+        else:
+            row_start[p + 1] = found
+
+
+def build_wall_pairs(position, radius, skin, rows, types):
+    """Candidate (particle, element) pairs (K,2) int64, sorted, with gap < skin (m)."""
+    n = position.shape[0]
+    if n == 0 or rows.shape[0] == 0:
+        return np.zeros((0, 2), dtype=np.int64)
+    reach = float(radius.max()) + float(skin)
+    triangles = rows[types == TRIANGLE]
+    if triangles.shape[0]:
+        pts = triangles.reshape(-1, 3)
+        lo = pts.min(axis=0) - reach
+        hi = pts.max(axis=0) + reach
+        box = np.vstack([lo, hi])
+        low, width, counts = grid_shape(box, 2.0 * reach, np.zeros(3, dtype=bool), lo, hi,
+                                        max(64, 4 * n + 4 * triangles.shape[0]))
+        cell_start, items = _bin_triangles(rows, types, reach, low, width, counts)
+    else:
+        low, width, counts = np.zeros(3), np.ones(3), np.ones(3, dtype=np.int64)
+        cell_start, items = np.zeros(2, dtype=np.int64), np.zeros(0, dtype=np.int64)
+    row_start = np.zeros(n + 1, dtype=np.int64)
+    dummy = np.zeros(0, dtype=np.int64)
+    _wall_pass(position, radius, float(skin), rows, types, low, width, counts, cell_start,
+               items, row_start, dummy, False)
+    np.cumsum(row_start, out=row_start)
+    out_e = np.empty(row_start[-1], dtype=np.int64)
+    _wall_pass(position, radius, float(skin), rows, types, low, width, counts, cell_start,
+               items, row_start, out_e, True)
+    out_p = np.repeat(np.arange(n, dtype=np.int64), np.diff(row_start))
+    return np.ascontiguousarray(np.column_stack([out_p, out_e]))
