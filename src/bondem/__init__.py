@@ -2,9 +2,14 @@
 from .model import BondMaterial, Material, Model, State, make_system
 from .integrate import SimulationBlowUp
 from .simulation import Simulation
+from .contacts import ContactSettings
+from .walls import MeshWall, PlaneWall
+from .scene import load_scene
+from .runner import run_scene
 from .timestep import stable_time_step, time_scales
 
 __version__ = "0.1.0"
 
 __all__ = ["BondMaterial", "Material", "Model", "State", "make_system", "Simulation",
-           "SimulationBlowUp", "stable_time_step", "time_scales", "__version__"]
+           "SimulationBlowUp", "ContactSettings", "PlaneWall", "MeshWall", "load_scene",
+           "run_scene", "stable_time_step", "time_scales", "__version__"]

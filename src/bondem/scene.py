@@ -7,7 +7,6 @@ range. Kernels downstream assume valid input. The keys are documented in docs/sc
 from __future__ import annotations
 
 import copy
-import csv
 import inspect
 import math
 import tomllib
@@ -17,6 +16,8 @@ from pathlib import Path
 import numpy as np
 
 from .errors import InputError
+from .generate import bonds_from_gap, particles_from_generator
+from .io.csv_files import read_bonds, read_particles
 from .model import BondMaterial, Material, make_system
 
 BACKENDS = ("cpu", "gpu")
@@ -95,10 +96,6 @@ MESH_KEYS = {
     "rotation_center": ("vector3", [0.0, 0.0, 0.0], -INF, INF, False, False),
 }
 TOP_KEYS = ("simulation", "materials", "bond_materials", "particles", "bonds", "walls")
-
-PARTICLE_COLUMNS = ("x", "y", "z", "radius", "material")
-PARTICLE_OPTIONAL = ("vx", "vy", "vz", "wx", "wy", "wz")
-BOND_COLUMNS = ("i", "j", "diameter", "material")
 
 
 @dataclass
@@ -308,7 +305,6 @@ def _build(data, text, path):
 
     position, radius, material_index, velocity, angular_velocity, particles = _particles(
         data["particles"], material_names, path)
-    n = position.shape[0]
     bonds, bond_diameter, bond_material_index = _bonds(
         data.get("bonds"), position, radius, bond_material_names, path)
     if bonds.shape[0] and not bond_material_objects:
@@ -461,42 +457,13 @@ def _wall(table, index, material_names, path):
 
 # ---------------------------------------------------------------------------- CSV input
 
-def _read_csv(file, required, optional, key, path):
-    """Rows of a CSV file with a header: dict column -> list of strings."""
+def _read_csv(reader, file, key, path, **kwargs):
+    """Read a particle or bond CSV with bondem.io.csv_files; its errors (which name the
+    CSV file, line and column) are reported against the scene key that named the file."""
     try:
-        with open(file, newline="") as handle:
-            reader = csv.reader(handle)
-            header = [h.strip() for h in next(reader, [])]
-            rows = [row for row in reader if row and any(c.strip() for c in row)]
-    except OSError as error:
-        raise InputError(f"value {str(file)!r}: cannot read ({error.strerror})", file=path, key=key)
-    missing = [c for c in required if c not in header]
-    if missing:
-        raise InputError(f"value {str(file)!r}: missing column(s) {', '.join(missing)}; expected "
-                         f"{','.join(required)}[,{','.join(optional)}]", file=path, key=key)
-    unknown = [c for c in header if c not in required and c not in optional]
-    if unknown:
-        raise InputError(f"value {str(file)!r}: unknown column(s) {', '.join(unknown)}",
-                         file=path, key=key)
-    columns = {c: [] for c in header}
-    for line, row in enumerate(rows, start=2):
-        if len(row) != len(header):
-            raise InputError(f"{file} line {line}: {len(row)} values, expected {len(header)}",
-                             file=path, key=key)
-        for c, v in zip(header, row):
-            columns[c].append(v.strip())
-    return columns
-
-
-def _floats(columns, names, file, key, path):
-    try:
-        out = np.array([[float(v) for v in columns[c]] for c in names], dtype=np.float64).T
-    except ValueError as error:
-        raise InputError(f"{file}: {error}", file=path, key=key)
-    if out.size and not np.all(np.isfinite(out)):
-        row = int(np.flatnonzero(~np.isfinite(out).all(axis=1))[0])
-        raise InputError(f"{file} row {row}: NaN or infinite value", file=path, key=key)
-    return out.reshape(-1, len(names))
+        return reader(file, **kwargs)
+    except InputError as error:
+        raise InputError(str(error), file=path, key=key) from None
 
 
 def _particles(table, material_names, path):
@@ -506,26 +473,15 @@ def _particles(table, material_names, path):
                          file=path, key="particles")
     if p["file"] is not None:
         file = path.parent / p["file"]
-        columns = _read_csv(file, PARTICLE_COLUMNS, PARTICLE_OPTIONAL, "particles.file", path)
-        if not columns["x"]:
-            raise InputError(f"value {p['file']!r}: no particles", file=path, key="particles.file")
-        position = _floats(columns, ("x", "y", "z"), file, "particles.file", path)
-        radius = _floats(columns, ("radius",), file, "particles.file", path)[:, 0]
-        if np.any(radius <= 0):
-            row = int(np.flatnonzero(radius <= 0)[0])
-            raise InputError(f"{p['file']} row {row}: radius = {radius[row]!r}; must be > 0",
-                             file=path, key="particles.file")
-        names = np.array(columns["material"])
-        velocity = (_floats(columns, ("vx", "vy", "vz"), file, "particles.file", path)
+        columns = _read_csv(read_particles, file, "particles.file", path)
+        position = np.column_stack([columns["x"], columns["y"], columns["z"]])
+        radius = columns["radius"]
+        names = np.asarray(columns["material"])
+        velocity = (np.column_stack([columns["vx"], columns["vy"], columns["vz"]])
                     if "vx" in columns else np.zeros_like(position))
-        angular_velocity = (_floats(columns, ("wx", "wy", "wz"), file, "particles.file", path)
+        angular_velocity = (np.column_stack([columns["wx"], columns["wy"], columns["wz"]])
                             if "wx" in columns else np.zeros_like(position))
     else:
-        try:
-            from .generate import particles_from_generator
-        except ImportError:
-            raise InputError("the generator needs bondem.generate, not in this build",
-                             file=path, key="particles.generator")
         position, radius, names = particles_from_generator(p["generator"], str(path))
         position = np.asarray(position, dtype=np.float64)
         radius = np.broadcast_to(np.asarray(radius, dtype=np.float64), position.shape[:1]).copy()
@@ -561,15 +517,10 @@ def _bonds(table, position, radius, bond_material_names, path):
                 raise InputError("only used with bonds.max_gap (bonds.csv has its own columns)",
                                  file=path, key=f"bonds.{key}")
         file = path.parent / b["file"]
-        columns = _read_csv(file, BOND_COLUMNS, (), "bonds.file", path)
-        try:
-            pairs = np.array([[int(i), int(j)] for i, j in zip(columns["i"], columns["j"])],
-                             dtype=np.int64).reshape(-1, 2)
-        except ValueError as error:
-            raise InputError(f"{b['file']}: particle indices must be integers ({error})",
-                             file=path, key="bonds.file")
-        diameter = _floats(columns, ("diameter",), file, "bonds.file", path)[:, 0]
-        names = columns["material"]
+        columns = _read_csv(read_bonds, file, "bonds.file", path)
+        pairs = np.column_stack([columns["i"], columns["j"]]).astype(np.int64).reshape(-1, 2)
+        diameter = columns["diameter"]
+        names = list(columns["material"])
     else:
         if b["material"] is None:
             raise InputError("missing required key (with bonds.max_gap)", file=path,
@@ -577,15 +528,10 @@ def _bonds(table, position, radius, bond_material_names, path):
         if (b["diameter"] is None) == (b["diameter_ratio"] is None):
             raise InputError("give exactly one of bonds.diameter or bonds.diameter_ratio",
                              file=path, key="bonds.diameter")
-        try:
-            from .generate import bonds_from_gap
-        except ImportError:
-            pairs, diameter = _bonds_from_gap(position, radius, b)
-        else:
-            pairs, diameter = bonds_from_gap(position, radius, b["max_gap"],
-                                             diameter=b["diameter"],
-                                             diameter_ratio=b["diameter_ratio"],
-                                             max_per_particle=b["max_per_particle"])
+        pairs, diameter = bonds_from_gap(position, radius, b["max_gap"],
+                                         diameter=b["diameter"],
+                                         diameter_ratio=b["diameter_ratio"],
+                                         max_per_particle=b["max_per_particle"])
         pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
         diameter = np.asarray(diameter, dtype=np.float64).reshape(-1)
         names = [b["material"]] * pairs.shape[0]
@@ -622,21 +568,3 @@ def _bonds(table, position, radius, bond_material_names, path):
                          key="bonds.material")
     index = np.array([bond_material_names.index(m) for m in names], dtype=np.int32)
     return pairs, diameter, index
-
-
-def _bonds_from_gap(position, radius, b):
-    """Fallback bond generation (until bondem.generate is merged): every pair whose
-    surface gap is at most max_gap (m); diameter (m) or diameter_ratio times the smaller
-    radius's diameter."""
-    from scipy.spatial import cKDTree
-    tree = cKDTree(position)
-    pairs = tree.query_pairs(2.0 * float(radius.max()) + b["max_gap"], output_type="ndarray")
-    pairs = pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))] if pairs.size else pairs.reshape(0, 2)
-    gap = (np.linalg.norm(position[pairs[:, 1]] - position[pairs[:, 0]], axis=1)
-           - radius[pairs[:, 0]] - radius[pairs[:, 1]])
-    pairs = pairs[gap <= b["max_gap"]]
-    if b["diameter"] is not None:
-        diameter = np.full(pairs.shape[0], b["diameter"])
-    else:
-        diameter = b["diameter_ratio"] * 2.0 * np.minimum(radius[pairs[:, 0]], radius[pairs[:, 1]])
-    return pairs, diameter
