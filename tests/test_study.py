@@ -393,3 +393,26 @@ def test_scene_runner_passes_overrides_and_reads_the_results(tmp_path, monkeypat
     assert [r["largest_fragment_fraction"] for r in rows] == [1e-3, 2e-3]
     assert [r["peak_wall_force"] for r in rows] == [3.0, 3.0]
     assert (tmp_path / "o" / "cases" / "00001" / "results.h5").is_file()
+
+
+def test_scene_study_with_the_real_scene_runner(tmp_path):
+    """End to end with bondem.scene, bondem.runner and bondem.analysis: the cube's x-layers
+    fly apart; weak bonds (3e5 Pa) break along x, strong ones (1e12 Pa) do not, and every
+    row equals the analysis of that case's own results file."""
+    from bondem.analysis.breakage import broken_bond_fraction
+    from scenetools import cube_scene
+    cube_scene(tmp_path, end_time=2e-4, save_every=5e-5)
+    study = tmp_path / "s.toml"
+    study.write_text('[study]\nscene = "scene.toml"\n'
+                     f'quantities = {QUANTITIES}\n'
+                     '[parameters]\n"bond_materials.binder.normal_strength" = [3e5, 1e12]\n'
+                     '"bond_materials.binder.tangential_strength" = [1e12]\n')
+    table = run_study(study, scheduler="serial", progress=False, out_dir=tmp_path / "o")
+    rows = read_table(table)
+    assert [r["status"] for r in rows] == ["ok", "ok"]
+    weak, strong = rows
+    assert weak["broken_bond_fraction"] > 0.0 and strong["broken_bond_fraction"] == 0.0
+    assert strong["largest_fragment_fraction"] == 1.0
+    for row in rows:
+        path = tmp_path / "o" / "cases" / row["case"] / "results.h5"
+        assert row["broken_bond_fraction"] == broken_bond_fraction(path)
