@@ -225,6 +225,11 @@ class ElasticBonds:
         """Advance the bonds by ``increment_dt`` (s); add loads to force (N), moment (N m)."""
         if model.n_bonds == 0:
             return
+        self.compute(model, state, increment_dt)
+        self.gather(force, moment)
+
+    def compute(self, model, state, increment_dt):
+        """Advance every intact bond by ``increment_dt`` (s); loads kept per bond."""
         elastic_bonds(model.bond_pairs, model.bond_diameter, model.bond_initial_length,
                       model.bond_material, *self._table, state.position, state.velocity,
                       state.angular_velocity, self._box_length, model.periodic,
@@ -233,6 +238,9 @@ class ElasticBonds:
                       state.bond_break_time, state.bond_break_mode, state.bond_break_energy,
                       state.time, increment_dt,
                       self.force_i, self.moment_i, self.moment_j)
+
+    def gather(self, force, moment):
+        """Add the per-bond loads of the last ``compute`` to force (N), moment (N m)."""
         gather_bond_loads(self._offsets, self._ends, self.force_i, self.moment_i,
                           self.moment_j, force, moment)
 
