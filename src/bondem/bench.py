@@ -2,7 +2,8 @@
 
 Figures: particle-steps/s (particles x steps / wall s) and bond-updates/s (active bonds
 x steps / wall s), measured after a warm-up whose wall time (JIT compilation or cache
-load) is reported separately; bytes per particle and per bond of the arrays a run holds
+load) is reported separately; particle-steps per CPU second (process CPU time, all
+threads: on a shared machine the single-thread figure that load disturbs least); bytes per particle and per bond of the arrays a run holds
 (Model, State, law scratch); peak resident memory of the process.
 """
 from __future__ import annotations
@@ -180,6 +181,7 @@ def lattice_run(n, steps, *, variant="intact", backend="cpu", order="morton", wa
         "setup_s": setup, "compile_s": max(first - per_warm, 0.0), "first_step_s": first,
         "wall_s": wall, "cpu_s": cpu_time, "s_per_step": wall / steps,
         "particle_steps_per_s": n_p * steps / wall,
+        "particle_steps_per_cpu_s": n_p * steps / cpu_time,
         "bond_updates_per_s": 0.5 * (active0 + active1) * steps / wall,
         "intact_fraction": active1 / n_b if n_b else float("nan"),
         "bytes_per_particle": per_particle / n_p,
@@ -285,8 +287,11 @@ def lammps_run(n, steps):
     particles = int(fields["particles"])
     wall = float(fields["seconds"])
     n_bonds = int(bonds[-1].split()[1]) if bonds else 0
+    cpu = float(fields.get("cpu_percent", "nan")) / 100.0
     return {"scene": "lattice", "n": n, "backend": "lammps", "particles": particles,
-            "bonds": n_bonds, "steps": steps, "wall_s": wall, "s_per_step": wall / steps,
+            "bonds": n_bonds, "steps": steps, "threads": 1, "wall_s": wall,
+            "cpu_s": wall * cpu, "s_per_step": wall / steps,
+            "particle_steps_per_cpu_s": particles * steps / (wall * cpu),
             "particle_steps_per_s": float(fields["particle_steps_per_s"]),
             "bond_updates_per_s": n_bonds * steps / wall if n_bonds else float("nan")}
 
@@ -294,7 +299,7 @@ def lammps_run(n, steps):
 def format_table(rows):
     """Plain-text table of bench results (one row per run)."""
     head = ("code", "n", "particles", "bonds", "steps", "thr", "compile s", "s/step",
-            "particle-steps/s", "bond-updates/s", "B/particle", "B/bond", "peak RSS MB")
+            "particle-steps/s", "per CPU-s", "bond-updates/s", "B/particle", "B/bond", "peak RSS MB")
     lines = [head]
     for r in rows:
         lines.append((
@@ -303,6 +308,7 @@ def format_table(rows):
             str(r.get("threads", 1)),
             f"{r['compile_s']:.2f}" if "compile_s" in r else "-",
             f"{r['s_per_step']:.3e}", f"{r['particle_steps_per_s']:.3e}",
+            f"{r.get('particle_steps_per_cpu_s', float('nan')):.3e}",
             f"{r['bond_updates_per_s']:.3e}",
             f"{r['bytes_per_particle']:.0f}" if "bytes_per_particle" in r else "-",
             f"{r['bytes_per_bond']:.0f}" if "bytes_per_bond" in r else "-",
