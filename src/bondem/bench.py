@@ -92,9 +92,12 @@ def make_simulation(model, state, *, backend="cpu", contacts=True):
 
 
 def _synchronize(sim):
-    sync = getattr(sim, "synchronize", None)
-    if sync is not None:
-        sync()
+    """Wait for queued device work (GPU backend) so that timings include it."""
+    for holder in (sim, getattr(sim, "backend", None)):
+        sync = getattr(holder, "synchronize", None)
+        if sync is not None:
+            sync()
+            return
 
 
 def array_bytes(sim):
