@@ -116,19 +116,23 @@ def gather_bond_loads(offsets, ends, force_i, moment_i, moment_j, force, moment)
 @numba.njit(**_jit)
 def integrate(position, velocity, angular_velocity, force, moment, mass, inertia, fixed,
               gravity, external_force, external_moment, damping, kick_dt, drift_dt,
-              box_low, box_high, periodic, status):
+              box_low, box_high, periodic, status, track_energy, energy):
     """Semi-implicit Euler: v += F/m kick_dt; x += v drift_dt; w += M/I kick_dt.
 
     Fixed particles keep their velocity (they move with it). Local damping (Cundall)
     removes damping * |F_k| against the sign of v_k per component. Sets status[0] to
     STATUS_NOT_FINITE or STATUS_OUT_OF_DOMAIN when a particle blows up.
-    Returns (work of gravity and external loads, energy removed by damping) in J over
-    this kick, each load times the mean of the old and new velocity, which is exactly
-    the leapfrog's change of kinetic energy.
+    If track_energy, energy (N,2) receives each particle's (work of gravity and external
+    loads, energy removed by damping) in J over this kick, each load times the mean of
+    the old and new velocity, which is exactly the leapfrog's change of kinetic energy.
     """
-    work = 0.0
-    dissipated = 0.0
+    # Energies go to per-particle slots, summed by the caller in a fixed order: a scalar
+    # "+=" here would be a prange reduction, whose sum depends on the thread count (and
+    # which numba 0.68 silently dropped, returning 0, inside this nested loop).
     for p in prange(position.shape[0]):
+        if track_energy:
+            energy[p, 0] = 0.0
+            energy[p, 1] = 0.0
         if not fixed[p]:
             for k in range(3):
                 applied = mass[p] * gravity[k] + external_force[p, k]
@@ -143,10 +147,12 @@ def integrate(position, velocity, angular_velocity, force, moment, mass, inertia
                 w_old = angular_velocity[p, k]
                 velocity[p, k] = v_old + (f + damp_f) / mass[p] * kick_dt
                 angular_velocity[p, k] = w_old + (mk + damp_m) / inertia[p] * kick_dt
-                v_mean = 0.5 * (v_old + velocity[p, k])
-                w_mean = 0.5 * (w_old + angular_velocity[p, k])
-                work += (applied * v_mean + external_moment[p, k] * w_mean) * kick_dt
-                dissipated -= (damp_f * v_mean + damp_m * w_mean) * kick_dt
+                if track_energy:
+                    v_mean = 0.5 * (v_old + velocity[p, k])
+                    w_mean = 0.5 * (w_old + angular_velocity[p, k])
+                    energy[p, 0] += (applied * v_mean + external_moment[p, k] * w_mean) \
+                        * kick_dt
+                    energy[p, 1] -= (damp_f * v_mean + damp_m * w_mean) * kick_dt
         for k in range(3):
             x = position[p, k] + velocity[p, k] * drift_dt
             if periodic[k]:
@@ -158,7 +164,6 @@ def integrate(position, velocity, angular_velocity, force, moment, mass, inertia
                     or not np.isfinite(angular_velocity[p, k]):
                 status[0] = STATUS_NOT_FINITE
             position[p, k] = x
-    return work, dissipated
 
 
 @numba.njit(**_jit)
@@ -261,14 +266,22 @@ class Integrator:
 
     def __init__(self, model):
         self.status = np.zeros(1, dtype=np.int64)
+        self.energy = np.zeros((model.n_particles, 2))
+        self._external = bool(np.any(model.external_force) or np.any(model.external_moment))
 
     def advance(self, model, state, force, moment, kick_dt, drift_dt):
         """Kick velocities by kick_dt (s), drift positions by drift_dt (s); return status."""
         self.status[0] = STATUS_OK
-        work, dissipated = integrate(state.position, state.velocity, state.angular_velocity, force, moment,
+        # Energy bookkeeping only where gravity, external loads or damping act.
+        track = self._external or model.damping > 0.0 or bool(np.any(model.gravity))
+        integrate(state.position, state.velocity, state.angular_velocity, force, moment,
                   model.mass, model.inertia, model.fixed, model.gravity,
                   model.external_force, model.external_moment, model.damping, kick_dt,
-                  drift_dt, model.box_low, model.box_high, model.periodic, self.status)
-        state.work_external += work
-        state.dissipated_damping += dissipated
+                  drift_dt, model.box_low, model.box_high, model.periodic, self.status,
+                  track, self.energy)
+        if track:
+            # numpy's sum in a fixed order: the same bits whatever the thread count.
+            work, dissipated = self.energy.sum(axis=0)
+            state.work_external += float(work)
+            state.dissipated_damping += float(dissipated)
         return int(self.status[0])
