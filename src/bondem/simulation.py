@@ -1,6 +1,7 @@
 """Simulation: owns a Model, a State and the laws, and runs the time loop. No physics here."""
 from __future__ import annotations
 
+import contextlib
 import math
 
 import numpy as np
@@ -77,9 +78,12 @@ class Simulation:
 
     def step(self, steps=1):
         """Advance by ``steps`` time steps (the start-up half kick comes first, once)."""
-        for _ in range(steps + (0 if self.state.started else 1)):
-            step(self.model, self.state, self.laws, self.integrator, self.force,
-                 self.moment, self.time_step, self.musen_compat)
+        # CPU: small systems run on one thread (same results, less thread overhead).
+        limit = getattr(self.integrator, "thread_limit", None)
+        with limit(self.model) if limit else contextlib.nullcontext():
+            for _ in range(steps + (0 if self.state.started else 1)):
+                step(self.model, self.state, self.laws, self.integrator, self.force,
+                     self.moment, self.time_step, self.musen_compat)
 
     def run(self, until=None, *, steps=None, callback=None, every=None):
         """Run to time ``until`` (s) or for ``steps`` steps.

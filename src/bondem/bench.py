@@ -1,0 +1,325 @@
+"""Benchmarks of /work/shared/bench/README.md (the "lattice" scene) and the step profile.
+
+Figures: particle-steps/s (particles x steps / wall s) and bond-updates/s (active bonds
+x steps / wall s), measured after a warm-up whose wall time (JIT compilation or cache
+load) is reported separately; particle-steps per CPU second (process CPU time, all
+threads: on a shared machine the single-thread figure that load disturbs least); bytes per particle and per bond of the arrays a run holds
+(Model, State, law scratch); peak resident memory of the process.
+"""
+from __future__ import annotations
+
+import inspect
+import math
+import os
+import resource
+import shutil
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+from .model import BondMaterial, Material, make_system
+from .reorder import reorder_system, spatial_order
+
+SPACING = 2e-3          # m, lattice spacing
+RADIUS = 1e-3           # m
+BOND_DIAMETER = 1e-3    # m
+TIME_STEP = 1e-7        # s
+STRENGTH = {"intact": 1e30, "breaking": 2e5}   # Pa, sigma_max = tau_max
+ORDERS = ("morton", "lattice", "random")
+
+
+def lattice_system(n, variant="intact", *, seed=42):
+    """The bench "lattice" scene: n^3 spheres on a simple cubic lattice of spacing 2 mm.
+
+    Radius 1 mm, density 2500 kg/m^3, E 1e8 Pa, nu 0.3, e 0.5, mu 0.3; a bond (d 1 mm,
+    E 1e8 Pa, nu 0.3, strengths 1e30 Pa "intact" or 2e5 Pa "breaking") between every
+    pair of nearest neighbours (3 n^2 (n - 1) bonds); velocity components uniform in
+    [-0.05, 0.05] m/s from numpy's default_rng(seed). Particles in lattice order (x
+    fastest). Returns (model, state).
+    """
+    if n < 2:
+        raise ValueError(f"lattice: n = {n!r}; need n >= 2")
+    if variant not in STRENGTH:
+        raise ValueError(f"lattice: variant = {variant!r}; allowed: {', '.join(STRENGTH)}")
+    k, j, i = np.meshgrid(np.arange(n), np.arange(n), np.arange(n), indexing="ij")
+    position = SPACING * np.stack([i.ravel(), j.ravel(), k.ravel()], axis=1).astype(np.float64)
+    index = np.arange(n ** 3).reshape(n, n, n)            # [z, y, x]
+    bonds = np.concatenate([
+        np.stack([index[:, :, :-1].ravel(), index[:, :, 1:].ravel()], axis=1),
+        np.stack([index[:, :-1, :].ravel(), index[:, 1:, :].ravel()], axis=1),
+        np.stack([index[:-1, :, :].ravel(), index[1:, :, :].ravel()], axis=1)])
+    bonds = bonds[np.argsort(bonds[:, 0], kind="stable")]
+    rng = np.random.default_rng(seed)
+    velocity = rng.uniform(-0.05, 0.05, size=(n ** 3, 3))
+    glass = Material(density=2500.0, young_modulus=1e8, poisson_ratio=0.3, restitution=0.5,
+                     friction=0.3, name="glass")
+    strength = STRENGTH[variant]
+    binder = BondMaterial(young_modulus=1e8, poisson_ratio=0.3, normal_strength=strength,
+                          tangential_strength=strength, name="binder")
+    return make_system(position, RADIUS, glass, velocity=velocity, bonds=bonds,
+                       bond_diameter=BOND_DIAMETER, bond_material=binder)
+
+
+def contact_settings():
+    """Hertz-Mindlin contact settings if ``bondem.contacts`` exists, else None."""
+    try:
+        from .contacts import ContactSettings
+    except ImportError:
+        return None
+    return ContactSettings("hertz_mindlin")
+
+
+def make_simulation(model, state, *, backend="cpu", contacts=True):
+    """Simulation of the bench scene at the fixed 1e-7 s step; returns (sim, notes)."""
+    from .simulation import Simulation
+    notes = []
+    kwargs = dict(time_step=TIME_STEP)
+    accepted = inspect.signature(Simulation).parameters
+    if backend != "cpu":
+        if "backend" not in accepted:
+            raise ValueError(f"backend = {backend!r}: this build has only the cpu backend")
+        kwargs["backend"] = backend
+    settings = contact_settings() if contacts else None
+    if settings is not None and "contact" in accepted:
+        kwargs["contact"] = settings
+        notes.append("contacts: hertz_mindlin between unbonded pairs")
+    else:
+        notes.append("contacts: OFF (bondem.contacts not available); bonds only")
+    return Simulation(model, state, **kwargs), notes
+
+
+def _synchronize(sim):
+    """Wait for queued device work (GPU backend) so that timings include it."""
+    for holder in (sim, getattr(sim, "backend", None)):
+        sync = getattr(holder, "synchronize", None)
+        if sync is not None:
+            sync()
+            return
+
+
+def array_bytes(sim):
+    """Bytes of the arrays a run holds: (per-particle arrays, per-bond arrays, other).
+
+    Counts Model and State arrays (and ``state.extra``), the laws' and the integrator's
+    scratch, and the Simulation's load arrays, classified by leading dimension.
+    """
+    model, state = sim.model, sim.state
+    n, b = model.n_particles, model.n_bonds
+    seen = {}
+
+    def visit(value):
+        if isinstance(value, np.ndarray):
+            seen[id(value)] = value
+        elif isinstance(value, (list, tuple)):
+            for v in value:
+                visit(v)
+        elif isinstance(value, dict):
+            for v in value.values():
+                visit(v)
+
+    for holder in (model, state, sim, sim.integrator, *sim.laws):
+        visit(list(vars(holder).values()))
+    per_particle = per_bond = other = 0
+    for a in seen.values():
+        size = a.nbytes
+        lead = a.shape[0] if a.ndim else -1
+        if lead in (n, n + 1) and n != b:
+            per_particle += size
+        elif lead in (b, 2 * b) and b:
+            per_bond += size
+        else:
+            other += size
+    return per_particle, per_bond, other
+
+
+def peak_rss_bytes():
+    """Peak resident set size of this process (bytes)."""
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+
+
+def lattice_run(n, steps, *, variant="intact", backend="cpu", order="morton", warmup=5,
+                contacts=True, profile=False):
+    """Time the lattice scene of size n for ``steps`` steps; returns a dict of figures.
+
+    order: "morton" (renumbered by ``spatial_order``), "lattice" (as built) or "random"
+    (shuffled, as particles from a file may come); profile: also time each part of the
+    step (``profile_step``, CPU only).
+    """
+    if order not in ORDERS:
+        raise ValueError(f"order = {order!r}; allowed: {', '.join(ORDERS)}")
+    t0 = time.perf_counter()
+    model, state = lattice_system(n, variant)
+    if order == "random":
+        perm = np.random.default_rng(0).permutation(model.n_particles)
+        model, state = reorder_system(model, state, perm)
+    elif order == "morton":
+        model, state = reorder_system(model, state, spatial_order(state.position, 2 * RADIUS))
+    sim, notes = make_simulation(model, state, backend=backend, contacts=contacts)
+    setup = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    sim.step(1)
+    _synchronize(sim)
+    first = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    sim.step(warmup)
+    _synchronize(sim)
+    per_warm = (time.perf_counter() - t0) / max(warmup, 1)
+    active0 = int(np.count_nonzero(sim.state.bond_active))
+    t0 = time.perf_counter()
+    c0 = time.process_time()
+    sim.step(steps)
+    _synchronize(sim)
+    wall = time.perf_counter() - t0
+    cpu_time = time.process_time() - c0
+    active1 = int(np.count_nonzero(sim.state.bond_active))
+    n_p, n_b = model.n_particles, model.n_bonds
+    per_particle, per_bond, other = array_bytes(sim)
+    return {
+        "scene": "lattice", "n": n, "variant": variant, "backend": backend, "order": order,
+        "particles": n_p, "bonds": n_b, "steps": steps,
+        "threads": _threads(), "notes": notes,
+        "setup_s": setup, "compile_s": max(first - per_warm, 0.0), "first_step_s": first,
+        "wall_s": wall, "cpu_s": cpu_time, "s_per_step": wall / steps,
+        "particle_steps_per_s": n_p * steps / wall,
+        "particle_steps_per_cpu_s": n_p * steps / cpu_time,
+        "bond_updates_per_s": 0.5 * (active0 + active1) * steps / wall,
+        "intact_fraction": active1 / n_b if n_b else float("nan"),
+        "bytes_per_particle": per_particle / n_p,
+        "bytes_per_bond": per_bond / n_b if n_b else 0.0,
+        "bytes_other": other,
+        "peak_rss_bytes": peak_rss_bytes(),
+        "profile": profile_step(sim) if profile and backend == "cpu" else None,
+    }
+
+
+def _threads():
+    import numba
+    return numba.get_num_threads()
+
+
+def memory_estimate(result, particles=1_000_000, bonds_per_particle=3.0):
+    """Array bytes for ``particles`` with ``bonds_per_particle`` from a run's per-item figures."""
+    return particles * (result["bytes_per_particle"]
+                        + bonds_per_particle * result["bytes_per_bond"])
+
+
+def profile_step(sim, steps=20):
+    """Wall seconds per step of each part of the CPU step (zero, bonds, gather, other laws,
+    integrate), timed one kernel at a time over ``steps`` steps (same work as ``step``)."""
+    model, state = sim.model, sim.state
+    bonds = sim.bonds
+    parts = dict.fromkeys(("zero loads", "bond kernel", "gather", "other laws",
+                           "integrate"), 0.0)
+    dt = sim.time_step
+    sim.step(1)
+    bonds.compute(model, state, dt)          # compile the kernels the step does not use
+    bonds.gather(sim.force, sim.moment)
+    for rep in range(steps):
+        t = time.perf_counter()
+        sim.force.fill(0.0)
+        sim.moment.fill(0.0)
+        t1 = time.perf_counter()
+        bonds.compute(model, state, dt)
+        t2 = time.perf_counter()
+        bonds.gather(sim.force, sim.moment)
+        t3 = time.perf_counter()
+        for law in sim.laws[1:]:
+            law.accumulate(model, state, sim.force, sim.moment, dt)
+        t4 = time.perf_counter()
+        sim.integrator.advance(model, state, sim.force, sim.moment, dt, dt)
+        state.time += dt
+        state.step += 1
+        t5 = time.perf_counter()
+        for key, value in zip(parts, (t1 - t, t2 - t1, t3 - t2, t4 - t3, t5 - t4)):
+            parts[key] += value / steps
+    return parts
+
+
+def stream_triad(n=20_000_000, repeats=5):
+    """Memory bandwidth (bytes/s) of a Numba triad a = b + s c over arrays of n doubles,
+    best of ``repeats``, counting 3 x 8 bytes per element (no write-allocate)."""
+    import numba
+
+    @numba.njit(parallel=True, cache=False)
+    def triad(a, b, c, s):
+        for k in numba.prange(a.shape[0]):
+            a[k] = b[k] + s * c[k]
+
+    a = np.zeros(n)
+    b = np.ones(n)
+    c = np.full(n, 2.0)
+    triad(a, b, c, 3.0)
+    best = math.inf
+    for _ in range(repeats):
+        t = time.perf_counter()
+        triad(a, b, c, 3.0)
+        best = min(best, time.perf_counter() - t)
+    return 24.0 * n / best
+
+
+def lammps_deck_dir():
+    """benchmarks/lammps of the source tree if present, else /work/shared/bench/lammps."""
+    here = Path(__file__).resolve().parents[2] / "benchmarks" / "lammps"
+    if (here / "run.sh").exists():
+        return here
+    return Path("/work/shared/bench/lammps")
+
+
+def lammps_run(n, steps):
+    """Run the LAMMPS BPM deck (benchmarks/lammps/run.sh n steps); returns its figures.
+
+    Uses an ``lmp`` on PATH when there is one (LMP_VENV is then left alone), else the
+    script's own venv. Returns a dict, or raises RuntimeError with LAMMPS's output.
+    """
+    script = lammps_deck_dir() / "run.sh"
+    env = dict(os.environ)
+    lmp = shutil.which("lmp")
+    if lmp and "LMP_VENV" not in env:
+        env["LMP_VENV"] = str(Path(lmp).resolve().parents[1])
+    proc = subprocess.run(["bash", str(script), str(n), str(steps)], capture_output=True,
+                          text=True, env=env)
+    line = [w for w in proc.stdout.splitlines() if w.startswith("lammps ")]
+    if proc.returncode or not line:
+        raise RuntimeError(f"LAMMPS run failed (exit {proc.returncode}):\n"
+                           f"{proc.stdout[-2000:]}\n{proc.stderr[-2000:]}")
+    fields = dict(item.split("=") for item in line[-1].split()[1:])
+    bonds = [w for w in proc.stdout.splitlines() if w.startswith("Added")]
+    particles = int(fields["particles"])
+    wall = float(fields["seconds"])
+    n_bonds = int(bonds[-1].split()[1]) if bonds else 0
+    cpu = float(fields.get("cpu_percent", "nan")) / 100.0
+    return {"scene": "lattice", "n": n, "backend": "lammps", "particles": particles,
+            "bonds": n_bonds, "steps": steps, "threads": 1, "wall_s": wall,
+            "cpu_s": wall * cpu, "s_per_step": wall / steps,
+            "particle_steps_per_cpu_s": particles * steps / (wall * cpu),
+            "particle_steps_per_s": float(fields["particle_steps_per_s"]),
+            "bond_updates_per_s": n_bonds * steps / wall if n_bonds else float("nan")}
+
+
+def format_table(rows):
+    """Plain-text table of bench results (one row per run)."""
+    head = ("code", "n", "particles", "bonds", "steps", "thr", "compile s", "s/step",
+            "particle-steps/s", "per CPU-s", "bond-updates/s", "B/particle", "B/bond", "peak RSS MB")
+    lines = [head]
+    for r in rows:
+        lines.append((
+            r.get("backend", "?") + ("/" + r["order"] if "order" in r else ""),
+            str(r["n"]), str(r["particles"]), str(r["bonds"]), str(r["steps"]),
+            str(r.get("threads", 1)),
+            f"{r['compile_s']:.2f}" if "compile_s" in r else "-",
+            f"{r['s_per_step']:.3e}", f"{r['particle_steps_per_s']:.3e}",
+            f"{r.get('particle_steps_per_cpu_s', float('nan')):.3e}",
+            f"{r['bond_updates_per_s']:.3e}",
+            f"{r['bytes_per_particle']:.0f}" if "bytes_per_particle" in r else "-",
+            f"{r['bytes_per_bond']:.0f}" if "bytes_per_bond" in r else "-",
+            f"{r['peak_rss_bytes'] / 2**20:.0f}" if "peak_rss_bytes" in r else "-"))
+    widths = [max(len(row[c]) for row in lines) for c in range(len(head))]
+    return "\n".join("  ".join(cell.rjust(w) for cell, w in zip(row, widths))
+                     for row in lines)
+
+
+if __name__ == "__main__":  # pragma: no cover - quick manual check
+    print(format_table([lattice_run(int(sys.argv[1]), int(sys.argv[2]))]))

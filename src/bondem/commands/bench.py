@@ -1,0 +1,95 @@
+"""``bondem bench [lattice|impact]``: particle-steps/s and bond-updates/s of the bench scenes.
+
+Thin: parses, calls ``bondem.bench``, prints a table (and writes JSON with --json).
+"""
+import json
+import sys
+from pathlib import Path
+
+import click
+
+from ..errors import InputError
+
+
+def _sizes(text):
+    try:
+        sizes = [int(s) for s in text.split(",") if s.strip()]
+    except ValueError:
+        raise InputError(f"--sizes = {text!r}: expected integers separated by commas, "
+                         "e.g. 22,47") from None
+    if not sizes or any(n < 2 or n > 400 for n in sizes):
+        raise InputError(f"--sizes = {text!r}: each lattice size n must lie in [2, 400]")
+    return sizes
+
+
+@click.command(name="bench")
+@click.argument("scene", type=click.Choice(["lattice", "impact"]), default="lattice")
+@click.option("--sizes", default="22", show_default=True,
+              help="Lattice sizes n (n^3 particles), comma separated, e.g. 22,47,74.")
+@click.option("--steps", type=click.IntRange(min=1), default=None,
+              help="Timed steps after warm-up [default: 1000 for n <= 22, else 200].")
+@click.option("--variant", type=click.Choice(["intact", "breaking"]), default="intact",
+              show_default=True)
+@click.option("--backend", type=click.Choice(["cpu", "gpu"]), default="cpu",
+              show_default=True)
+@click.option("--order", type=click.Choice(["morton", "lattice", "random"]),
+              default="morton", show_default=True,
+              help="Particle numbering: Morton-sorted (default), as built, or shuffled.")
+@click.option("--json", "json_path", type=click.Path(dir_okay=False, path_type=Path),
+              help="Also write the results as JSON to this file.")
+@click.option("--peer", type=click.Choice(["lammps"]), default=None,
+              help="Also run the same scene in LAMMPS (benchmarks/lammps) and compare.")
+@click.option("--peer-steps", type=click.IntRange(min=1), default=None,
+              help="Timed steps for the peer [default: same as --steps].")
+@click.option("--profile", is_flag=True,
+              help="Also time each part of the CPU step (bonds, gather, integrate...).")
+@click.option("--triad", is_flag=True,
+              help="Also measure memory bandwidth (STREAM-like triad).")
+def command(scene, sizes, steps, variant, backend, order, json_path, peer, peer_steps,
+            profile, triad):
+    """Time SCENE (the bench scenes of shared/bench/README.md) and print a table."""
+    from .. import bench
+
+    if scene == "impact":
+        raise InputError("bench impact: the impact scene needs the demo agglomerate and "
+                         "walls, which this build's bench does not drive yet; use lattice")
+    results = []
+    extra = {}
+    if triad:
+        extra["triad_bytes_per_s"] = bench.stream_triad()
+        click.echo(f"memory bandwidth (triad): {extra['triad_bytes_per_s'] / 1e9:.1f} GB/s")
+    for n in _sizes(sizes):
+        n_steps = steps or (1000 if n <= 22 else 200)
+        try:
+            result = bench.lattice_run(n, n_steps, variant=variant, backend=backend,
+                                       order=order, profile=profile)
+        except ValueError as error:
+            raise InputError(f"bench: {error}") from None
+        results.append(result)
+        for note in result["notes"]:
+            click.echo(f"n={n}: {note}")
+        if peer == "lammps":
+            try:
+                other = bench.lammps_run(n, peer_steps or n_steps)
+            except (RuntimeError, OSError) as error:
+                click.echo(f"bondem: lammps peer failed: {error}", err=True)
+            else:
+                other["ratio_bondem_over_lammps"] = (result["particle_steps_per_s"]
+                                                     / other["particle_steps_per_s"])
+                results.append(other)
+    click.echo(bench.format_table(results))
+    for r in results:
+        if "ratio_bondem_over_lammps" in r:
+            click.echo(f"n={r['n']}: bondem / LAMMPS particle-steps/s = "
+                       f"{r['ratio_bondem_over_lammps']:.2f}")
+        if r.get("profile"):
+            parts = ", ".join(f"{k} {v * 1e3:.3f}" for k, v in r["profile"].items())
+            click.echo(f"n={r['n']} ms per step: {parts}")
+    cpu_runs = [r for r in results if r.get("backend") == "cpu" and r["bonds"]]
+    if cpu_runs:
+        estimate = bench.memory_estimate(cpu_runs[-1])
+        click.echo(f"arrays for 10^6 particles with 3 bonds each: {estimate / 1e9:.2f} GB")
+    if json_path is not None:
+        json_path.write_text(json.dumps({"results": results, **extra}, indent=2) + "\n")
+        click.echo(f"json: {json_path}")
+    sys.stdout.flush()
