@@ -129,6 +129,10 @@ def integrate(position, velocity, angular_velocity, force, moment, mass, inertia
     work = 0.0
     dissipated = 0.0
     for p in prange(position.shape[0]):
+        # Per-particle sums added once at the loop's top level: numba's prange reduction
+        # silently returned 0 when the += sat inside the nested if/for.
+        work_p = 0.0
+        dissipated_p = 0.0
         if not fixed[p]:
             for k in range(3):
                 applied = mass[p] * gravity[k] + external_force[p, k]
@@ -145,8 +149,10 @@ def integrate(position, velocity, angular_velocity, force, moment, mass, inertia
                 angular_velocity[p, k] = w_old + (mk + damp_m) / inertia[p] * kick_dt
                 v_mean = 0.5 * (v_old + velocity[p, k])
                 w_mean = 0.5 * (w_old + angular_velocity[p, k])
-                work += (applied * v_mean + external_moment[p, k] * w_mean) * kick_dt
-                dissipated -= (damp_f * v_mean + damp_m * w_mean) * kick_dt
+                work_p += (applied * v_mean + external_moment[p, k] * w_mean) * kick_dt
+                dissipated_p -= (damp_f * v_mean + damp_m * w_mean) * kick_dt
+        work += work_p
+        dissipated += dissipated_p
         for k in range(3):
             x = position[p, k] + velocity[p, k] * drift_dt
             if periodic[k]:
