@@ -119,6 +119,93 @@ def case_neighbour_search():
         assert all(i < j for i, j in found)
 
 
+def linear_law(n, overlap, v_rel, w_rel, spring, k_n, k_t, r_star, m_star, beta, friction,
+               rolling_friction, dt):
+    """A test pair law with the contact laws' signature: linear normal spring with a
+    dashpot, tangential spring capped by Coulomb, rolling torque against w_rel."""
+    v_n = v_rel[0] * n[0] + v_rel[1] * n[1] + v_rel[2] * n[2]
+    f_n = k_n * overlap - beta * m_star * v_n
+    xi = (spring[0] + (v_rel[0] - v_n * n[0]) * dt, spring[1] + (v_rel[1] - v_n * n[1]) * dt,
+          spring[2] + (v_rel[2] - v_n * n[2]) * dt)
+    f_t = (k_t * xi[0], k_t * xi[1], k_t * xi[2])
+    size = (f_t[0] ** 2 + f_t[1] ** 2 + f_t[2] ** 2) ** 0.5
+    if size > friction * f_n and size > 0.0:
+        f_t = (f_t[0] * friction * f_n / size, f_t[1] * friction * f_n / size,
+               f_t[2] * friction * f_n / size)
+    torque = (-rolling_friction * r_star * w_rel[0], -rolling_friction * r_star * w_rel[1],
+              -rolling_friction * r_star * w_rel[2])
+    force = (-f_n * n[0] + f_t[0], -f_n * n[1] + f_t[1], -f_n * n[2] + f_t[2])
+    return force, torque, f_t, xi, 0.5 * k_n * overlap * overlap, 0.0
+
+
+def case_contact_kernel():
+    """make_contact_kernel + CSR gather against a NumPy loop over the same pair law."""
+    from numba import cuda
+    from bondem.backends.cpu import particle_bond_index
+    from bondem.backends.cuda import (THREADS, gather_bond_loads_kernel,
+                                      make_contact_kernel, neighbour_pairs)
+    rng = np.random.default_rng(11)
+    n = 40
+    position = rng.uniform(0.0, 5e-3, (n, 3))
+    radius = rng.uniform(0.6e-3, 1e-3, n)
+    velocity = rng.uniform(-1, 1, (n, 3))
+    angular_velocity = rng.uniform(-100, 100, (n, 3))
+    mass = 2500.0 * 4 / 3 * np.pi * radius ** 3
+    material = rng.integers(0, 2, n).astype(np.int32)
+    pairs = neighbour_pairs(position, radius, 1e-4)
+    pair_bond = np.full(len(pairs), -1, dtype=np.int64)
+    pair_bond[::5] = np.arange(len(pairs[::5]))          # some pairs are bonded ...
+    bond_active = np.arange(len(pairs[::5])) % 2 == 0    # ... half of those bonds intact
+    table = rng.uniform(0.5, 2.0, (2, 2, 5)) * np.array([1e4, 5e3, 1.0, 0.5, 0.1])
+    table = 0.5 * (table + table.transpose(1, 0, 2))
+    spring = rng.uniform(-1e-6, 1e-6, (len(pairs), 3))
+    dt = 1e-6
+    C = len(pairs)
+    out = [cuda.device_array((C, 3)) for _ in range(3)] + [cuda.device_array(C) for _ in range(2)]
+    d_spring = cuda.to_device(spring)
+    kernel = make_contact_kernel(cuda.jit(device=True)(linear_law))
+    put = cuda.to_device
+    kernel[(C + THREADS - 1) // THREADS, THREADS](
+        put(pairs), put(pair_bond), put(bond_active), put(position), put(velocity),
+        put(angular_velocity), put(radius), put(mass), put(material), put(table),
+        put(np.ones(3)), put(np.zeros(3, dtype=bool)), d_spring, dt, *out)
+    offsets, ends = particle_bond_index(pairs, n)
+    force, moment = cuda.device_array((n, 3)), cuda.device_array((n, 3))
+    gather_bond_loads_kernel[(n + THREADS - 1) // THREADS, THREADS](
+        put(offsets), put(ends), out[0], out[1], out[2], force, moment, True)
+    # NumPy reference, written from the SPEC's contact geometry.
+    ref_force, ref_moment, ref_spring = np.zeros((n, 3)), np.zeros((n, 3)), np.zeros_like(spring)
+    touching = 0
+    for c, (i, j) in enumerate(pairs):
+        r = position[j] - position[i]
+        d = np.linalg.norm(r)
+        overlap = radius[i] + radius[j] - d
+        if (pair_bond[c] >= 0 and bond_active[pair_bond[c]]) or overlap <= 0:
+            continue
+        touching += 1
+        nn = r / d
+        a_i, a_j = radius[i] - overlap / 2, radius[j] - overlap / 2
+        v_rel = velocity[j] - velocity[i] - np.cross(a_i * angular_velocity[i]
+                                                     + a_j * angular_velocity[j], nn)
+        p = table[material[i], material[j]]
+        f, torque, f_t, xi, _, _ = linear_law(
+            tuple(nn), overlap, tuple(v_rel), tuple(angular_velocity[i] - angular_velocity[j]),
+            tuple(spring[c]), p[0], p[1], radius[i] * radius[j] / (radius[i] + radius[j]),
+            mass[i] * mass[j] / (mass[i] + mass[j]), p[2], p[3], p[4], dt)
+        ref_spring[c] = xi
+        ref_force[i] += f
+        ref_force[j] -= f
+        ref_moment[i] += a_i * np.cross(nn, f_t) + torque
+        ref_moment[j] += a_j * np.cross(nn, f_t) - np.array(torque)
+    print(f"{C} candidate pairs, {touching} in contact and not bonded")
+    assert touching >= 10
+    np.testing.assert_allclose(force.copy_to_host(), ref_force, rtol=1e-12,
+                               atol=1e-12 * np.abs(ref_force).max())
+    np.testing.assert_allclose(moment.copy_to_host(), ref_moment, rtol=1e-12,
+                               atol=1e-12 * np.abs(ref_moment).max())
+    np.testing.assert_allclose(d_spring.copy_to_host(), ref_spring, rtol=1e-12, atol=1e-20)
+
+
 if __name__ == "__main__":
     assert os.environ.get("NUMBA_ENABLE_CUDASIM") == "1" or "--device" in sys.argv
     globals()["case_" + sys.argv[1]]()

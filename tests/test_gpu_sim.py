@@ -52,6 +52,12 @@ def test_neighbour_search_matches_brute_force_under_simulator():
     run_case("neighbour_search")
 
 
+def test_contact_kernel_matches_numpy_under_simulator():
+    """The contact kernel around a compiled pair law, gathered through the CSR index,
+    equals a NumPy loop over the same law (forces, moments, springs to 1e-12)."""
+    run_case("contact_kernel")
+
+
 def test_gpu_backend_without_device_is_a_clear_error(glass, binder):
     """Without a GPU and without the simulator, backend='gpu' names the backend."""
     from numba import cuda
@@ -77,7 +83,8 @@ def _has_gpu():
 
 @pytest.mark.gpu
 @pytest.mark.skipif(not _has_gpu(), reason="needs a CUDA GPU")
-@pytest.mark.parametrize("case", ["bonds_match_cpu", "blow_up_flag", "neighbour_search"])
+@pytest.mark.parametrize("case", ["bonds_match_cpu", "blow_up_flag", "neighbour_search",
+                                  "contact_kernel"])
 def test_cases_on_device(case):
     """The simulator cases again on the real device (fused multiply-add may change bits,
     not the 1e-12 agreement)."""

@@ -705,3 +705,89 @@ def neighbour_pairs(position, radius, skin=0.0):
     pairs = device_neighbour_pairs(cuda.to_device(position), cuda.to_device(radius),
                                    float(skin), position.min(axis=0), position.max(axis=0))
     return pairs.copy_to_host()
+
+
+# ---------------------------------------------------------------------------------------
+# Particle-particle contacts: a kernel around any compiled pair law
+# ---------------------------------------------------------------------------------------
+
+def make_contact_kernel(pair_law):
+    """A kernel over a contact list that calls ``pair_law``, a device-compiled pair law
+    with the contact laws' common signature (physics/contact_hertz.py, contact_linear.py):
+
+        pair_law(n, overlap, v_rel, w_rel, spring, stiffness_a, stiffness_b, r_star,
+                 m_star, beta, friction, rolling_friction, dt)
+            -> (force on i, rolling torque on i, F_t on i, new spring, energy, dissipated)
+
+    The kernel takes (pairs (C,2), pair_bond (C,) bond index or -1, bond_active,
+    position, velocity, angular_velocity, radius, mass, material, pair_table (M,M,5):
+    per material pair (stiffness_a, stiffness_b, beta, friction, rolling_friction),
+    box_length, periodic, spring (C,3) m updated in place, dt) and writes per contact
+    force_i, moment_i, moment_j, energy, dissipated, like the bond kernel, so
+    ``gather_bond_loads_kernel`` with a CSR index of the contact list
+    (``particle_bond_index(pairs, N)``) sums them per particle without atomics.
+    Intact bonded pairs and pairs without overlap apply nothing; the latter lose their
+    spring (the contact ended).
+    """
+    @cuda.jit
+    def contact_kernel(pairs, pair_bond, bond_active, position, velocity, angular_velocity,
+                       radius, mass, material, pair_table, box_length, periodic, spring, dt,
+                       out_force_i, out_moment_i, out_moment_j, out_energy, out_dissipated):
+        c = cuda.grid(1)
+        if c >= pairs.shape[0]:
+            return
+        i = pairs[c, 0]
+        j = pairs[c, 1]
+        r = minimum_image((position[j, 0] - position[i, 0], position[j, 1] - position[i, 1],
+                           position[j, 2] - position[i, 2]),
+                          (box_length[0], box_length[1], box_length[2]),
+                          periodic[0], periodic[1], periodic[2])
+        distance = math.sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2])
+        overlap = radius[i] + radius[j] - distance
+        bonded = pair_bond[c] >= 0 and bond_active[pair_bond[c]]
+        for k in range(3):
+            out_force_i[c, k] = 0.0
+            out_moment_i[c, k] = 0.0
+            out_moment_j[c, k] = 0.0
+        out_energy[c] = 0.0
+        out_dissipated[c] = 0.0
+        if bonded or overlap <= 0.0 or distance <= 0.0:
+            for k in range(3):
+                spring[c, k] = 0.0
+            return
+        n = (r[0] / distance, r[1] / distance, r[2] / distance)
+        arm_i = radius[i] - 0.5 * overlap
+        arm_j = radius[j] - 0.5 * overlap
+        wi = (angular_velocity[i, 0], angular_velocity[i, 1], angular_velocity[i, 2])
+        wj = (angular_velocity[j, 0], angular_velocity[j, 1], angular_velocity[j, 2])
+        # Surface velocity of j relative to i at the contact point (lever arms a_i, a_j).
+        spin = (arm_i * wi[0] + arm_j * wj[0], arm_i * wi[1] + arm_j * wj[1],
+                arm_i * wi[2] + arm_j * wj[2])
+        v_rel = (velocity[j, 0] - velocity[i, 0] - (spin[1] * n[2] - spin[2] * n[1]),
+                 velocity[j, 1] - velocity[i, 1] - (spin[2] * n[0] - spin[0] * n[2]),
+                 velocity[j, 2] - velocity[i, 2] - (spin[0] * n[1] - spin[1] * n[0]))
+        w_rel = (wi[0] - wj[0], wi[1] - wj[1], wi[2] - wj[2])
+        mi = material[i]
+        mj = material[j]
+        r_star = radius[i] * radius[j] / (radius[i] + radius[j])
+        m_star = mass[i] * mass[j] / (mass[i] + mass[j])
+        force_i, torque, f_t, xi, energy, dissipated = pair_law(
+            n, overlap, v_rel, w_rel, (spring[c, 0], spring[c, 1], spring[c, 2]),
+            pair_table[mi, mj, 0], pair_table[mi, mj, 1], r_star, m_star,
+            pair_table[mi, mj, 2], pair_table[mi, mj, 3], pair_table[mi, mj, 4], dt)
+        lever = (n[1] * f_t[2] - n[2] * f_t[1], n[2] * f_t[0] - n[0] * f_t[2],
+                 n[0] * f_t[1] - n[1] * f_t[0])
+        for k in range(3):
+            spring[c, k] = xi[k]
+            out_force_i[c, k] = force_i[k]
+            out_moment_i[c, k] = arm_i * lever[k] + torque[k]
+            out_moment_j[c, k] = arm_j * lever[k] - torque[k]
+        out_energy[c] = energy
+        out_dissipated[c] = dissipated
+
+    return contact_kernel
+
+
+def synchronize():
+    """Wait for every queued kernel (for timing: call before reading a clock)."""
+    cuda.synchronize()
