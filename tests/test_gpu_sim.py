@@ -42,6 +42,11 @@ def test_bond_path_matches_cpu_under_simulator():
     assert "ok" in out
 
 
+def test_periodic_musen_start_matches_cpu_under_simulator():
+    """A bonded ring across a periodic boundary, MUSEN-compatible start-up, 20 steps."""
+    run_case("periodic_match_cpu")
+
+
 def test_blow_up_flag_under_simulator():
     """A NaN velocity sets the device status flag; the host raises SimulationBlowUp."""
     run_case("blow_up_flag")
@@ -83,8 +88,8 @@ def _has_gpu():
 
 @pytest.mark.gpu
 @pytest.mark.skipif(not _has_gpu(), reason="needs a CUDA GPU")
-@pytest.mark.parametrize("case", ["bonds_match_cpu", "blow_up_flag", "neighbour_search",
-                                  "contact_kernel"])
+@pytest.mark.parametrize("case", ["bonds_match_cpu", "periodic_match_cpu", "blow_up_flag",
+                                  "neighbour_search", "contact_kernel"])
 def test_cases_on_device(case):
     """The simulator cases again on the real device (fused multiply-add may change bits,
     not the 1e-12 agreement)."""

@@ -56,6 +56,10 @@ class Simulation:
                               self.moment, self.time_step, self.musen_compat)
         self.backend.to_host(self.state)
 
+    def synchronize(self):
+        """Wait until the backend has finished every queued step (for timing)."""
+        self.backend.synchronize()
+
     def run(self, until=None, *, steps=None, callback=None, every=None):
         """Run to time ``until`` (s) or for ``steps`` steps.
 

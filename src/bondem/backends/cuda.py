@@ -343,6 +343,28 @@ class GpuBackend:
         """Wait until every queued kernel has finished (for timing)."""
         cuda.synchronize()
 
+    def device_bytes(self, laws=()):
+        """Device memory held (bytes): (per-particle arrays, per-bond arrays, other),
+        classified by leading dimension like the bench's host count."""
+        n, b = self.model.n_particles, self.model.n_bonds
+        seen = {}
+        for holder in (self, self.device, *laws):
+            for value in vars(holder).values():
+                for item in (value if isinstance(value, tuple) else (value,)):
+                    if hasattr(item, "copy_to_host") and hasattr(item, "dtype"):
+                        seen[id(item)] = item
+        per_particle = per_bond = other = 0
+        for array in seen.values():
+            size = array.size * array.dtype.itemsize
+            lead = array.shape[0] if array.ndim else -1
+            if lead in (n, n + 1) and n != b:
+                per_particle += size
+            elif b and lead in (b, 2 * b):
+                per_bond += size
+            else:
+                other += size
+        return per_particle, per_bond, other
+
     # -- what Simulation asks a backend for ---------------------------------------------
     def bond_law(self, model):
         return ElasticBondsGpu(self, model)
