@@ -5,6 +5,7 @@ import os
 import sys
 
 import numpy as np
+from numba import cuda
 
 import bondem
 
@@ -57,12 +58,14 @@ def case_periodic_match_cpu():
     case_bonds_match_cpu(steps=20, system=periodic_chain, musen_compat=True, breaks=False)
 
 
-def case_bonds_match_cpu(steps=30, system=bonded_cluster, musen_compat=False, breaks=True):
+def case_bonds_match_cpu(steps=30, system=bonded_cluster, musen_compat=False, breaks=True,
+                         laws=lambda backend: []):
     """GPU (simulator) and CPU runs of the same cluster agree to round-off."""
     runs = {}
     for backend in ("cpu", "gpu"):
         model, state = system()
-        sim = bondem.Simulation(model, state, backend=backend, musen_compat=musen_compat)
+        sim = bondem.Simulation(model, state, backend=backend, musen_compat=musen_compat,
+                                laws=laws(backend))
         sim.step(steps // 2)
         sim.step(steps - steps // 2)   # two batches: the host copy between them is exact
         runs[backend] = (sim.state, sim.energy_terms())
@@ -94,6 +97,62 @@ def case_bonds_match_cpu(steps=30, system=bonded_cluster, musen_compat=False, br
         other = runs["gpu"][1][key]
         print(f"energy {key:22s} cpu {value:.10e} gpu {other:.10e}")
         assert abs(value - other) <= 1e-10 * max(abs(value), 1e-12), key
+
+
+class TetherCpu:
+    """Test law: each particle tied to its start by a spring, force -k (x - x0) (N) and a
+    moment -k l (x - x0) (N m), so the extra-law path carries forces and moments."""
+
+    def __init__(self, anchor, stiffness=50.0, lever=1e-3):
+        self.anchor, self.stiffness, self.lever = anchor.copy(), stiffness, lever
+
+    def accumulate(self, model, state, force, moment, increment_dt):
+        pull = -self.stiffness * (state.position - self.anchor)
+        force += pull
+        moment += self.lever * pull
+
+
+class TetherGpu(TetherCpu):
+    backend = "gpu"
+
+    def attach(self, backend):
+        self.device_backend = backend
+        self.device_anchor = cuda.to_device(self.anchor)
+
+    def accumulate(self, model, state, force, moment, increment_dt):
+        from bondem.backends.cuda import THREADS
+        n = model.n_particles
+        tether_kernel[(n + THREADS - 1) // THREADS, THREADS](
+            self.device_backend.device.position, self.device_anchor, self.stiffness,
+            self.lever, force, moment)
+
+
+@cuda.jit
+def tether_kernel(position, anchor, stiffness, lever, force, moment):
+    p = cuda.grid(1)
+    if p < position.shape[0]:
+        for k in range(3):
+            pull = -stiffness * (position[p, k] - anchor[p, k])
+            force[p, k] += pull
+            moment[p, k] += lever * pull
+
+
+def case_extra_law_match_cpu():
+    """An extra device law (zeroed load arrays, added to the fused bond gather) equals the
+    same law on the CPU."""
+    anchor = bonded_cluster()[1].position
+
+    def law(backend):
+        return [TetherGpu(anchor) if backend == "gpu" else TetherCpu(anchor)]
+    case_bonds_match_cpu(steps=20, laws=law)
+    model, state = bonded_cluster()
+    try:
+        bondem.Simulation(model, state, backend="gpu", laws=[TetherCpu(anchor)])
+    except ValueError as error:
+        print(error)
+        assert "backend = 'gpu'" in str(error) and "TetherCpu" in str(error)
+    else:
+        raise AssertionError("a CPU law was accepted by the gpu backend")
 
 
 def case_blow_up_flag():

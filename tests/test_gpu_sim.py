@@ -47,6 +47,12 @@ def test_periodic_musen_start_matches_cpu_under_simulator():
     run_case("periodic_match_cpu")
 
 
+def test_extra_device_law_matches_cpu_under_simulator():
+    """A second law on the device (a tether spring) adds to the fused bond gather as the
+    CPU law does; a CPU-only law is refused by backend='gpu' with a message."""
+    run_case("extra_law_match_cpu")
+
+
 def test_blow_up_flag_under_simulator():
     """A NaN velocity sets the device status flag; the host raises SimulationBlowUp."""
     run_case("blow_up_flag")
@@ -88,7 +94,8 @@ def _has_gpu():
 
 @pytest.mark.gpu
 @pytest.mark.skipif(not _has_gpu(), reason="needs a CUDA GPU")
-@pytest.mark.parametrize("case", ["bonds_match_cpu", "periodic_match_cpu", "blow_up_flag",
+@pytest.mark.parametrize("case", ["bonds_match_cpu", "periodic_match_cpu", "extra_law_match_cpu",
+                                  "blow_up_flag",
                                   "neighbour_search", "contact_kernel"])
 def test_cases_on_device(case):
     """The simulator cases again on the real device (fused multiply-add may change bits,
