@@ -449,11 +449,16 @@ class ElasticBondsGpu:
             "young_modulus", "poisson_ratio", "normal_strength", "tangential_strength",
             "criterion", "compressive_breakage"))
         offsets, ends = particle_bond_index(model.bond_pairs, model.n_particles)
-        self._offsets, self._ends = put(offsets), put(ends)
-        self._pairs = put(model.bond_pairs)
-        self._diameter = put(model.bond_diameter)
-        self._initial_length = put(model.bond_initial_length)
-        self._material = put(model.bond_material)
+
+        def at_least_one(array):
+            # A model without bonds still passes these arrays to the kernels; keep them
+            # non-empty (never read then: the offsets are all 0 and no bond thread runs).
+            return array if array.shape[0] else np.zeros((1,) + array.shape[1:], array.dtype)
+        self._offsets, self._ends = put(offsets), put(at_least_one(ends))
+        self._pairs = put(at_least_one(model.bond_pairs))
+        self._diameter = put(at_least_one(model.bond_diameter))
+        self._initial_length = put(at_least_one(model.bond_initial_length))
+        self._material = put(at_least_one(model.bond_material))
         n_bonds = max(model.n_bonds, 1)
         self.force_i = cuda.device_array((n_bonds, 3))
         self.moment_i = cuda.device_array((n_bonds, 3))
