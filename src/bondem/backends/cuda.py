@@ -9,9 +9,10 @@ the compilers do with round-off (fused multiply-add on the GPU).
 Design (the same as the CPU backend's, see its docstring):
 - one thread per bond computes the bond law and writes its loads to the bond's own slot;
 - one thread per particle sums its bonds through the fixed CSR index (particle -> bond
-  ends) and adds them to its force and moment: no atomics, the same bits every run;
-- one thread per particle integrates; a particle that turns NaN or leaves the domain sets a
-  status flag, checked by the host once per batch of steps (no exceptions in kernels);
+  ends): no atomics, the same bits every run; the same thread adds the other laws' loads
+  (if any) and integrates, so a bonds-only step is two launches and never stores the
+  particle forces; a particle that turns NaN or leaves the domain sets a status flag,
+  checked by the host once per batch of steps (no exceptions in kernels);
 - every changing array lives on the device (``DeviceState``) between outputs; the host
   ``State`` is refreshed by ``GpuBackend.to_host`` at the end of each batch of steps.
 - work and damping energies are accumulated per particle on the device and summed on the
@@ -524,8 +525,8 @@ class IntegratorGpu:
         csr = self._no_bonds if bonds is None else (
             bonds._offsets, bonds._ends, bonds.force_i, bonds.moment_i, bonds.moment_j)
         integrate_kernel[_blocks(model.n_particles), THREADS](
-            *csr, use_loads, d.position, d.velocity, d.angular_velocity, force, moment, g.mass, g.inertia,
-            g.fixed, g.gravity, g.external_force, g.external_moment, model.damping, kick_dt,
+            *csr, use_loads, d.position, d.velocity, d.angular_velocity, force, moment,
+            g.mass, g.inertia, g.fixed, g.gravity, g.external_force, g.external_moment, model.damping, kick_dt,
             drift_dt, g.box_low, g.box_high, g.periodic, g.status, d.work, d.dissipated)
         return STATUS_OK
 
