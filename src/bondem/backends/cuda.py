@@ -538,6 +538,17 @@ class IntegratorGpu:
 _KEY_PAD = np.iinfo(np.int64).max
 
 
+@cuda.jit(device=True)
+def _cell_coordinate(x, low, cell_size, count):
+    """Cell index of coordinate x (m) along one axis, clamped into [0, count - 1]."""
+    c = int(math.floor((x - low) / cell_size))
+    if c < 0:
+        return 0
+    if c > count - 1:
+        return count - 1
+    return c
+
+
 @cuda.jit
 def cell_keys_kernel(position, low, cell_size, dims, n_padded, keys):
     """key = cell * N + particle (int64), so sorting keys sorts by cell, then by index;
@@ -552,9 +563,7 @@ def cell_keys_kernel(position, low, cell_size, dims, n_padded, keys):
         return
     cell = 0
     for k in range(2, -1, -1):
-        c = int(math.floor((position[p, k] - low[k]) / cell_size))
-        c = min(max(c, 0), dims[k] - 1)
-        cell = cell * dims[k] + c
+        cell = cell * dims[k] + _cell_coordinate(position[p, k], low[k], cell_size, dims[k])
     keys[p] = cell * n + p
 
 
@@ -614,12 +623,9 @@ def _visit_neighbours(p, position, radius, skin, low, cell_size, dims, keys, sta
                       pairs, offset, write):
     """Count (and write at ``offset`` when ``write``) the pairs (p, q), q > p, with
     |x_q - x_p| < r_p + r_q + skin, scanning the 27 cells around p's cell."""
-    c0 = int(math.floor((position[p, 0] - low[0]) / cell_size))
-    c1 = int(math.floor((position[p, 1] - low[1]) / cell_size))
-    c2 = int(math.floor((position[p, 2] - low[2]) / cell_size))
-    c0 = min(max(c0, 0), dims[0] - 1)
-    c1 = min(max(c1, 0), dims[1] - 1)
-    c2 = min(max(c2, 0), dims[2] - 1)
+    c0 = _cell_coordinate(position[p, 0], low[0], cell_size, dims[0])
+    c1 = _cell_coordinate(position[p, 1], low[1], cell_size, dims[1])
+    c2 = _cell_coordinate(position[p, 2], low[2], cell_size, dims[2])
     found = 0
     for d2 in range(-1, 2):
         z = c2 + d2
