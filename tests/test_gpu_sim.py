@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 import bondem
+from bondem.errors import InputError
 
 HERE = Path(__file__).parent
 SRC = HERE.parent / "src"
@@ -85,8 +86,9 @@ def test_gpu_backend_without_device_is_a_clear_error(glass, binder):
         pytest.skip("a CUDA device (or the simulator) is available here")
     model, state = bondem.make_system([[0, 0, 0], [2e-3, 0, 0]], 1e-3, glass,
                                       bonds=[[0, 1]], bond_diameter=1e-3, bond_material=binder)
-    with pytest.raises(RuntimeError, match="backend = 'gpu'"):
+    with pytest.raises(RuntimeError, match="backend = 'gpu'") as error:
         bondem.Simulation(model, state, backend="gpu")
+    assert isinstance(error.value, InputError)  # the command line prints one line, exit 2
     with pytest.raises(ValueError, match="backend = 'tpu'"):
         bondem.Simulation(model, state, backend="tpu")
 

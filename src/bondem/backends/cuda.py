@@ -30,6 +30,7 @@ import math
 import numpy as np
 from numba import cuda
 
+from ..errors import InputError
 from ..physics import compile_physics
 from ..physics.bond_elastic import INTACT
 from .cpu import STATUS_NOT_FINITE, STATUS_OK, STATUS_OUT_OF_DOMAIN, particle_bond_index
@@ -45,8 +46,9 @@ minimum_image = D.minimum_image
 THREADS = 128  # threads per block: a multiple of the warp, small enough for any register use
 
 
-class BackendUnavailable(RuntimeError):
-    """The requested backend cannot run on this machine."""
+class BackendUnavailable(InputError, RuntimeError):
+    """The requested backend cannot run on this machine (an input error for the command
+    line: one line, exit status 2)."""
 
 
 def _blocks(n):
