@@ -207,7 +207,33 @@ def case_neighbour_search():
         print(f"n = {n}: {len(found)} pairs, brute force {len(expected)}")
         assert len(found) == len(set(found)), "duplicate pairs"
         assert set(found) == expected
-        assert all(i < j for i, j in found)
+        assert found == sorted(expected), "pairs sorted by (i, j)"
+
+
+def case_history_remap():
+    """Contact history follows its pair across a rebuilt list (dict reference); pairs new
+    to the list start from zero; an empty old list gives zeros."""
+    from bondem.backends.cuda import neighbour_pairs, remap_pair_history
+    rng = np.random.default_rng(3)
+    n = 50
+    radius = np.full(n, 0.8e-3)
+    before = rng.uniform(0.0, 8e-3, (n, 3))
+    after = before + rng.uniform(-4e-4, 4e-4, (n, 3))
+    old_pairs = neighbour_pairs(before, radius, 2e-4)
+    new_pairs = neighbour_pairs(after, radius, 2e-4)
+    old_history = rng.normal(size=(len(old_pairs), 3))
+    carried = remap_pair_history(cuda.to_device(old_pairs), cuda.to_device(old_history),
+                                 cuda.to_device(new_pairs)).copy_to_host()
+    table = {tuple(p): h for p, h in zip(old_pairs.tolist(), old_history)}
+    expected = np.array([table.get(tuple(p), np.zeros(3)) for p in new_pairs.tolist()])
+    kept = sum(tuple(p) in table for p in new_pairs.tolist())
+    print(f"{len(old_pairs)} old pairs, {len(new_pairs)} new, {kept} carried over")
+    assert 0 < kept < len(new_pairs), "the case must both keep and create contacts"
+    assert np.array_equal(carried, expected)
+    empty = cuda.to_device(np.zeros((0, 2), dtype=np.int64))
+    zeros = remap_pair_history(empty, cuda.to_device(np.zeros((0, 3))),
+                               cuda.to_device(new_pairs)).copy_to_host()
+    assert np.array_equal(zeros, np.zeros((len(new_pairs), 3)))
 
 
 def linear_law(n, overlap, v_rel, w_rel, spring, k_n, k_t, r_star, m_star, beta, friction,
@@ -331,6 +357,7 @@ def case_ptx():
         "_block_scan_kernel": (I1, I1, I1),
         "_add_block_offsets_kernel": (I1, I1),
         "_zero_kernel": (A2, A2),
+        "remap_history_kernel": (I2, A2, I2, A2),
     }
     kernels = {name: getattr(gb, name).py_func for name in signatures}
     kernels["contact_kernel"] = gb.make_contact_kernel(

@@ -671,11 +671,60 @@ def count_pairs_kernel(position, radius, skin, low, cell_size, dims, keys, start
 @cuda.jit
 def write_pairs_kernel(position, radius, skin, low, cell_size, dims, keys, start, offsets,
                        pairs):
+    """Write particle p's pairs at offsets[p], then sort them by j (insertion sort of a
+    short segment), so the whole list is sorted by (i, j): deterministic, and searchable
+    when contact history is carried to a rebuilt list (``remap_pair_history``)."""
     p = cuda.grid(1)
     n = position.shape[0]
     if p < n:
-        _visit_neighbours(p, position, radius, skin, low, cell_size, dims, keys, start, n,
-                          pairs, offsets[p], True)
+        first = offsets[p]
+        found = _visit_neighbours(p, position, radius, skin, low, cell_size, dims, keys,
+                                  start, n, pairs, first, True)
+        for a in range(first + 1, first + found):
+            q = pairs[a, 1]
+            b = a - 1
+            while b >= first and pairs[b, 1] > q:
+                pairs[b + 1, 1] = pairs[b, 1]
+                b -= 1
+            pairs[b + 1, 1] = q
+
+
+@cuda.jit
+def remap_history_kernel(old_pairs, old_history, new_pairs, new_history):
+    """One thread per new pair: copy its history row from the old list (both sorted by
+    (i, j)) found by binary search, or zero it for a new contact."""
+    c = cuda.grid(1)
+    if c >= new_pairs.shape[0]:
+        return
+    i = new_pairs[c, 0]
+    j = new_pairs[c, 1]
+    lo = 0
+    hi = old_pairs.shape[0]
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if old_pairs[mid, 0] < i or (old_pairs[mid, 0] == i and old_pairs[mid, 1] < j):
+            lo = mid + 1
+        else:
+            hi = mid
+    found = lo < old_pairs.shape[0] and old_pairs[lo, 0] == i and old_pairs[lo, 1] == j
+    for k in range(new_history.shape[1]):
+        new_history[c, k] = old_history[lo, k] if found else 0.0
+
+
+def remap_pair_history(old_pairs, old_history, new_pairs):
+    """Carry per-pair history (e.g. the tangential spring, (C_old, K)) from an old pair
+    list to a rebuilt one; all device arrays, pair lists sorted by (i, j) as
+    ``device_neighbour_pairs`` returns them. Pairs new to the list start from zero."""
+    width = old_history.shape[1]
+    new_history = cuda.device_array((new_pairs.shape[0], width))
+    if new_pairs.shape[0] == 0:
+        return new_history
+    if old_pairs.shape[0] == 0:
+        old_pairs = cuda.to_device(np.full((1, 2), -1, dtype=np.int64))
+        old_history = cuda.to_device(np.zeros((1, width)))
+    remap_history_kernel[_blocks(new_pairs.shape[0]), THREADS](old_pairs, old_history,
+                                                               new_pairs, new_history)
+    return new_history
 
 
 @cuda.jit
@@ -725,7 +774,7 @@ def device_neighbour_pairs(position, radius, skin, low, high, max_cells=1 << 26)
 
     position (N,3) m and radius (N,) m: device arrays; skin: m; low, high: (3,) host
     bounds of the grid (m; particles outside are clamped into the edge cells). Returns a
-    device (P,2) int64 array, ordered by i, then by cell and index of j.
+    device (P,2) int64 array sorted by (i, j).
     """
     n = position.shape[0]
     empty = cuda.device_array((0, 2), dtype=np.int64)
