@@ -71,6 +71,12 @@ def test_history_remap_under_simulator():
     run_case("history_remap")
 
 
+def test_particle_contacts_match_brute_force_under_simulator():
+    """ParticleContactsGpu (pair list rebuilt with history carried, bonded pairs skipped)
+    against a brute-force CPU law: 40 steps to 1e-12."""
+    run_case("contacts_match_cpu")
+
+
 def test_contact_kernel_matches_numpy_under_simulator():
     """The contact kernel around a compiled pair law, gathered through the CSR index,
     equals a NumPy loop over the same law (forces, moments, springs to 1e-12)."""
@@ -112,7 +118,8 @@ def _has_gpu():
 @pytest.mark.skipif(not _has_gpu(), reason="needs a CUDA GPU")
 @pytest.mark.parametrize("case", ["bonds_match_cpu", "periodic_match_cpu", "extra_law_match_cpu",
                                   "blow_up_flag",
-                                  "neighbour_search", "history_remap", "contact_kernel"])
+                                  "neighbour_search", "history_remap", "contact_kernel",
+                                  "contacts_match_cpu"])
 def test_cases_on_device(case):
     """The simulator cases again on the real device (fused multiply-add may change bits,
     not the 1e-12 agreement)."""

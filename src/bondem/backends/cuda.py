@@ -783,6 +783,9 @@ def device_neighbour_pairs(position, radius, skin, low, high, max_cells=1 << 26)
     host_radius_max = float(radius.copy_to_host().max())
     cell_size = 2.0 * host_radius_max + skin
     extent = np.maximum(np.asarray(high, float) - np.asarray(low, float), cell_size)
+    # More cells than ~2 per particle buy nothing and a scattered scene (or a blow-up)
+    # would make the start table huge.
+    max_cells = min(max_cells, max(2 * n, 64))
     while np.prod(np.ceil(extent / cell_size)) > max_cells:
         cell_size *= 1.26  # coarser cells keep the start table bounded for sparse scenes
     dims = np.ceil(extent / cell_size).astype(np.int64)
@@ -911,3 +914,155 @@ def make_contact_kernel(pair_law):
 def synchronize():
     """Wait for every queued kernel (for timing: call before reading a clock)."""
     cuda.synchronize()
+
+
+@cuda.jit
+def _displacement_flag_kernel(position, reference, limit_squared, flag):
+    """flag[0] = 1 when some particle moved more than sqrt(limit_squared) (m) since the
+    pair list was built (the list then may miss a contact)."""
+    p = cuda.grid(1)
+    if p < position.shape[0]:
+        dx = position[p, 0] - reference[p, 0]
+        dy = position[p, 1] - reference[p, 1]
+        dz = position[p, 2] - reference[p, 2]
+        if dx * dx + dy * dy + dz * dz > limit_squared:
+            flag[0] = 1
+
+
+@cuda.jit
+def _bounds_kernel(position, low, high):
+    """Bounding box of the particles (m) by atomic min/max: exact, so order-independent."""
+    p = cuda.grid(1)
+    if p < position.shape[0]:
+        for k in range(3):
+            cuda.atomic.min(low, k, position[p, k])
+            cuda.atomic.max(high, k, position[p, k])
+
+
+@cuda.jit
+def _pair_bond_kernel(pairs, bond_keys, bond_index, out):
+    """out[c] = the bond joining pair c's particles, or -1: binary search of i*N + j in
+    the sorted keys of the bonds (i < j)."""
+    c = cuda.grid(1)
+    if c >= pairs.shape[0]:
+        return
+    n = bond_keys.shape[0]
+    out[c] = -1
+    key = pairs[c, 0] * bond_index[n] + pairs[c, 1]  # bond_index[n] holds N
+    lo = 0
+    hi = n
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if bond_keys[mid] < key:
+            lo = mid + 1
+        else:
+            hi = mid
+    if lo < n and bond_keys[lo] == key:
+        out[c] = bond_index[lo]
+
+
+class ParticleContactsGpu:
+    """Particle-particle contacts on the device for any pair law (``make_contact_kernel``).
+
+    pair_law: a device-compiled pair law with the contact laws' signature (e.g.
+    ``compile_physics(cuda.jit(device=True)).hertz_mindlin``); pair_table (M, M, 5): per
+    material pair (stiffness_a, stiffness_b, beta, friction, rolling_friction) in that
+    law's units (Hertz: E* Pa, G* Pa); skin: m, the pair list holds pairs closer than
+    r_i + r_j + skin and is rebuilt (history carried) when a particle moved skin/2.
+    Intact bonded pairs get no contact force. ``state.extra`` is not used: the springs
+    stay on the device (``spring``, with ``pairs`` sorted by (i, j)).
+    """
+
+    name = "particle_contacts"
+    backend = "gpu"
+
+    def __init__(self, model, pair_law, pair_table, *, skin):
+        table = np.ascontiguousarray(pair_table, dtype=np.float64)
+        m = len(model.materials)
+        if table.shape != (m, m, 5):
+            raise ValueError(f"pair_table: shape {table.shape}, expected ({m}, {m}, 5)")
+        if not skin > 0.0:
+            raise ValueError(f"skin = {skin!r} m; must be > 0")
+        if np.any(model.periodic):
+            raise ValueError("ParticleContactsGpu: periodic boundaries are not supported "
+                             "yet by the GPU pair search; use backend = 'cpu'")
+        self.kernel = make_contact_kernel(pair_law)
+        self.table = table
+        self.skin = float(skin)
+        self.rebuilds = 0
+
+    def attach(self, backend):
+        """Take the device state of ``backend``; upload the constant per-particle arrays."""
+        model = backend.model
+        self.g = backend
+        put = cuda.to_device
+        self.radius = put(model.radius)
+        self.mass = put(model.mass)
+        self.material = put(model.material)
+        self.d_table = put(self.table)
+        n = model.n_particles
+        ordered = np.sort(model.bond_pairs, axis=1)
+        keys = ordered[:, 0] * n + ordered[:, 1]
+        order = np.argsort(keys)
+        self.bond_keys = put(keys[order] if len(keys) else np.full(1, -1, dtype=np.int64))
+        # bond_index[-1] holds N, the key's multiplier, so the kernel needs no extra scalar.
+        self.bond_index = put(np.append(order, n).astype(np.int64))
+        self.n_bond_keys = len(keys)
+        self.pairs = cuda.to_device(np.zeros((0, 2), dtype=np.int64))
+        self.spring = cuda.to_device(np.zeros((0, 3)))
+        self.reference = None
+        self.flag = put(np.zeros(1, dtype=np.int64))
+
+    def _needs_rebuild(self, n):
+        if self.reference is None:
+            return True
+        self.flag.copy_to_device(np.zeros(1, dtype=np.int64))
+        _displacement_flag_kernel[_blocks(n), THREADS](self.g.device.position, self.reference,
+                                                      (0.5 * self.skin) ** 2, self.flag)
+        return bool(self.flag.copy_to_host()[0])
+
+    def _rebuild(self, model):
+        n = model.n_particles
+        position = self.g.device.position
+        low = cuda.to_device(np.full(3, np.inf))
+        high = cuda.to_device(np.full(3, -np.inf))
+        _bounds_kernel[_blocks(n), THREADS](position, low, high)
+        pairs = device_neighbour_pairs(position, self.radius, self.skin, low.copy_to_host(),
+                                       high.copy_to_host())
+        self.spring = remap_pair_history(self.pairs, self.spring, pairs)
+        self.pairs = pairs
+        count = pairs.shape[0]
+        self.pair_bond = cuda.device_array(max(count, 1), dtype=np.int64)
+        if count and self.n_bond_keys:
+            _pair_bond_kernel[_blocks(count), THREADS](pairs, self.bond_keys[:self.n_bond_keys],
+                                                       self.bond_index, self.pair_bond)
+        elif count:
+            self.pair_bond.copy_to_device(np.full(count, -1, dtype=np.int64))
+        # The gather's CSR index of the contact list, built on the host (rebuilds are rare).
+        offsets, ends = particle_bond_index(pairs.copy_to_host(), n)
+        self.offsets = cuda.to_device(offsets)
+        self.ends = cuda.to_device(ends if len(ends) else np.zeros(1, dtype=np.int64))
+        width = max(count, 1)
+        self.out = ([cuda.device_array((width, 3)) for _ in range(3)]
+                    + [cuda.device_array(width) for _ in range(2)])
+        self.reference = cuda.device_array_like(position)
+        self.reference.copy_to_device(position)
+        self.rebuilds += 1
+
+    def accumulate(self, model, state, force, moment, increment_dt):
+        """Advance every contact by ``increment_dt`` (s); add loads to the device arrays."""
+        n = model.n_particles
+        if self._needs_rebuild(n):
+            self._rebuild(model)
+        count = self.pairs.shape[0]
+        if count == 0:
+            return
+        g = self.g
+        d = g.device
+        self.kernel[_blocks(count), THREADS](
+            self.pairs, self.pair_bond, d.bond_active, d.position, d.velocity,
+            d.angular_velocity, self.radius, self.mass, self.material, self.d_table,
+            g.box_length, g.periodic, self.spring, increment_dt, *self.out)
+        gather_bond_loads_kernel[_blocks(n), THREADS](
+            self.offsets, self.ends, self.out[0], self.out[1], self.out[2], force, moment,
+            False)
