@@ -6,8 +6,8 @@ import math
 
 import numpy as np
 
-from .backends import cpu
-from .integrate import SimulationBlowUp, step
+from .backends import select_backend
+from .integrate import SimulationBlowUp
 from .timestep import stable_time_step, time_scales
 
 
@@ -19,11 +19,16 @@ class Simulation:
     scale raises ValueError unless force_time_step; musen_compat: reproduce MUSEN's
     numerical choices where they differ from the SPEC; laws: extra force laws (contacts,
     walls) with ``accumulate(model, state, force, moment, increment_dt)``; contact: a
-    ``ContactSettings`` (None: no particle contacts); walls: PlaneWall / MeshWall objects.
+    ``ContactSettings`` (None: no particle contacts); walls: PlaneWall / MeshWall objects;
+    backend: "cpu" or "gpu" (CUDA; the state then lives on the device and ``self.state``
+    is refreshed at the end of every ``step``/``run`` batch; after editing ``self.state``
+    on the host, call ``self.backend.to_device(self.state)``). Contacts and walls run on
+    the CPU backend only, for now.
     """
 
     def __init__(self, model, state, *, time_step="auto", safety_factor=0.2,
-                 force_time_step=False, musen_compat=False, laws=(), contact=None, walls=()):
+                 force_time_step=False, musen_compat=False, laws=(), contact=None, walls=(),
+                 backend="cpu"):
         self.model = model
         self.state = state
         stable, cause = stable_time_step(model, safety_factor)
@@ -47,20 +52,23 @@ class Simulation:
         self.time_step = time_step
         self.time_step_cause = cause
         self.musen_compat = bool(musen_compat)
-        self.bonds = cpu.ElasticBonds(model)
+        self.backend = select_backend(backend, model, state)
         self.contacts = None
         if contact is not None or len(walls):
+            if backend != "cpu":
+                raise ValueError(f"backend = {backend!r}: contacts and walls are implemented "
+                                 "on the CPU backend only; use backend = 'cpu'")
             from .contacts import ContactLaw, ContactSettings
             if contact is None:
                 contact = ContactSettings(model="none")
             self.contacts = ContactLaw(model, contact, walls)
             laws = (self.contacts, *laws)
         self.walls = list(walls)
+        self.backend.check_laws(laws)
+        self.bonds = self.backend.bond_law(model)
         self.laws = [self.bonds, *laws]
-        self.integrator = cpu.Integrator(model)
-        n = model.n_particles
-        self.force = np.zeros((n, 3))
-        self.moment = np.zeros((n, 3))
+        self.integrator = self.backend.integrator(model)
+        self.force, self.moment = self.backend.load_arrays(model.n_particles)
 
     @property
     def wall_force(self):
@@ -82,8 +90,13 @@ class Simulation:
         limit = getattr(self.integrator, "thread_limit", None)
         with limit(self.model) if limit else contextlib.nullcontext():
             for _ in range(steps + (0 if self.state.started else 1)):
-                step(self.model, self.state, self.laws, self.integrator, self.force,
-                     self.moment, self.time_step, self.musen_compat)
+                self.backend.step(self.model, self.state, self.laws, self.integrator,
+                                  self.force, self.moment, self.time_step, self.musen_compat)
+        self.backend.to_host(self.state)
+
+    def synchronize(self):
+        """Wait until the backend has finished every queued step (for timing)."""
+        self.backend.synchronize()
 
     def run(self, until=None, *, steps=None, callback=None, every=None):
         """Run to time ``until`` (s) or for ``steps`` steps.

@@ -1,0 +1,471 @@
+"""Cases for test_gpu_sim.py, run in a subprocess with NUMBA_ENABLE_CUDASIM=1 (the
+simulator must be chosen before numba is imported). ``python gpu_sim_cases.py CASE``
+exits 0 when the case passes and prints what it compared."""
+import os
+import sys
+
+import numpy as np
+from numba import cuda
+
+import bondem
+
+
+def bonded_cluster(seed=3):
+    """A 3x3x3 lattice plus 3 satellites (30 particles) with nearest-neighbour and some
+    diagonal bonds (~60), random velocities and spins strong enough to break bonds within
+    tens of steps; gravity, local damping and one fixed particle exercise every branch."""
+    rng = np.random.default_rng(seed)
+    spacing = 2e-3
+    grid = np.array([[x, y, z] for x in range(3) for y in range(3) for z in range(3)],
+                    dtype=float) * spacing
+    satellites = np.array([[3, 1, 1], [1, 3, 1], [1, 1, 3]], dtype=float) * spacing
+    position = np.vstack([grid, satellites]) + rng.uniform(-5e-5, 5e-5, (30, 3))
+    distance = np.linalg.norm(position[:, None] - position[None], axis=2)
+    i, j = np.nonzero(np.triu(distance < 1.5 * spacing, 1))
+    order = rng.permutation(i.size)[:60]
+    bonds = np.column_stack([i, j])[np.sort(order)]
+    glass = bondem.Material(density=2500.0, young_modulus=1e8, poisson_ratio=0.3)
+    binder = bondem.BondMaterial(young_modulus=1e8, poisson_ratio=0.3, normal_strength=4e5,
+                                 tangential_strength=3e5, breakage="combined")
+    fixed = np.zeros(30, dtype=bool)
+    fixed[0] = True
+    velocity = rng.uniform(-1.0, 1.0, (30, 3))
+    velocity[0] = 0.0
+    return bondem.make_system(position, 1e-3, glass, velocity=velocity,
+                              angular_velocity=rng.uniform(-300.0, 300.0, (30, 3)),
+                              fixed=fixed, bonds=bonds, bond_diameter=1e-3,
+                              bond_material=binder, gravity=(0.0, 0.0, -9.81), damping=0.05)
+
+
+def periodic_chain(n=12):
+    """A bonded ring of n particles wrapped around a periodic x axis (bonds cross the
+    boundary: minimum image), bent and twisted by random spins, no breakage."""
+    rng = np.random.default_rng(5)
+    length = n * 2e-3
+    position = np.column_stack([np.arange(n) * 2e-3 + 1e-3, np.zeros(n), np.zeros(n)])
+    bonds = np.column_stack([np.arange(n), (np.arange(n) + 1) % n])
+    glass = bondem.Material(density=2500.0, young_modulus=1e8, poisson_ratio=0.3)
+    binder = bondem.BondMaterial(young_modulus=1e8, poisson_ratio=0.3, breakage="none")
+    return bondem.make_system(position, 1e-3, glass, velocity=rng.uniform(-0.5, 0.5, (n, 3)),
+                              angular_velocity=rng.uniform(-200.0, 200.0, (n, 3)),
+                              bonds=bonds, bond_diameter=1e-3, bond_material=binder,
+                              periodic=(True, False, False), box_low=(0.0, -1.0, -1.0),
+                              box_high=(length, 1.0, 1.0))
+
+
+def case_periodic_match_cpu():
+    """Periodic boundaries and MUSEN-compatible start-up: GPU equals CPU to round-off."""
+    case_bonds_match_cpu(steps=20, system=periodic_chain, musen_compat=True, breaks=False)
+
+
+def case_bonds_match_cpu(steps=30, system=bonded_cluster, musen_compat=False, breaks=True,
+                         laws=lambda backend: [], time_step="auto"):
+    """GPU (simulator) and CPU runs of the same cluster agree to round-off."""
+    runs = {}
+    for backend in ("cpu", "gpu"):
+        model, state = system()
+        sim = bondem.Simulation(model, state, backend=backend, musen_compat=musen_compat,
+                                laws=laws(backend), time_step=time_step)
+        sim.step(steps // 2)
+        sim.step(steps - steps // 2)   # two batches: the host copy between them is exact
+        runs[backend] = (sim.state, sim.energy_terms())
+    cpu, gpu = runs["cpu"][0], runs["gpu"][0]
+    print(f"bonds {cpu.bond_active.size}, broken cpu {np.sum(~cpu.bond_active)} "
+          f"gpu {np.sum(~gpu.bond_active)}, time {cpu.time:.3e} s")
+    if breaks:
+        assert np.sum(~cpu.bond_active) >= 3, "the case must break bonds"
+        assert np.sum(cpu.bond_active) >= 3, "the case must keep some bonds"
+    elif breaks is False:
+        wrapped = np.ptp(cpu.position[:, 0]) > 0.5 * (system()[0].box_high[0])
+        assert wrapped and np.all(cpu.bond_active)
+    assert np.array_equal(cpu.bond_active, gpu.bond_active)
+    assert np.array_equal(cpu.bond_break_mode, gpu.bond_break_mode)
+    assert np.array_equal(np.isnan(cpu.bond_break_time), np.isnan(gpu.bond_break_time))
+    np.testing.assert_array_equal(np.nan_to_num(cpu.bond_break_time),
+                                  np.nan_to_num(gpu.bond_break_time))
+    assert cpu.step == gpu.step and cpu.time == gpu.time
+    for name, scale in (("position", 1e-2), ("velocity", 1.0), ("angular_velocity", 300.0),
+                        ("bond_axis", 1.0), ("bond_tangential_force", None),
+                        ("bond_normal_moment", None), ("bond_tangential_moment", None),
+                        ("bond_break_energy", None)):
+        a, b = getattr(cpu, name), getattr(gpu, name)
+        if a.size == 0:
+            continue
+        scale = scale or max(float(np.abs(a).max()), 1e-300)
+        error = float(np.abs(a - b).max()) / scale
+        print(f"{name:24s} max |cpu - gpu| / scale = {error:.2e}")
+        assert error < 1e-12, name
+    for key, value in runs["cpu"][1].items():
+        other = runs["gpu"][1][key]
+        print(f"energy {key:22s} cpu {value:.10e} gpu {other:.10e}")
+        assert abs(value - other) <= 1e-10 * max(abs(value), 1e-12), key
+
+
+class TetherCpu:
+    """Test law: each particle tied to its start by a spring, force -k (x - x0) (N) and a
+    moment -k l (x - x0) (N m), so the extra-law path carries forces and moments."""
+
+    def __init__(self, anchor, stiffness=50.0, lever=1e-3):
+        self.anchor, self.stiffness, self.lever = anchor.copy(), stiffness, lever
+
+    def accumulate(self, model, state, force, moment, increment_dt):
+        pull = -self.stiffness * (state.position - self.anchor)
+        force += pull
+        moment += self.lever * pull
+
+
+class TetherGpu(TetherCpu):
+    backend = "gpu"
+
+    def attach(self, backend):
+        self.device_backend = backend
+        self.device_anchor = cuda.to_device(self.anchor)
+
+    def accumulate(self, model, state, force, moment, increment_dt):
+        from bondem.backends.cuda import THREADS
+        n = model.n_particles
+        tether_kernel[(n + THREADS - 1) // THREADS, THREADS](
+            self.device_backend.device.position, self.device_anchor, self.stiffness,
+            self.lever, force, moment)
+
+
+@cuda.jit
+def tether_kernel(position, anchor, stiffness, lever, force, moment):
+    p = cuda.grid(1)
+    if p < position.shape[0]:
+        for k in range(3):
+            pull = -stiffness * (position[p, k] - anchor[p, k])
+            force[p, k] += pull
+            moment[p, k] += lever * pull
+
+
+def case_extra_law_match_cpu():
+    """An extra device law (zeroed load arrays, added to the fused bond gather) equals the
+    same law on the CPU."""
+    anchor = bonded_cluster()[1].position
+
+    def law(backend):
+        return [TetherGpu(anchor) if backend == "gpu" else TetherCpu(anchor)]
+    case_bonds_match_cpu(steps=20, laws=law)
+    # No bonds at all: the tether alone, an oscillator per particle.
+    unbonded = lambda: bondem.make_system(anchor, 1e-3, bonded_cluster()[0].materials[0],
+                                          velocity=np.full((30, 3), 0.1),
+                                          gravity=(0.0, 0.0, -9.81))
+    case_bonds_match_cpu(steps=10, system=unbonded, laws=law, breaks=None)
+    model, state = bonded_cluster()
+    try:
+        bondem.Simulation(model, state, backend="gpu", laws=[TetherCpu(anchor)])
+    except ValueError as error:
+        print(error)
+        assert "backend = 'gpu'" in str(error) and "TetherCpu" in str(error)
+    else:
+        raise AssertionError("a CPU law was accepted by the gpu backend")
+
+
+def case_blow_up_flag():
+    """A NaN set on the device is reported by the host once per batch, naming 'gpu'."""
+    model, state = bonded_cluster()
+    state.velocity[5, 0] = np.nan
+    sim = bondem.Simulation(model, state, backend="gpu")
+    try:
+        sim.step(2)
+    except bondem.SimulationBlowUp as error:
+        print(error)
+        assert "NaN" in str(error) and "gpu" in str(error)
+        return
+    raise AssertionError("no SimulationBlowUp")
+
+
+def case_neighbour_search():
+    """The GPU cell-list pairs equal the brute-force pairs (scipy cKDTree)."""
+    from scipy.spatial import cKDTree
+    from numba import cuda
+    from bondem.backends.cuda import device_neighbour_pairs, inclusive_scan, neighbour_pairs
+    rng = np.random.default_rng(7)
+    values = rng.integers(0, 20, 1000)
+    scanned = inclusive_scan(cuda.to_device(values)).copy_to_host()
+    assert np.array_equal(scanned, np.cumsum(values)), "multi-level scan"
+    # (n, box, grid): grid None spans the particles; a narrower grid clamps particles
+    # outside it into the edge cells, which must not lose pairs.
+    for n, box, grid in ((40, 6e-3, None), (200, 12e-3, None), (1, 1e-3, None),
+                         (60, 8e-3, (2e-3, 5e-3))):
+        radius = rng.uniform(0.4e-3, 1e-3, n)
+        position = rng.uniform(0.0, box, (n, 3))
+        skin = 2e-4
+        if grid is None:
+            pairs = neighbour_pairs(position, radius, skin)
+        else:
+            pairs = device_neighbour_pairs(cuda.to_device(position), cuda.to_device(radius),
+                                           skin, np.full(3, grid[0]),
+                                           np.full(3, grid[1])).copy_to_host()
+        tree = cKDTree(position)
+        candidates = tree.query_pairs(2 * radius.max() + skin, output_type="ndarray")
+        d = np.linalg.norm(position[candidates[:, 0]] - position[candidates[:, 1]], axis=1)
+        keep = d < radius[candidates[:, 0]] + radius[candidates[:, 1]] + skin
+        expected = {tuple(sorted(p)) for p in candidates[keep].tolist()}
+        found = [tuple(p) for p in pairs.tolist()]
+        print(f"n = {n}: {len(found)} pairs, brute force {len(expected)}")
+        assert len(found) == len(set(found)), "duplicate pairs"
+        assert set(found) == expected
+        assert found == sorted(expected), "pairs sorted by (i, j)"
+
+
+def case_history_remap():
+    """Contact history follows its pair across a rebuilt list (dict reference); pairs new
+    to the list start from zero; an empty old list gives zeros."""
+    from bondem.backends.cuda import neighbour_pairs, remap_pair_history
+    rng = np.random.default_rng(3)
+    n = 50
+    radius = np.full(n, 0.8e-3)
+    before = rng.uniform(0.0, 8e-3, (n, 3))
+    after = before + rng.uniform(-4e-4, 4e-4, (n, 3))
+    old_pairs = neighbour_pairs(before, radius, 2e-4)
+    new_pairs = neighbour_pairs(after, radius, 2e-4)
+    old_history = rng.normal(size=(len(old_pairs), 3))
+    carried = remap_pair_history(cuda.to_device(old_pairs), cuda.to_device(old_history),
+                                 cuda.to_device(new_pairs)).copy_to_host()
+    table = {tuple(p): h for p, h in zip(old_pairs.tolist(), old_history)}
+    expected = np.array([table.get(tuple(p), np.zeros(3)) for p in new_pairs.tolist()])
+    kept = sum(tuple(p) in table for p in new_pairs.tolist())
+    print(f"{len(old_pairs)} old pairs, {len(new_pairs)} new, {kept} carried over")
+    assert 0 < kept < len(new_pairs), "the case must both keep and create contacts"
+    assert np.array_equal(carried, expected)
+    empty = cuda.to_device(np.zeros((0, 2), dtype=np.int64))
+    zeros = remap_pair_history(empty, cuda.to_device(np.zeros((0, 3))),
+                               cuda.to_device(new_pairs)).copy_to_host()
+    assert np.array_equal(zeros, np.zeros((len(new_pairs), 3)))
+
+
+def linear_law(n, overlap, v_rel, w_rel, spring, k_n, k_t, r_star, m_star, beta, friction,
+               rolling_friction, dt):
+    """A test pair law with the contact laws' signature: linear normal spring with a
+    dashpot, tangential spring capped by Coulomb, constant rolling torque against w_rel."""
+    v_n = v_rel[0] * n[0] + v_rel[1] * n[1] + v_rel[2] * n[2]
+    f_n = k_n * overlap - beta * m_star * v_n
+    xi = (spring[0] + (v_rel[0] - v_n * n[0]) * dt, spring[1] + (v_rel[1] - v_n * n[1]) * dt,
+          spring[2] + (v_rel[2] - v_n * n[2]) * dt)
+    f_t = (k_t * xi[0], k_t * xi[1], k_t * xi[2])
+    size = (f_t[0] ** 2 + f_t[1] ** 2 + f_t[2] ** 2) ** 0.5
+    if size > friction * f_n and size > 0.0:
+        f_t = (f_t[0] * friction * f_n / size, f_t[1] * friction * f_n / size,
+               f_t[2] * friction * f_n / size)
+    spin = (w_rel[0] ** 2 + w_rel[1] ** 2 + w_rel[2] ** 2) ** 0.5
+    # No builtin max: this numba's CUDA target rejects it (see case_ptx).
+    size = rolling_friction * r_star * f_n / spin if spin > 0.0 and f_n > 0.0 else 0.0
+    torque = (-size * w_rel[0], -size * w_rel[1], -size * w_rel[2])
+    force = (-f_n * n[0] + f_t[0], -f_n * n[1] + f_t[1], -f_n * n[2] + f_t[2])
+    return force, torque, f_t, xi, 0.5 * k_n * overlap * overlap, 0.0
+
+
+def case_contact_kernel():
+    """make_contact_kernel + CSR gather against a NumPy loop over the same pair law."""
+    from numba import cuda
+    from bondem.backends.cpu import particle_bond_index
+    from bondem.backends.cuda import (THREADS, gather_bond_loads_kernel,
+                                      make_contact_kernel, neighbour_pairs)
+    rng = np.random.default_rng(11)
+    n = 40
+    position = rng.uniform(0.0, 5e-3, (n, 3))
+    radius = rng.uniform(0.6e-3, 1e-3, n)
+    velocity = rng.uniform(-1, 1, (n, 3))
+    angular_velocity = rng.uniform(-100, 100, (n, 3))
+    mass = 2500.0 * 4 / 3 * np.pi * radius ** 3
+    material = rng.integers(0, 2, n).astype(np.int32)
+    pairs = neighbour_pairs(position, radius, 1e-4)
+    pair_bond = np.full(len(pairs), -1, dtype=np.int64)
+    pair_bond[::5] = np.arange(len(pairs[::5]))          # some pairs are bonded ...
+    bond_active = np.arange(len(pairs[::5])) % 2 == 0    # ... half of those bonds intact
+    table = rng.uniform(0.5, 2.0, (2, 2, 5)) * np.array([1e4, 5e3, 1.0, 0.5, 0.1])
+    table = 0.5 * (table + table.transpose(1, 0, 2))
+    spring = rng.uniform(-1e-6, 1e-6, (len(pairs), 3))
+    dt = 1e-6
+    C = len(pairs)
+    out = [cuda.device_array((C, 3)) for _ in range(3)] + [cuda.device_array(C) for _ in range(2)]
+    d_spring = cuda.to_device(spring)
+    kernel = make_contact_kernel(cuda.jit(device=True)(linear_law))
+    put = cuda.to_device
+    kernel[(C + THREADS - 1) // THREADS, THREADS](
+        put(pairs), put(pair_bond), put(bond_active), put(position), put(velocity),
+        put(angular_velocity), put(radius), put(mass), put(material), put(table),
+        put(np.ones(3)), put(np.zeros(3, dtype=bool)), d_spring, dt, *out)
+    offsets, ends = particle_bond_index(pairs, n)
+    force, moment = cuda.device_array((n, 3)), cuda.device_array((n, 3))
+    gather_bond_loads_kernel[(n + THREADS - 1) // THREADS, THREADS](
+        put(offsets), put(ends), out[0], out[1], out[2], force, moment, True)
+    # NumPy reference, written from the SPEC's contact geometry.
+    ref_force, ref_moment, ref_spring = np.zeros((n, 3)), np.zeros((n, 3)), np.zeros_like(spring)
+    touching = 0
+    for c, (i, j) in enumerate(pairs):
+        r = position[j] - position[i]
+        d = np.linalg.norm(r)
+        overlap = radius[i] + radius[j] - d
+        if (pair_bond[c] >= 0 and bond_active[pair_bond[c]]) or overlap <= 0:
+            continue
+        touching += 1
+        nn = r / d
+        a_i, a_j = radius[i] - overlap / 2, radius[j] - overlap / 2
+        v_rel = velocity[j] - velocity[i] - np.cross(a_i * angular_velocity[i]
+                                                     + a_j * angular_velocity[j], nn)
+        p = table[material[i], material[j]]
+        f, torque, f_t, xi, _, _ = linear_law(
+            tuple(nn), overlap, tuple(v_rel), tuple(angular_velocity[i] - angular_velocity[j]),
+            tuple(spring[c]), p[0], p[1], radius[i] * radius[j] / (radius[i] + radius[j]),
+            mass[i] * mass[j] / (mass[i] + mass[j]), p[2], p[3], p[4], dt)
+        ref_spring[c] = xi
+        ref_force[i] += f
+        ref_force[j] -= f
+        ref_moment[i] += a_i * np.cross(nn, f_t) + torque
+        ref_moment[j] += a_j * np.cross(nn, f_t) - np.array(torque)
+    print(f"{C} candidate pairs, {touching} in contact and not bonded")
+    assert touching >= 10
+    np.testing.assert_allclose(force.copy_to_host(), ref_force, rtol=1e-12,
+                               atol=1e-12 * np.abs(ref_force).max())
+    np.testing.assert_allclose(moment.copy_to_host(), ref_moment, rtol=1e-12,
+                               atol=1e-12 * np.abs(ref_moment).max())
+    np.testing.assert_allclose(d_spring.copy_to_host(), ref_spring, rtol=1e-12, atol=1e-20)
+
+
+def case_ptx():
+    """Every kernel compiles to PTX for an H100 (sm_90) with the real NVVM, no GPU needed.
+
+    The simulator runs kernels as Python and accepts code that the CUDA target rejects
+    (builtin min/max on mixed ints did); this compiles each kernel with explicit
+    argument types. Device functions ask for the current device's compute capability,
+    which a machine without a driver has not: it is stubbed for this check only.
+    """
+    import numba.cuda.dispatcher as dispatcher
+    from types import SimpleNamespace
+    from numba import types
+    from bondem.backends import cuda as gb
+    dispatcher.get_current_device = lambda: SimpleNamespace(compute_capability=(9, 0))
+
+    def array(dtype, ndim):
+        return types.Array(dtype, ndim, "C")
+    f64, i64, boolean = types.float64, types.int64, types.boolean
+    A1, A2, I1, I2 = array(f64, 1), array(f64, 2), array(i64, 1), array(i64, 2)
+    B1, I8, I32 = array(boolean, 1), array(types.int8, 1), array(types.int32, 1)
+    signatures = {
+        "elastic_bonds_kernel": (I2, A1, A1, I32, A1, A1, A1, A1, I8, B1, A2, A2, A2, A1, B1,
+                                 B1, A2, A2, A2, A2, A1, I8, A1, f64, f64, A2, A2, A2),
+        "integrate_kernel": (I1, I1, A2, A2, A2, boolean, A2, A2, A2, A2, A2, A1, A1, B1, A1,
+                             A2, A2, f64, f64, f64, A1, A1, B1, I1, A1, A1),
+        "gather_bond_loads_kernel": (I1, I1, A2, A2, A2, A2, A2, boolean),
+        "bond_energies_kernel": (I2, A1, A1, I32, A1, A1, A2, A1, B1, B1, A2, A2, A2, A1),
+        "cell_keys_kernel": (A2, A1, f64, I1, i64, I1),
+        "bitonic_stage_kernel": (I1, i64, i64),
+        "cell_start_kernel": (I1, i64, i64, I1),
+        "count_pairs_kernel": (A2, A1, f64, A1, f64, I1, I1, I1, I1, I2),
+        "write_pairs_kernel": (A2, A1, f64, A1, f64, I1, I1, I1, I1, I2),
+        "_block_scan_kernel": (I1, I1, I1),
+        "_add_block_offsets_kernel": (I1, I1),
+        "_zero_kernel": (A2, A2),
+        "remap_history_kernel": (I2, A2, I2, A2),
+        "_displacement_flag_kernel": (A2, A2, f64, I1),
+        "_bounds_kernel": (A2, A1, A1),
+        "_pair_bond_kernel": (I2, I1, I1, I1),
+    }
+    kernels = {name: getattr(gb, name).py_func for name in signatures}
+    kernels["contact_kernel"] = gb.make_contact_kernel(
+        cuda.jit(device=True)(linear_law)).py_func
+    signatures["contact_kernel"] = (I2, I1, B1, A2, A2, A2, A1, A1, I32,
+                                    array(f64, 3), A1, B1, A2, f64, A2, A2, A2, A1, A1)
+    for name, function in kernels.items():
+        ptx, _ = cuda.compile_ptx(function, signatures[name], cc=(9, 0))
+        assert ".visible .entry" in ptx
+        print(f"{name:28s} PTX for sm_90: {len(ptx)} characters, "
+              f"{ptx.count('fma.rn.f64')} fused multiply-adds")
+
+
+class LinearContactsCpu:
+    """Brute-force reference for ParticleContactsGpu with ``linear_law``: every pair, every
+    step; springs kept in a dict while a pair touches (and is not held by a bond)."""
+
+    def __init__(self, table):
+        self.table, self.springs = table, {}
+
+    def accumulate(self, model, state, force, moment, dt):
+        x, v, w, radius = state.position, state.velocity, state.angular_velocity, model.radius
+        bonded = {tuple(sorted(p)): b for b, p in enumerate(model.bond_pairs.tolist())}
+        springs = {}
+        for i in range(len(x)):
+            for j in range(i + 1, len(x)):
+                r = x[j] - x[i]
+                d = np.linalg.norm(r)
+                overlap = radius[i] + radius[j] - d
+                b = bonded.get((i, j))
+                if overlap <= 0 or (b is not None and state.bond_active[b]):
+                    continue
+                n = r / d
+                a_i, a_j = radius[i] - overlap / 2, radius[j] - overlap / 2
+                v_rel = v[j] - v[i] - np.cross(a_i * w[i] + a_j * w[j], n)
+                p = self.table[model.material[i], model.material[j]]
+                f, torque, f_t, xi, _, _ = linear_law(
+                    tuple(n), overlap, tuple(v_rel), tuple(w[i] - w[j]),
+                    tuple(self.springs.get((i, j), (0.0, 0.0, 0.0))), p[0], p[1],
+                    radius[i] * radius[j] / (radius[i] + radius[j]),
+                    model.mass[i] * model.mass[j] / (model.mass[i] + model.mass[j]),
+                    p[2], p[3], p[4], dt)
+                springs[(i, j)] = xi
+                force[i] += f
+                force[j] -= f
+                moment[i] += a_i * np.cross(n, f_t) + torque
+                moment[j] += a_j * np.cross(n, f_t) - np.array(torque)
+        self.springs = springs
+
+
+def colliding_cluster():
+    """18 spheres on a 3x3x2 grid with 20 um gaps, converging and jittered, two materials,
+    three bonds between touching neighbours: contacts open, close and persist."""
+    rng = np.random.default_rng(9)
+    grid = np.array([[x, y, z] for x in range(3) for y in range(3) for z in range(2)],
+                    dtype=float) * 2.02e-3
+    centre = grid.mean(axis=0)
+    velocity = -(grid - centre) * 300.0 + rng.uniform(-0.2, 0.2, grid.shape)
+    glass = bondem.Material(density=2500.0, young_modulus=1e8, poisson_ratio=0.3)
+    steel = bondem.Material(density=7800.0, young_modulus=2e8, poisson_ratio=0.3)
+    binder = bondem.BondMaterial(young_modulus=1e8, poisson_ratio=0.3, normal_strength=1e5,
+                                 tangential_strength=1e5)
+    return bondem.make_system(grid, 1e-3, [glass, steel], material_index=np.arange(18) % 2,
+                              velocity=velocity,
+                              angular_velocity=rng.uniform(-100.0, 100.0, grid.shape),
+                              bonds=[[0, 1], [4, 10], [8, 9]], bond_diameter=1e-3,
+                              bond_material=binder)
+
+
+def case_contacts_match_cpu():
+    """ParticleContactsGpu (neighbour list, rebuilds with history carried, bonded pairs
+    skipped) equals the brute-force CPU reference over 40 steps."""
+    from bondem.backends.cuda import ParticleContactsGpu
+    table = np.array([[[2e4, 1e4, 0.3, 0.4, 0.05], [3e4, 1.5e4, 0.2, 0.3, 0.02]],
+                      [[3e4, 1.5e4, 0.2, 0.3, 0.02], [4e4, 2e4, 0.1, 0.5, 0.0]]])
+    gpu_law = ParticleContactsGpu(colliding_cluster()[0], cuda.jit(device=True)(linear_law),
+                                  table, skin=2e-5)
+    cpu_law = LinearContactsCpu(table)
+
+    def laws(backend):
+        return [gpu_law if backend == "gpu" else cpu_law]
+    case_bonds_match_cpu(steps=40, system=colliding_cluster, laws=laws, breaks=None,
+                         time_step=1e-6)
+    touching = len(cpu_law.springs)
+    print(f"rebuilds {gpu_law.rebuilds}, contacts at the end {touching}, "
+          f"list {gpu_law.pairs.shape[0]}")
+    assert gpu_law.rebuilds >= 3 and touching >= 5
+
+
+def nvvm_available():
+    try:
+        from numba.cuda.cudadrv import nvvm
+        nvvm.NVVM()
+        return True
+    except Exception:
+        return False
+
+
+if __name__ == "__main__":
+    if sys.argv[1] == "ptx" and not nvvm_available():
+        print("NVVM (libnvvm from a CUDA toolkit) not found")
+        sys.exit(3)
+    assert (os.environ.get("NUMBA_ENABLE_CUDASIM") == "1" or "--device" in sys.argv
+            or sys.argv[1] == "ptx")
+    globals()["case_" + sys.argv[1]]()
+    print("ok")

@@ -1,0 +1,163 @@
+"""CUDA backend under numba's simulator, against the CPU backend and brute force.
+
+Reference: the CPU backend (same physics functions, compiled by numba.njit) to round-off,
+1e-12 relative over 30 steps with breakage; brute-force pair finding (scipy cKDTree) for the
+neighbour search, exactly. NUMBA_ENABLE_CUDASIM must be set before numba is imported, so
+each case runs in a subprocess (tests/gpu_sim_cases.py). Tests marked ``gpu`` run the same
+kernels on a real device at the benchmark sizes and skip without one.
+"""
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import bondem
+from bondem.errors import InputError
+
+HERE = Path(__file__).parent
+SRC = HERE.parent / "src"
+
+
+def run_case(name, simulator=True, timeout=300, skip_status=None):
+    env = dict(os.environ, PYTHONPATH=f"{SRC}{os.pathsep}{os.environ.get('PYTHONPATH', '')}",
+               NUMBA_NUM_THREADS="1")
+    if simulator:
+        env["NUMBA_ENABLE_CUDASIM"] = "1"
+    else:
+        env.pop("NUMBA_ENABLE_CUDASIM", None)
+    args = [sys.executable, str(HERE / "gpu_sim_cases.py"), name]
+    if not simulator:
+        args.append("--device")
+    result = subprocess.run(args, env=env, capture_output=True, text=True, timeout=timeout)
+    if skip_status is not None and result.returncode == skip_status:
+        pytest.skip(result.stdout.strip())
+    assert result.returncode == 0, result.stdout + result.stderr
+    return result.stdout
+
+
+def test_bond_path_matches_cpu_under_simulator():
+    """30 steps of a 30-particle, 60-bond cluster with breakage: same broken bonds, modes
+    and break times; positions, velocities, bond vectors and energies to 1e-12."""
+    out = run_case("bonds_match_cpu")
+    assert "ok" in out
+
+
+def test_periodic_musen_start_matches_cpu_under_simulator():
+    """A bonded ring across a periodic boundary, MUSEN-compatible start-up, 20 steps."""
+    run_case("periodic_match_cpu")
+
+
+def test_extra_device_law_matches_cpu_under_simulator():
+    """A second law on the device (a tether spring) adds to the fused bond gather as the
+    CPU law does; a CPU-only law is refused by backend='gpu' with a message."""
+    run_case("extra_law_match_cpu")
+
+
+def test_blow_up_flag_under_simulator():
+    """A NaN velocity sets the device status flag; the host raises SimulationBlowUp."""
+    run_case("blow_up_flag")
+
+
+def test_neighbour_search_matches_brute_force_under_simulator():
+    """Cell sort + scan + pair finding on the (simulated) GPU equals brute force."""
+    run_case("neighbour_search")
+
+
+def test_history_remap_under_simulator():
+    """Per-pair history follows its pair when the pair list is rebuilt (dict reference)."""
+    run_case("history_remap")
+
+
+def test_particle_contacts_match_brute_force_under_simulator():
+    """ParticleContactsGpu (pair list rebuilt with history carried, bonded pairs skipped)
+    against a brute-force CPU law: 40 steps to 1e-12."""
+    run_case("contacts_match_cpu")
+
+
+def test_contact_kernel_matches_numpy_under_simulator():
+    """The contact kernel around a compiled pair law, gathered through the CSR index,
+    equals a NumPy loop over the same law (forces, moments, springs to 1e-12)."""
+    run_case("contact_kernel")
+
+
+def test_kernels_compile_for_h100():
+    """Every kernel compiles to PTX for sm_90 with NVVM (skips without a CUDA toolkit):
+    the simulator alone accepts code that the CUDA target rejects."""
+    out = run_case("ptx", simulator=False, skip_status=3)
+    assert "elastic_bonds_kernel" in out and "contact_kernel" in out
+
+
+def test_gpu_backend_without_device_is_a_clear_error(glass, binder):
+    """Without a GPU and without the simulator, backend='gpu' names the backend."""
+    from numba import cuda
+    if cuda.is_available():
+        pytest.skip("a CUDA device (or the simulator) is available here")
+    model, state = bondem.make_system([[0, 0, 0], [2e-3, 0, 0]], 1e-3, glass,
+                                      bonds=[[0, 1]], bond_diameter=1e-3, bond_material=binder)
+    with pytest.raises(RuntimeError, match="backend = 'gpu'") as error:
+        bondem.Simulation(model, state, backend="gpu")
+    assert isinstance(error.value, InputError)  # the command line prints one line, exit 2
+    with pytest.raises(ValueError, match="backend = 'tpu'"):
+        bondem.Simulation(model, state, backend="tpu")
+
+
+def _has_gpu():
+    if os.environ.get("NUMBA_ENABLE_CUDASIM") == "1":
+        return False
+    try:
+        from numba import cuda
+        return cuda.is_available()
+    except Exception:
+        return False
+
+
+@pytest.mark.gpu
+@pytest.mark.skipif(not _has_gpu(), reason="needs a CUDA GPU")
+@pytest.mark.parametrize("case", ["bonds_match_cpu", "periodic_match_cpu", "extra_law_match_cpu",
+                                  "blow_up_flag",
+                                  "neighbour_search", "history_remap", "contact_kernel",
+                                  "contacts_match_cpu"])
+def test_cases_on_device(case):
+    """The simulator cases again on the real device (fused multiply-add may change bits,
+    not the 1e-12 agreement)."""
+    run_case(case, simulator=False)
+
+
+def lattice(n, seed=42):
+    """The bench lattice (shared/bench/README.md): n^3 spheres, spacing 2 mm, radius 1 mm,
+    a bond between every pair of nearest neighbours, intact variant, velocities uniform in
+    [-0.05, 0.05] m/s."""
+    index = np.arange(n ** 3).reshape(n, n, n)
+    grid = np.indices((n, n, n)).reshape(3, -1).T * 2e-3
+    bonds = np.vstack([np.column_stack([index[:-1].ravel(), index[1:].ravel()]),
+                       np.column_stack([index[:, :-1].ravel(), index[:, 1:].ravel()]),
+                       np.column_stack([index[:, :, :-1].ravel(), index[:, :, 1:].ravel()])])
+    glass = bondem.Material(density=2500.0, young_modulus=1e8, poisson_ratio=0.3)
+    binder = bondem.BondMaterial(young_modulus=1e8, poisson_ratio=0.3, normal_strength=1e30,
+                                 tangential_strength=1e30)
+    velocity = np.random.default_rng(seed).uniform(-0.05, 0.05, (n ** 3, 3))
+    return bondem.make_system(grid, 1e-3, glass, velocity=velocity, bonds=bonds,
+                              bond_diameter=1e-3, bond_material=binder)
+
+
+@pytest.mark.gpu
+@pytest.mark.skipif(not _has_gpu(), reason="needs a CUDA GPU")
+@pytest.mark.parametrize("n", [100, 200])
+def test_lattice_bench_size_on_device(n):
+    """The bench lattice at 1e6 and 8e6 particles: 10 steps on the device equal 10 steps
+    on the CPU to 1e-12 (catches index overflow and launch-size errors at these sizes)."""
+    states = {}
+    for backend in ("cpu", "gpu"):
+        model, state = lattice(n)
+        sim = bondem.Simulation(model, state, backend=backend, time_step=1e-7)
+        sim.step(10)
+        states[backend] = sim.state
+    cpu, gpu = states["cpu"], states["gpu"]
+    assert np.all(gpu.bond_active)
+    np.testing.assert_allclose(gpu.position, cpu.position, rtol=0, atol=1e-12 * 2e-3 * n)
+    np.testing.assert_allclose(gpu.velocity, cpu.velocity, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(gpu.bond_tangential_force, cpu.bond_tangential_force, rtol=0,
+                               atol=1e-12 * max(np.abs(cpu.bond_tangential_force).max(), 1e-30))
