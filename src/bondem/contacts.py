@@ -171,17 +171,32 @@ class ContactLaw:
         moved += self.walls.max_displacement(state.time - extra["contact_reference_time"][0])
         return moved > 0.5 * self.skin
 
+    def _derive_live(self, model, state):
+        """Rows that can carry a contact load (no intact bond joins the pair) and their
+        CSR indices by particle; redone when a bond breaks."""
+        pairs = state.extra["contact_pairs"]
+        n = model.n_particles
+        bonded = self._pair_bond >= 0
+        bonded[bonded] = state.bond_active[self._pair_bond[bonded]]
+        self._live = np.flatnonzero(~bonded).astype(np.int64)
+        # rows are sorted by i, so the live rows are too: i's CSR needs no sort
+        self._i_order = self._live
+        self._i_start = np.zeros(n + 1, dtype=np.int64)
+        np.cumsum(np.bincount(pairs[self._live, 0], minlength=n), out=self._i_start[1:])
+        j_start, j_order = _csr_by(pairs[self._live, 1], n)
+        self._j_start, self._j_order = j_start, self._live[j_order]
+        self._active_bonds = int(np.count_nonzero(state.bond_active))
+
     def _derive(self, model, state):
         """CSR indices and bond lookup for the current lists (cached per list object)."""
         extra = state.extra
         key = (extra["contact_pairs"], extra["wall_pairs"])
         if self._derived_for is not None and all(a is b for a, b in zip(key, self._derived_for)):
+            if int(np.count_nonzero(state.bond_active)) != self._active_bonds:
+                self._derive_live(model, state)
             return
         n = model.n_particles
         pairs = extra["contact_pairs"]
-        self._i_start = np.zeros(n + 1, dtype=np.int64)
-        np.cumsum(np.bincount(pairs[:, 0], minlength=n), out=self._i_start[1:])
-        self._j_start, self._j_order = _csr_by(pairs[:, 1], n)
         self._pair_bond = np.full(pairs.shape[0], -1, dtype=np.int64)
         if self._bond_key.size and pairs.shape[0] and not self.settings.bonded_pairs:
             key_pairs = pairs[:, 0] * np.int64(n) + pairs[:, 1]
@@ -189,6 +204,7 @@ class ContactLaw:
             where = np.minimum(np.searchsorted(sorted_keys, key_pairs), sorted_keys.size - 1)
             hit = sorted_keys[where] == key_pairs
             self._pair_bond[hit] = self._bond_order[where[hit]]
+        self._derive_live(model, state)
         self._dissipated = np.zeros(pairs.shape[0])
         wall_pairs = extra["wall_pairs"]
         k = wall_pairs.shape[0]
@@ -216,14 +232,16 @@ class ContactLaw:
         use_rolling = bool(self.settings.rolling_resistance)
         if extra["contact_pairs"].shape[0]:
             kernels.particle_contacts(
-                self.pair_law, extra["contact_pairs"], self._pair_bond, state.bond_active,
+                self.pair_law, extra["contact_pairs"], self._live, self._pair_bond,
+                state.bond_active,
                 state.position, state.velocity, state.angular_velocity, model.radius,
                 model.mass, model.inertia, model.material, *self._materials, use_rolling,
                 self._linear_stiffness, self._box_length, model.periodic,
                 extra["contact_spring"], increment_dt, moved_dt, extra["contact_force"],
                 extra["contact_moment_i"], extra["contact_moment_j"], extra["contact_energy"],
                 self._dissipated)
-            kernels.gather_pair_loads(self._i_start, self._j_start, self._j_order,
+            kernels.gather_pair_loads(self._i_start, self._i_order, self._j_start,
+                                      self._j_order,
                                       extra["contact_force"], extra["contact_moment_i"],
                                       extra["contact_moment_j"], force, moment)
             counters[0] += float(self._dissipated.sum())
