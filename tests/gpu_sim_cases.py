@@ -369,6 +369,21 @@ def case_ptx():
         cuda.jit(device=True)(linear_law)).py_func
     signatures["contact_kernel"] = (I2, I1, B1, A2, A2, A2, A1, A1, I32,
                                     array(f64, 3), A1, B1, A2, f64, A2, A2, A2, A1, A1)
+    from bondem.backends import cuda_contacts as gc
+    A3 = array(f64, 3)
+    contact_signatures = {
+        "displacement_flag_kernel": (A2, A2, A1, B1, f64, I1),
+        "particle_contacts_kernel": (i64, I2, I1, B1, A2, A2, A2, A1, A1, A1, I32, A1, A1, A1,
+                                     A1, A1, boolean, f64, A1, B1, A2, f64, f64, A2, A2, A2,
+                                     A1, A1),
+        "gather_pairs_kernel": (I1, I1, I1, A2, A2, A2, A1, A2, A2, A1),
+        "wall_contacts_kernel": (i64, I1, I2, A3, I8, I1, A2, A2, A2, A1, A1, A1, A1, A1, A2,
+                                 A2, A2, A1, A1, A1, I32, A1, A1, A1, A1, A1, boolean, f64, A2,
+                                 f64, f64, A1, A2, I1, A2, A2, A1, A2, A2, A1, A1, A2),
+    }
+    for name, signature in contact_signatures.items():
+        kernels[name] = getattr(gc, name).py_func
+        signatures[name] = signature
     for name, function in kernels.items():
         ptx, _ = cuda.compile_ptx(function, signatures[name], cc=(9, 0))
         assert ".visible .entry" in ptx
@@ -451,6 +466,128 @@ def case_contacts_match_cpu():
           f"list {gpu_law.pairs.shape[0]}")
     assert gpu_law.rebuilds >= 3 and touching >= 5
 
+
+def falling_clusters(seed=11):
+    """Two bonded 2x2x2 clusters and 8 loose spheres (24 in all, two materials) falling
+    onto a plane (z = 0) beside a tilted two-triangle mesh wall, with spins, gravity and
+    weak bonds: particle contacts, wall contacts of both kinds and breakage within tens
+    of steps."""
+    rng = np.random.default_rng(seed)
+    r = 1e-3
+    cube = np.array([[x, y, z] for x in range(2) for y in range(2) for z in range(2)],
+                    dtype=float) * 2 * r
+    first = cube + (0.0, 0.0, 1.02 * r)
+    second = cube + (4.04 * r, 0.0, 1.02 * r)
+    # a row of six beside the clusters (gaps 0.02 r) and one on top of each cluster
+    loose = np.array([[0.0, 4.03, 0.51], [1.01, 4.03, 0.51], [2.02, 4.03, 0.51],
+                      [3.03, 4.03, 0.51], [4.04, 4.03, 0.51], [5.05, 4.03, 0.51],
+                      [1.0, 1.0, 2.52], [3.02, 1.0, 2.52]]) * 2 * r
+    position = np.vstack([first, second, loose]) + rng.uniform(-2e-5, 2e-5, (24, 3))
+    bonds = []
+    for base in (0, 8):
+        for a in range(8):
+            for b in range(a + 1, 8):
+                if np.sum(np.abs(cube[a] - cube[b]) > 0) == 1:
+                    bonds.append((base + a, base + b))
+    velocity = rng.uniform(-0.3, 0.3, (24, 3)) + (0.0, 0.0, -1.0)
+    velocity[:8, 0] += 1.0    # the clusters converge and hit each other
+    velocity[8:16, 0] -= 1.0
+    glass = bondem.Material(density=2500.0, young_modulus=1e8, poisson_ratio=0.3,
+                            restitution=0.6, friction=0.4, rolling_friction=0.05)
+    steel = bondem.Material(density=7800.0, young_modulus=2e8, poisson_ratio=0.28,
+                            restitution=0.8, friction=0.3, rolling_friction=0.02)
+    binder = bondem.BondMaterial(young_modulus=1e8, poisson_ratio=0.3, normal_strength=3e5,
+                                 tangential_strength=3e5)
+    model, state = bondem.make_system(
+        position, r, [glass, steel], material_index=np.arange(24) % 2, velocity=velocity,
+        angular_velocity=rng.uniform(-200.0, 200.0, (24, 3)), bonds=bonds,
+        bond_diameter=1e-3, bond_material=binder, gravity=(0.0, 0.0, -9.81))
+    from bondem.walls import MeshWall, PlaneWall
+    wall_material = bondem.Material(density=7800.0, young_modulus=2e8, poisson_ratio=0.3,
+                                    restitution=0.7, friction=0.5, rolling_friction=0.03)
+    # A square tilted 45 degrees about y, its lower edge under the first cluster's x = 0
+    # face, 0.99 r from the lower spheres of that face (moving at them: they touch it).
+    x0 = -0.37 * r
+    vertices = np.array([[x0, -3 * r, 0.0], [x0, 12 * r, 0.0],
+                         [x0 - 8 * r, 12 * r, 8 * r], [x0 - 8 * r, -3 * r, 8 * r]])
+    walls = [PlaneWall((0.0, 0.0, 0.0), (0.0, 0.0, 1.0), wall_material),
+             MeshWall(vertices, [[0, 1, 2], [0, 2, 3]], wall_material,
+                      velocity=(0.05, 0.0, 0.0))]
+    return model, state, walls
+
+
+def compare_contact_runs(system, settings, steps, time_step="auto", expect_walls=True):
+    """GPU (simulator) and CPU runs with contacts and walls: everything to 1e-12."""
+    runs = {}
+    for backend in ("cpu", "gpu"):
+        model, state, walls = system()
+        sim = bondem.Simulation(model, state, backend=backend, contact=settings, walls=walls,
+                                time_step=time_step)
+        sim.step(steps // 2)
+        half = (sim.wall_force.copy(), sim.wall_torque.copy())
+        sim.step(steps - steps // 2)
+        runs[backend] = (sim.state, sim.energy_terms(), sim.wall_force.copy(),
+                         sim.wall_torque.copy(), half, sim.contacts.touching())
+    cpu, gpu = runs["cpu"][0], runs["gpu"][0]
+    counters = cpu.extra["contact_counters"]
+    print(f"steps {cpu.step}, broken bonds {np.sum(~cpu.bond_active)} of "
+          f"{cpu.bond_active.size}, rebuilds {counters[2]:.0f}, touching (pairs, walls) "
+          f"cpu {runs['cpu'][5]} gpu {runs['gpu'][5]}")
+    assert runs["cpu"][5] == runs["gpu"][5]
+    assert runs["cpu"][5][0] >= 3, "the case must have particle contacts"
+    if expect_walls:
+        assert runs["cpu"][5][1] >= 3, "the case must have wall contacts"
+    assert np.array_equal(cpu.bond_active, gpu.bond_active)
+    assert np.array_equal(cpu.bond_break_mode, gpu.bond_break_mode)
+    assert cpu.step == gpu.step and cpu.time == gpu.time
+    for name in ("contact_pairs", "wall_pairs"):
+        assert np.array_equal(cpu.extra[name], gpu.extra[name]), name
+    assert np.array_equal(cpu.extra["contact_counters"][2:], gpu.extra["contact_counters"][2:])
+    worst = 0.0
+    checks = [(name, getattr(cpu, name), getattr(gpu, name), None) for name in (
+        "position", "velocity", "angular_velocity", "bond_axis", "bond_tangential_force",
+        "bond_normal_moment", "bond_tangential_moment", "bond_break_energy")]
+    checks += [(name, cpu.extra[name], gpu.extra[name], None) for name in (
+        "contact_spring", "contact_force", "contact_moment_i", "contact_moment_j",
+        "contact_energy", "wall_spring", "wall_force_rows", "wall_moment_rows",
+        "wall_energy_rows")]
+    checks += [("wall_force", runs["cpu"][2], runs["gpu"][2], None),
+               ("wall_torque", runs["cpu"][3], runs["gpu"][3], None),
+               ("wall_force (batch 1)", runs["cpu"][4][0], runs["gpu"][4][0], None)]
+    for name, a, b, scale in checks:
+        if a.size == 0:
+            continue
+        assert a.shape == b.shape, name
+        scale = scale or max(float(np.abs(a).max()), 1e-300)
+        error = float(np.abs(a - b).max()) / scale
+        worst = max(worst, error)
+        print(f"{name:24s} max |cpu - gpu| / scale = {error:.2e}")
+        assert error < 1e-12, name
+    assert np.abs(runs["cpu"][2]).max() > 0.0, "the walls must carry a load"
+    total = sum(abs(v) for v in runs["cpu"][1].values())
+    for key, value in runs["cpu"][1].items():
+        other = runs["gpu"][1][key]
+        print(f"energy {key:22s} cpu {value:.12e} gpu {other:.12e}")
+        assert abs(value - other) <= 1e-12 * total, key
+    print(f"worst relative difference {worst:.2e}")
+
+
+def case_contacts_walls_match_cpu():
+    """Hertz-Mindlin contacts, a plane and a moving mesh wall, breakage: GPU equals CPU."""
+    from bondem.contacts import ContactSettings
+    compare_contact_runs(falling_clusters, ContactSettings(model="hertz_mindlin"), steps=30)
+
+
+def case_contacts_linear_rebuilds():
+    """Linear contacts with a small skin (a list rebuild every few steps, springs carried
+    by the host rebuild between device batches): GPU equals CPU."""
+    from bondem.contacts import ContactSettings
+
+    def system():
+        model, state, walls = falling_clusters(seed=12)
+        return model, state, walls[:1]
+    compare_contact_runs(system, ContactSettings(model="linear", skin=2e-5), steps=30,
+                         time_step=2e-6)
 
 def nvvm_available():
     try:

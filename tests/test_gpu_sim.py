@@ -83,11 +83,27 @@ def test_contact_kernel_matches_numpy_under_simulator():
     run_case("contact_kernel")
 
 
+def test_contacts_and_walls_match_cpu_under_simulator():
+    """Simulation(backend="gpu", contact=Hertz-Mindlin, walls=[plane, moving mesh]): two
+    bonded clusters and loose spheres falling and colliding, bonds breaking, 30 steps in
+    two batches: positions, velocities, bond vectors, contact and wall history rows,
+    wall force and torque to 1e-12 of the CPU ContactLaw; same lists and energy terms."""
+    out = run_case("contacts_walls_match_cpu")
+    assert "wall_force" in out
+
+
+def test_contact_list_rebuilds_match_cpu_under_simulator():
+    """Linear contacts with a small skin: the lists are rebuilt every few steps (on the
+    host, springs carried) and the GPU run still equals the CPU run to 1e-12."""
+    run_case("contacts_linear_rebuilds")
+
+
 def test_kernels_compile_for_h100():
     """Every kernel compiles to PTX for sm_90 with NVVM (skips without a CUDA toolkit):
     the simulator alone accepts code that the CUDA target rejects."""
     out = run_case("ptx", simulator=False, skip_status=3)
     assert "elastic_bonds_kernel" in out and "contact_kernel" in out
+    assert "particle_contacts_kernel" in out and "wall_contacts_kernel" in out
 
 
 def test_gpu_backend_without_device_is_a_clear_error(glass, binder):
@@ -119,7 +135,8 @@ def _has_gpu():
 @pytest.mark.parametrize("case", ["bonds_match_cpu", "periodic_match_cpu", "extra_law_match_cpu",
                                   "blow_up_flag",
                                   "neighbour_search", "history_remap", "contact_kernel",
-                                  "contacts_match_cpu"])
+                                  "contacts_match_cpu", "contacts_walls_match_cpu",
+                                  "contacts_linear_rebuilds"])
 def test_cases_on_device(case):
     """The simulator cases again on the real device (fused multiply-add may change bits,
     not the 1e-12 agreement)."""

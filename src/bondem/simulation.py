@@ -23,7 +23,7 @@ class Simulation:
     backend: "cpu" or "gpu" (CUDA; the state then lives on the device and ``self.state``
     is refreshed at the end of every ``step``/``run`` batch; after editing ``self.state``
     on the host, call ``self.backend.to_device(self.state)``). Contacts and walls run on
-    the CPU backend only, for now.
+    both backends (GPU: ``backends.cuda_contacts.ContactLawGpu``).
     """
 
     def __init__(self, model, state, *, time_step="auto", safety_factor=0.2,
@@ -55,10 +55,9 @@ class Simulation:
         self.backend = select_backend(backend, model, state)
         self.contacts = None
         if contact is not None or len(walls):
-            if backend != "cpu":
-                raise ValueError(f"backend = {backend!r}: contacts and walls are implemented "
-                                 "on the CPU backend only; use backend = 'cpu'")
             from .contacts import ContactLaw, ContactSettings
+            if backend == "gpu":
+                from .backends.cuda_contacts import ContactLawGpu as ContactLaw
             if contact is None:
                 contact = ContactSettings(model="none")
             self.contacts = ContactLaw(model, contact, walls)

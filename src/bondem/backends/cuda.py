@@ -320,6 +320,7 @@ class GpuBackend:
         self.status = put(np.zeros(1, dtype=np.int64))
         self.force = cuda.device_array((n, 3))
         self.moment = cuda.device_array((n, 3))
+        self._transfers = []   # laws with their own device state (to_host / to_device)
         self.to_device(state)
 
     # -- transfers ------------------------------------------------------------------------
@@ -327,6 +328,13 @@ class GpuBackend:
         """Upload every changing array of the host ``state`` (after editing it on the host)."""
         self.device = DeviceState(state)
         self.status.copy_to_device(np.zeros(1, dtype=np.int64))
+        for law in self._transfers:
+            law.to_device(state)
+
+    def register_transfers(self, law):
+        """Have ``law.to_host(state)`` / ``law.to_device(state)`` called with this backend's
+        (a law keeping its own device arrays, e.g. contact history in ``state.extra``)."""
+        self._transfers.append(law)
 
     def to_host(self, state):
         """Copy the device state into ``state`` in place; add the energy counters.
@@ -341,6 +349,8 @@ class GpuBackend:
         zeros = np.zeros(state.position.shape[0])
         self.device.work.copy_to_device(zeros)
         self.device.dissipated.copy_to_device(zeros)
+        for law in self._transfers:
+            law.to_host(state)
         status = int(self.status.copy_to_host()[0])
         if status != STATUS_OK:
             self.status.copy_to_device(np.zeros(1, dtype=np.int64))

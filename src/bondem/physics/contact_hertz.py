@@ -97,7 +97,10 @@ def friction_and_rolling(n, v_t, w_rel, spring, f_n, k_t, c_t, friction, rolling
     """
     xi = add(carry_to_plane(spring, n), scale(v_t, dt))
     f_t = add(scale(xi, k_t), scale(v_t, c_t))
-    limit = friction * max(f_n, 0.0)
+    # if-expressions instead of builtin max/min, which the CUDA target of numba 0.68 does
+    # not compile (same value as max(f_n, 0.0), NaN included).
+    f_n_positive = 0.0 if 0.0 > f_n else f_n
+    limit = friction * f_n_positive
     magnitude = norm(f_t)
     if magnitude > limit:
         f_t = scale(f_t, limit / magnitude) if magnitude > 0.0 else f_t
@@ -107,8 +110,9 @@ def friction_and_rolling(n, v_t, w_rel, spring, f_n, k_t, c_t, friction, rolling
     w_roll_size = norm(w_roll)
     torque = (0.0, 0.0, 0.0)
     if rolling_friction > 0.0 and w_roll_size > 0.0:
-        torque_size = min(rolling_friction * r_star * max(f_n, 0.0),
-                          w_roll_size * i_star / dt)
+        torque_size = rolling_friction * r_star * f_n_positive
+        cap = w_roll_size * i_star / dt
+        torque_size = cap if cap < torque_size else torque_size  # min(torque_size, cap)
         torque = scale(w_roll, -torque_size / w_roll_size)
     return f_t, torque, xi
 
