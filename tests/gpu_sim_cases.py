@@ -516,8 +516,12 @@ def falling_clusters(seed=11):
     return model, state, walls
 
 
-def compare_contact_runs(system, settings, steps, time_step="auto", expect_walls=True):
-    """GPU (simulator) and CPU runs with contacts and walls: everything to 1e-12."""
+def compare_contact_runs(system, settings, steps, time_step="auto", expect_walls=True,
+                         restart=False):
+    """GPU (simulator) and CPU runs with contacts and walls: everything to 1e-12.
+
+    restart: the GPU run's second batch is made by a new Simulation from a copy of the
+    host state after the first (a checkpoint: lists and history from ``state.extra``)."""
     runs = {}
     for backend in ("cpu", "gpu"):
         model, state, walls = system()
@@ -525,6 +529,9 @@ def compare_contact_runs(system, settings, steps, time_step="auto", expect_walls
                                 time_step=time_step)
         sim.step(steps // 2)
         half = (sim.wall_force.copy(), sim.wall_torque.copy())
+        if restart and backend == "gpu":
+            sim = bondem.Simulation(model, sim.state.copy(), backend=backend, contact=settings,
+                                    walls=walls, time_step=sim.time_step)
         sim.step(steps - steps // 2)
         runs[backend] = (sim.state, sim.energy_terms(), sim.wall_force.copy(),
                          sim.wall_torque.copy(), half, sim.contacts.touching())
@@ -580,14 +587,15 @@ def case_contacts_walls_match_cpu():
 
 def case_contacts_linear_rebuilds():
     """Linear contacts with a small skin (a list rebuild every few steps, springs carried
-    by the host rebuild between device batches): GPU equals CPU."""
+    by the host rebuild), the GPU run resumed from a copy of its state half-way (as from
+    a checkpoint): GPU equals CPU."""
     from bondem.contacts import ContactSettings
 
     def system():
         model, state, walls = falling_clusters(seed=12)
         return model, state, walls[:1]
     compare_contact_runs(system, ContactSettings(model="linear", skin=2e-5), steps=30,
-                         time_step=2e-6)
+                         time_step=2e-6, restart=True)
 
 def nvvm_available():
     try:
