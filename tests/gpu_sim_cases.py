@@ -467,11 +467,12 @@ def case_contacts_match_cpu():
     assert gpu_law.rebuilds >= 3 and touching >= 5
 
 
-def falling_clusters(seed=11):
+def falling_clusters(seed=11, periodic=False):
     """Two bonded 2x2x2 clusters and 8 loose spheres (24 in all, two materials) falling
     onto a plane (z = 0) beside a tilted two-triangle mesh wall, with spins, gravity and
     weak bonds: particle contacts, wall contacts of both kinds and breakage within tens
-    of steps."""
+    of steps. periodic: x periodic with a period of 12.08 r, so that the row of six
+    closes across the boundary (its ends overlap by 0.02 r)."""
     rng = np.random.default_rng(seed)
     r = 1e-3
     cube = np.array([[x, y, z] for x in range(2) for y in range(2) for z in range(2)],
@@ -501,7 +502,9 @@ def falling_clusters(seed=11):
     model, state = bondem.make_system(
         position, r, [glass, steel], material_index=np.arange(24) % 2, velocity=velocity,
         angular_velocity=rng.uniform(-200.0, 200.0, (24, 3)), bonds=bonds,
-        bond_diameter=1e-3, bond_material=binder, gravity=(0.0, 0.0, -9.81))
+        bond_diameter=1e-3, bond_material=binder, gravity=(0.0, 0.0, -9.81),
+        **(dict(periodic=(True, False, False), box_low=(-1.06 * r, -0.1, -0.1),
+                box_high=(11.02 * r, 0.1, 0.1)) if periodic else {}))
     from bondem.walls import MeshWall, PlaneWall
     wall_material = bondem.Material(density=7800.0, young_modulus=2e8, poisson_ratio=0.3,
                                     restitution=0.7, friction=0.5, rolling_friction=0.03)
@@ -577,6 +580,7 @@ def compare_contact_runs(system, settings, steps, time_step="auto", expect_walls
         print(f"energy {key:22s} cpu {value:.12e} gpu {other:.12e}")
         assert abs(value - other) <= 1e-12 * total, key
     print(f"worst relative difference {worst:.2e}")
+    return cpu
 
 
 def case_contacts_walls_match_cpu():
@@ -587,15 +591,20 @@ def case_contacts_walls_match_cpu():
 
 def case_contacts_linear_rebuilds():
     """Linear contacts with a small skin (a list rebuild every few steps, springs carried
-    by the host rebuild), the GPU run resumed from a copy of its state half-way (as from
+    by the host rebuild), x periodic (contacts across the boundary), the GPU run resumed from a copy of its state half-way (as from
     a checkpoint): GPU equals CPU."""
     from bondem.contacts import ContactSettings
 
     def system():
-        model, state, walls = falling_clusters(seed=12)
+        model, state, walls = falling_clusters(seed=12, periodic=True)
         return model, state, walls[:1]
-    compare_contact_runs(system, ContactSettings(model="linear", skin=2e-5), steps=30,
-                         time_step=2e-6, restart=True)
+    cpu = compare_contact_runs(system, ContactSettings(model="linear", skin=2e-5), steps=30,
+                               time_step=2e-6, restart=True)
+    pairs = cpu.extra["contact_pairs"]
+    loaded = pairs[np.any(cpu.extra["contact_force"] != 0.0, axis=1)]
+    gap = np.abs(cpu.position[loaded[:, 1], 0] - cpu.position[loaded[:, 0], 0])
+    print(f"loaded pairs across the periodic boundary: {int(np.sum(gap > 6e-3))}")
+    assert np.any(gap > 6e-3), "the case must have a contact across the periodic boundary"
 
 def nvvm_available():
     try:
