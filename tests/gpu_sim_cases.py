@@ -591,8 +591,8 @@ def case_contacts_walls_match_cpu():
 
 def case_contacts_linear_rebuilds():
     """Linear contacts with a small skin (a list rebuild every few steps, springs carried
-    by the host rebuild), x periodic (contacts across the boundary), the GPU run resumed from a copy of its state half-way (as from
-    a checkpoint): GPU equals CPU."""
+    by the host rebuild), x periodic (contacts across the boundary), the GPU run resumed
+    from a copy of its state half-way (as from a checkpoint): GPU equals CPU."""
     from bondem.contacts import ContactSettings
 
     def system():

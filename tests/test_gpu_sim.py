@@ -94,8 +94,9 @@ def test_contacts_and_walls_match_cpu_under_simulator():
 
 def test_contact_list_rebuilds_match_cpu_under_simulator():
     """Linear contacts with a small skin, x periodic (a contact across the boundary): the
-    lists are rebuilt every few steps (on the host, springs carried), the GPU run is resumed half-way from a copy of its state (a
-    checkpoint's state.extra), and it still equals the CPU run to 1e-12."""
+    lists are rebuilt every few steps (on the host, springs carried), the GPU run is
+    resumed half-way from a copy of its state (a checkpoint's state.extra), and it still
+    equals the CPU run to 1e-12."""
     run_case("contacts_linear_rebuilds")
 
 

@@ -55,12 +55,14 @@ class Simulation:
         self.backend = select_backend(backend, model, state)
         self.contacts = None
         if contact is not None or len(walls):
-            from .contacts import ContactLaw, ContactSettings
+            from .contacts import ContactSettings
             if backend == "gpu":
-                from .backends.cuda_contacts import ContactLawGpu as ContactLaw
+                from .backends.cuda_contacts import ContactLawGpu as law_class
+            else:
+                from .contacts import ContactLaw as law_class
             if contact is None:
                 contact = ContactSettings(model="none")
-            self.contacts = ContactLaw(model, contact, walls)
+            self.contacts = law_class(model, contact, walls)
             laws = (self.contacts, *laws)
         self.walls = list(walls)
         self.backend.check_laws(laws)
