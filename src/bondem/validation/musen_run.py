@@ -21,7 +21,8 @@ QUANTITIES = ("position", "velocity", "angular_velocity", "tangential_force",
 def octahedron_cluster(radius, p):
     """(model, state) of the tumbling, stretched, twisted 6-sphere cluster (SI units).
 
-    p: the ``cluster`` table of musen.toml.
+    p: the ``cluster`` table of musen.toml (optional keys breakage, normal_strength and
+    tangential_strength, Pa, set the bond material's breakage; default unbreakable).
     """
     import bondem
     directions = np.array([[1, 0, 0], [-1, 0, 0], [0, 1, 0], [0, -1, 0], [0, 0, 1],
@@ -33,7 +34,10 @@ def octahedron_cluster(radius, p):
     material = bondem.Material(density=p["density"], young_modulus=p["young_modulus"],
                                poisson_ratio=p["poisson_ratio"], name="spheres")
     binder = bondem.BondMaterial(young_modulus=p["young_modulus"],
-                                 poisson_ratio=p["poisson_ratio"], breakage="none",
+                                 poisson_ratio=p["poisson_ratio"],
+                                 breakage=p.get("breakage", "none"),
+                                 normal_strength=p.get("normal_strength", np.inf),
+                                 tangential_strength=p.get("tangential_strength", np.inf),
                                  name="binder")
     model, state = bondem.make_system(position, radius, material, bonds=np.array(bonds),
                                       bond_diameter=p["bond_diameter_ratio"] * 2 * radius,
@@ -73,7 +77,8 @@ def run_both(radius, p, steps, compat=True):
                 angular_velocity=s.angular_velocity,
                 tangential_force=s.bond_tangential_force,
                 normal_moment=s.bond_normal_moment,
-                tangential_moment=s.bond_tangential_moment, active=s.bond_active)
+                tangential_moment=s.bond_tangential_moment, active=s.bond_active,
+                break_time=s.bond_break_time)
     return ours, reference, dt
 
 
