@@ -38,9 +38,12 @@ def elastic_bonds(pairs, diameter, initial_length, bond_material, bm_young, bm_p
                   position, velocity, angular_velocity, box_length, periodic,
                   active, axis, previous_length, tangential_force, normal_moment,
                   tangential_moment, break_time, break_mode, break_energy, time, dt, musen,
-                  out_force_i, out_moment_i,
-                  out_moment_j):
-    """Advance every intact bond by one increment dt (s) and store its loads per bond."""
+                  out_force_i, out_moment_i, out_moment_j):
+    """Advance every intact bond by one increment dt (s) and store its loads per bond.
+
+    musen: MUSEN's numerics (``elastic_bond_musen``, ``bond_break_mode_musen``) instead of
+    the SPEC's; previous_length (B,) m: |r| of the last step, which MUSEN's rotation needs.
+    """
     for b in prange(pairs.shape[0]):
         if not active[b]:
             for k in range(3):
@@ -86,9 +89,10 @@ def elastic_bonds(pairs, diameter, initial_length, bond_material, bm_young, bm_p
                 (normal_moment[b, 0], normal_moment[b, 1], normal_moment[b, 2]),
                 (tangential_moment[b, 0], tangential_moment[b, 1], tangential_moment[b, 2]),
                 initial_length[b], kn, kt, ktw, kb, dt)
-            mode = bond_break_mode(length, initial_length[b], f_n, f_t, m_n, m_t, diameter[b],
-                                   bm_normal_strength[m], bm_tangential_strength[m],
-                                   bm_criterion[m], bm_compressive[m])
+            mode = bond_break_mode(length, initial_length[b], f_n, f_t, m_n, m_t,
+                                   diameter[b], bm_normal_strength[m],
+                                   bm_tangential_strength[m], bm_criterion[m],
+                                   bm_compressive[m])
         if mode != INTACT:
             active[b] = False
             break_time[b] = time
@@ -272,7 +276,8 @@ class ElasticBonds:
                       state.bond_tangential_force, state.bond_normal_moment,
                       state.bond_tangential_moment, state.bond_break_time,
                       state.bond_break_mode, state.bond_break_energy, state.time,
-                      increment_dt, self.musen_compat, self.force_i, self.moment_i, self.moment_j)
+                      increment_dt, self.musen_compat, self.force_i, self.moment_i,
+                      self.moment_j)
 
     def gather(self, force, moment):
         """Add the per-bond loads of the last ``compute`` to force (N), moment (N m)."""

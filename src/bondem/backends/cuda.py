@@ -67,8 +67,13 @@ def elastic_bonds_kernel(pairs, diameter, initial_length, bond_material, bm_youn
                          bm_compressive, position, velocity, angular_velocity, box_length,
                          periodic, active, axis, previous_length, tangential_force,
                          normal_moment, tangential_moment, break_time, break_mode,
-                         break_energy, time, dt, musen, out_force_i, out_moment_i, out_moment_j):
-    """One thread per bond: advance it by dt (s) and store its loads in its own slot."""
+                         break_energy, time, dt, musen, out_force_i, out_moment_i,
+                         out_moment_j):
+    """One thread per bond: advance it by dt (s) and store its loads in its own slot.
+
+    musen: MUSEN's numerics (``elastic_bond_musen``, ``bond_break_mode_musen``) instead of
+    the SPEC's; previous_length (B,) m: |r| of the last step, which MUSEN's rotation needs.
+    """
     b = cuda.grid(1)
     if b >= pairs.shape[0]:
         return
