@@ -58,6 +58,11 @@ def case_periodic_match_cpu():
     case_bonds_match_cpu(steps=20, system=periodic_chain, musen_compat=True, breaks=False)
 
 
+def case_musen_bonds_match_cpu():
+    """MUSEN-compatible bond law (elastic_bond_musen) with breakage: GPU equals CPU."""
+    case_bonds_match_cpu(musen_compat=True)
+
+
 def case_bonds_match_cpu(steps=30, system=bonded_cluster, musen_compat=False, breaks=True,
                          laws=lambda backend: [], time_step="auto"):
     """GPU (simulator) and CPU runs of the same cluster agree to round-off."""
@@ -95,6 +100,9 @@ def case_bonds_match_cpu(steps=30, system=bonded_cluster, musen_compat=False, br
         error = float(np.abs(a - b).max()) / scale
         print(f"{name:24s} max |cpu - gpu| / scale = {error:.2e}")
         assert error < 1e-12, name
+    assert np.array_equal(cpu.bond_previous_length, gpu.bond_previous_length) or \
+        np.abs(cpu.bond_previous_length - gpu.bond_previous_length).max() < 1e-12 \
+        * cpu.bond_previous_length.max()
     for key, value in runs["cpu"][1].items():
         other = runs["gpu"][1][key]
         print(f"energy {key:22s} cpu {value:.10e} gpu {other:.10e}")
@@ -346,7 +354,8 @@ def case_ptx():
     B1, I8, I32 = array(boolean, 1), array(types.int8, 1), array(types.int32, 1)
     signatures = {
         "elastic_bonds_kernel": (I2, A1, A1, I32, A1, A1, A1, A1, I8, B1, A2, A2, A2, A1, B1,
-                                 B1, A2, A2, A2, A2, A1, I8, A1, f64, f64, A2, A2, A2),
+                                 B1, A2, A1, A2, A2, A2, A1, I8, A1, f64, f64, boolean, A2,
+                                 A2, A2),
         "integrate_kernel": (I1, I1, A2, A2, A2, boolean, A2, A2, A2, A2, A2, A1, A1, B1, A1,
                              A2, A2, f64, f64, f64, A1, A1, B1, I1, A1, A1),
         "gather_bond_loads_kernel": (I1, I1, A2, A2, A2, A2, A2, boolean),

@@ -50,6 +50,12 @@ def test_periodic_musen_start_matches_cpu_under_simulator():
     run_case("periodic_match_cpu")
 
 
+def test_musen_bond_law_matches_cpu_under_simulator():
+    """The MUSEN-compatible bond law (musen_compat=True) with breakage, 30 steps: the CUDA
+    kernel takes the same flag and the same physics function as the CPU kernel."""
+    assert "ok" in run_case("musen_bonds_match_cpu")
+
+
 def test_extra_device_law_matches_cpu_under_simulator():
     """A second law on the device (a tether spring) adds to the fused bond gather as the
     CPU law does; a CPU-only law is refused by backend='gpu' with a message."""

@@ -161,7 +161,9 @@ class State:
     2 compression, 3 shear; bond_break_energy (B,) J: elastic energy the bond held when it
     broke; work_external: J done on particles by gravity and external loads so far;
     dissipated_damping: J removed by local damping so far. ``extra`` holds other laws'
-    history and counters (contacts, walls) as arrays.
+    history and counters (contacts, walls) as arrays. bond_previous_length (B,) m: |x_j -
+    x_i| of the last step, which MUSEN's rotation needs (``musen_compat``); None in states
+    made before it existed: ``Simulation`` then sets it to the initial lengths.
     """
     time: float
     step: int
@@ -179,6 +181,7 @@ class State:
     bond_break_energy: np.ndarray
     work_external: float = 0.0
     dissipated_damping: float = 0.0
+    bond_previous_length: np.ndarray | None = None
     extra: dict = field(default_factory=dict)
 
     def copy(self) -> "State":
@@ -360,5 +363,6 @@ def make_system(position, radius, material, *, material_index=None, velocity=Non
         bond_tangential_moment=np.zeros((n_bonds, 3)),
         bond_break_time=np.full(n_bonds, np.nan),
         bond_break_mode=np.zeros(n_bonds, dtype=np.int8),
-        bond_break_energy=np.zeros(n_bonds))
+        bond_break_energy=np.zeros(n_bonds),
+        bond_previous_length=initial_length.copy())
     return model, state

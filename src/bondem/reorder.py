@@ -90,5 +90,7 @@ def reorder_system(model, state, order):
         bond_tangential_moment=bonds(state.bond_tangential_moment),
         bond_break_time=bonds(state.bond_break_time),
         bond_break_mode=bonds(state.bond_break_mode),
-        bond_break_energy=bonds(state.bond_break_energy), extra=extra)
+        bond_break_energy=bonds(state.bond_break_energy), extra=extra,
+        bond_previous_length=(None if state.bond_previous_length is None
+                              else bonds(state.bond_previous_length)))
     return new_model, new_state

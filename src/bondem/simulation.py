@@ -52,6 +52,9 @@ class Simulation:
         self.time_step = time_step
         self.time_step_cause = cause
         self.musen_compat = bool(musen_compat)
+        if state.bond_previous_length is None:
+            # A state from before this array existed: its bonds start at their L0.
+            state.bond_previous_length = model.bond_initial_length.copy()
         self.backend = select_backend(backend, model, state)
         self.contacts = None
         if contact is not None or len(walls):
@@ -67,6 +70,7 @@ class Simulation:
         self.walls = list(walls)
         self.backend.check_laws(laws)
         self.bonds = self.backend.bond_law(model)
+        self.bonds.musen_compat = self.musen_compat
         self.laws = [self.bonds, *laws]
         self.integrator = self.backend.integrator(model)
         self.force, self.moment = self.backend.load_arrays(model.n_particles)

@@ -15,6 +15,8 @@ from ..physics.bond_elastic import INTACT
 
 P = compile_physics(numba.njit(cache=False))
 elastic_bond = P.elastic_bond
+elastic_bond_musen = P.elastic_bond_musen
+bond_break_mode_musen = P.bond_break_mode_musen
 bond_stiffnesses = P.bond_stiffnesses
 bond_loads_on_particles = P.bond_loads_on_particles
 bond_break_mode = P.bond_break_mode
@@ -34,10 +36,14 @@ SERIAL_BELOW = 2048
 def elastic_bonds(pairs, diameter, initial_length, bond_material, bm_young, bm_poisson,
                   bm_normal_strength, bm_tangential_strength, bm_criterion, bm_compressive,
                   position, velocity, angular_velocity, box_length, periodic,
-                  active, axis, tangential_force, normal_moment, tangential_moment,
-                  break_time, break_mode, break_energy, time, dt, out_force_i, out_moment_i,
-                  out_moment_j):
-    """Advance every intact bond by one increment dt (s) and store its loads per bond."""
+                  active, axis, previous_length, tangential_force, normal_moment,
+                  tangential_moment, break_time, break_mode, break_energy, time, dt, musen,
+                  out_force_i, out_moment_i, out_moment_j):
+    """Advance every intact bond by one increment dt (s) and store its loads per bond.
+
+    musen: MUSEN's numerics (``elastic_bond_musen``, ``bond_break_mode_musen``) instead of
+    the SPEC's; previous_length (B,) m: |r| of the last step, which MUSEN's rotation needs.
+    """
     for b in prange(pairs.shape[0]):
         if not active[b]:
             for k in range(3):
@@ -54,20 +60,39 @@ def elastic_bonds(pairs, diameter, initial_length, bond_material, bm_young, bm_p
                           periodic[0], periodic[1], periodic[2])
         kn, kt, ktw, kb = bond_stiffnesses(bm_young[m], bm_poisson[m], diameter[b],
                                            initial_length[b])
-        length, n, f_n, f_t, m_n, m_t = elastic_bond(
-            r,
-            (velocity[i, 0], velocity[i, 1], velocity[i, 2]),
-            (velocity[j, 0], velocity[j, 1], velocity[j, 2]),
-            (angular_velocity[i, 0], angular_velocity[i, 1], angular_velocity[i, 2]),
-            (angular_velocity[j, 0], angular_velocity[j, 1], angular_velocity[j, 2]),
-            (axis[b, 0], axis[b, 1], axis[b, 2]),
-            (tangential_force[b, 0], tangential_force[b, 1], tangential_force[b, 2]),
-            (normal_moment[b, 0], normal_moment[b, 1], normal_moment[b, 2]),
-            (tangential_moment[b, 0], tangential_moment[b, 1], tangential_moment[b, 2]),
-            initial_length[b], kn, kt, ktw, kb, dt)
-        mode = bond_break_mode(length, initial_length[b], f_n, f_t, m_n, m_t, diameter[b],
-                               bm_normal_strength[m], bm_tangential_strength[m],
-                               bm_criterion[m], bm_compressive[m])
+        if musen:
+            # MUSEN's numerics (physics/bond_elastic_musen.py): previous bond with length.
+            lp = previous_length[b]
+            length, n, f_n, f_t, m_n, m_t = elastic_bond_musen(
+                r,
+                (velocity[i, 0], velocity[i, 1], velocity[i, 2]),
+                (velocity[j, 0], velocity[j, 1], velocity[j, 2]),
+                (angular_velocity[i, 0], angular_velocity[i, 1], angular_velocity[i, 2]),
+                (angular_velocity[j, 0], angular_velocity[j, 1], angular_velocity[j, 2]),
+                (axis[b, 0] * lp, axis[b, 1] * lp, axis[b, 2] * lp),
+                (tangential_force[b, 0], tangential_force[b, 1], tangential_force[b, 2]),
+                (normal_moment[b, 0], normal_moment[b, 1], normal_moment[b, 2]),
+                (tangential_moment[b, 0], tangential_moment[b, 1], tangential_moment[b, 2]),
+                initial_length[b], bm_young[m], bm_poisson[m], diameter[b], dt)
+            mode = bond_break_mode_musen(length, initial_length[b], f_n, f_t, m_n, m_t,
+                                         diameter[b], bm_normal_strength[m],
+                                         bm_tangential_strength[m], bm_criterion[m])
+        else:
+            length, n, f_n, f_t, m_n, m_t = elastic_bond(
+                r,
+                (velocity[i, 0], velocity[i, 1], velocity[i, 2]),
+                (velocity[j, 0], velocity[j, 1], velocity[j, 2]),
+                (angular_velocity[i, 0], angular_velocity[i, 1], angular_velocity[i, 2]),
+                (angular_velocity[j, 0], angular_velocity[j, 1], angular_velocity[j, 2]),
+                (axis[b, 0], axis[b, 1], axis[b, 2]),
+                (tangential_force[b, 0], tangential_force[b, 1], tangential_force[b, 2]),
+                (normal_moment[b, 0], normal_moment[b, 1], normal_moment[b, 2]),
+                (tangential_moment[b, 0], tangential_moment[b, 1], tangential_moment[b, 2]),
+                initial_length[b], kn, kt, ktw, kb, dt)
+            mode = bond_break_mode(length, initial_length[b], f_n, f_t, m_n, m_t,
+                                   diameter[b], bm_normal_strength[m],
+                                   bm_tangential_strength[m], bm_criterion[m],
+                                   bm_compressive[m])
         if mode != INTACT:
             active[b] = False
             break_time[b] = time
@@ -80,6 +105,7 @@ def elastic_bonds(pairs, diameter, initial_length, bond_material, bm_young, bm_p
                 out_moment_j[b, k] = 0.0
             continue
         force_i, moment_i, moment_j = bond_loads_on_particles(r, f_n, f_t, m_n, m_t)
+        previous_length[b] = length
         for k in range(3):
             axis[b, k] = n[k]
             tangential_force[b, k] = f_t[k]
@@ -219,6 +245,8 @@ class ElasticBonds:
     """
 
     name = "elastic_bond"
+    # True: MUSEN's numerics (bond_elastic_musen), set by Simulation(musen_compat=True).
+    musen_compat = False
 
     def __init__(self, model):
         table = model.bond_material_table()
@@ -244,11 +272,12 @@ class ElasticBonds:
         elastic_bonds(model.bond_pairs, model.bond_diameter, model.bond_initial_length,
                       model.bond_material, *self._table, state.position, state.velocity,
                       state.angular_velocity, self._box_length, model.periodic,
-                      state.bond_active, state.bond_axis, state.bond_tangential_force,
-                      state.bond_normal_moment, state.bond_tangential_moment,
-                      state.bond_break_time, state.bond_break_mode, state.bond_break_energy,
-                      state.time, increment_dt,
-                      self.force_i, self.moment_i, self.moment_j)
+                      state.bond_active, state.bond_axis, state.bond_previous_length,
+                      state.bond_tangential_force, state.bond_normal_moment,
+                      state.bond_tangential_moment, state.bond_break_time,
+                      state.bond_break_mode, state.bond_break_energy, state.time,
+                      increment_dt, self.musen_compat, self.force_i, self.moment_i,
+                      self.moment_j)
 
     def gather(self, force, moment):
         """Add the per-bond loads of the last ``compute`` to force (N), moment (N m)."""

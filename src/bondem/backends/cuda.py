@@ -37,6 +37,8 @@ from .cpu import STATUS_NOT_FINITE, STATUS_OK, STATUS_OUT_OF_DOMAIN, particle_bo
 
 D = compile_physics(cuda.jit(device=True))
 elastic_bond = D.elastic_bond
+elastic_bond_musen = D.elastic_bond_musen
+bond_break_mode_musen = D.bond_break_mode_musen
 bond_stiffnesses = D.bond_stiffnesses
 bond_loads_on_particles = D.bond_loads_on_particles
 bond_break_mode = D.bond_break_mode
@@ -63,10 +65,15 @@ def _blocks(n):
 def elastic_bonds_kernel(pairs, diameter, initial_length, bond_material, bm_young,
                          bm_poisson, bm_normal_strength, bm_tangential_strength, bm_criterion,
                          bm_compressive, position, velocity, angular_velocity, box_length,
-                         periodic, active, axis, tangential_force, normal_moment,
-                         tangential_moment, break_time, break_mode, break_energy, time, dt,
-                         out_force_i, out_moment_i, out_moment_j):
-    """One thread per bond: advance it by dt (s) and store its loads in its own slot."""
+                         periodic, active, axis, previous_length, tangential_force,
+                         normal_moment, tangential_moment, break_time, break_mode,
+                         break_energy, time, dt, musen, out_force_i, out_moment_i,
+                         out_moment_j):
+    """One thread per bond: advance it by dt (s) and store its loads in its own slot.
+
+    musen: MUSEN's numerics (``elastic_bond_musen``, ``bond_break_mode_musen``) instead of
+    the SPEC's; previous_length (B,) m: |r| of the last step, which MUSEN's rotation needs.
+    """
     b = cuda.grid(1)
     if b >= pairs.shape[0]:
         return
@@ -85,20 +92,38 @@ def elastic_bonds_kernel(pairs, diameter, initial_length, bond_material, bm_youn
                       periodic[0], periodic[1], periodic[2])
     kn, kt, ktw, kb = bond_stiffnesses(bm_young[m], bm_poisson[m], diameter[b],
                                        initial_length[b])
-    length, n, f_n, f_t, m_n, m_t = elastic_bond(
-        r,
-        (velocity[i, 0], velocity[i, 1], velocity[i, 2]),
-        (velocity[j, 0], velocity[j, 1], velocity[j, 2]),
-        (angular_velocity[i, 0], angular_velocity[i, 1], angular_velocity[i, 2]),
-        (angular_velocity[j, 0], angular_velocity[j, 1], angular_velocity[j, 2]),
-        (axis[b, 0], axis[b, 1], axis[b, 2]),
-        (tangential_force[b, 0], tangential_force[b, 1], tangential_force[b, 2]),
-        (normal_moment[b, 0], normal_moment[b, 1], normal_moment[b, 2]),
-        (tangential_moment[b, 0], tangential_moment[b, 1], tangential_moment[b, 2]),
-        initial_length[b], kn, kt, ktw, kb, dt)
-    mode = bond_break_mode(length, initial_length[b], f_n, f_t, m_n, m_t, diameter[b],
-                           bm_normal_strength[m], bm_tangential_strength[m],
-                           bm_criterion[m], bm_compressive[m])
+    if musen:
+        # MUSEN's numerics (physics/bond_elastic_musen.py): previous bond with length.
+        lp = previous_length[b]
+        length, n, f_n, f_t, m_n, m_t = elastic_bond_musen(
+            r,
+            (velocity[i, 0], velocity[i, 1], velocity[i, 2]),
+            (velocity[j, 0], velocity[j, 1], velocity[j, 2]),
+            (angular_velocity[i, 0], angular_velocity[i, 1], angular_velocity[i, 2]),
+            (angular_velocity[j, 0], angular_velocity[j, 1], angular_velocity[j, 2]),
+            (axis[b, 0] * lp, axis[b, 1] * lp, axis[b, 2] * lp),
+            (tangential_force[b, 0], tangential_force[b, 1], tangential_force[b, 2]),
+            (normal_moment[b, 0], normal_moment[b, 1], normal_moment[b, 2]),
+            (tangential_moment[b, 0], tangential_moment[b, 1], tangential_moment[b, 2]),
+            initial_length[b], bm_young[m], bm_poisson[m], diameter[b], dt)
+        mode = bond_break_mode_musen(length, initial_length[b], f_n, f_t, m_n, m_t,
+                                     diameter[b], bm_normal_strength[m],
+                                     bm_tangential_strength[m], bm_criterion[m])
+    else:
+        length, n, f_n, f_t, m_n, m_t = elastic_bond(
+            r,
+            (velocity[i, 0], velocity[i, 1], velocity[i, 2]),
+            (velocity[j, 0], velocity[j, 1], velocity[j, 2]),
+            (angular_velocity[i, 0], angular_velocity[i, 1], angular_velocity[i, 2]),
+            (angular_velocity[j, 0], angular_velocity[j, 1], angular_velocity[j, 2]),
+            (axis[b, 0], axis[b, 1], axis[b, 2]),
+            (tangential_force[b, 0], tangential_force[b, 1], tangential_force[b, 2]),
+            (normal_moment[b, 0], normal_moment[b, 1], normal_moment[b, 2]),
+            (tangential_moment[b, 0], tangential_moment[b, 1], tangential_moment[b, 2]),
+            initial_length[b], kn, kt, ktw, kb, dt)
+        mode = bond_break_mode(length, initial_length[b], f_n, f_t, m_n, m_t, diameter[b],
+                               bm_normal_strength[m], bm_tangential_strength[m],
+                               bm_criterion[m], bm_compressive[m])
     if mode != INTACT:
         active[b] = False
         break_time[b] = time
@@ -111,6 +136,7 @@ def elastic_bonds_kernel(pairs, diameter, initial_length, bond_material, bm_youn
             out_moment_j[b, k] = 0.0
         return
     force_i, moment_i, moment_j = bond_loads_on_particles(r, f_n, f_t, m_n, m_t)
+    previous_length[b] = length
     for k in range(3):
         axis[b, k] = n[k]
         tangential_force[b, k] = f_t[k]
@@ -262,6 +288,7 @@ def bond_energies_kernel(pairs, diameter, initial_length, bond_material, bm_youn
 
 # State arrays that change during a run and live on the device.
 STATE_ARRAYS = ("position", "velocity", "angular_velocity", "bond_active", "bond_axis",
+                "bond_previous_length",
                 "bond_tangential_force", "bond_normal_moment", "bond_tangential_moment",
                 "bond_break_time", "bond_break_mode", "bond_break_energy")
 
@@ -453,6 +480,8 @@ class ElasticBondsGpu:
 
     name = "elastic_bond"
     backend = "gpu"
+    # True: MUSEN's numerics (bond_elastic_musen), set by Simulation(musen_compat=True).
+    musen_compat = False
 
     def __init__(self, backend, model):
         self.backend_object = backend
@@ -492,10 +521,10 @@ class ElasticBondsGpu:
             elastic_bonds_kernel[_blocks(model.n_bonds), THREADS](
                 self._pairs, self._diameter, self._initial_length, self._material,
                 *self._table, d.position, d.velocity, d.angular_velocity, g.box_length,
-                g.periodic, d.bond_active, d.bond_axis, d.bond_tangential_force,
-                d.bond_normal_moment, d.bond_tangential_moment, d.bond_break_time,
-                d.bond_break_mode, d.bond_break_energy, state.time, increment_dt,
-                self.force_i, self.moment_i, self.moment_j)
+                g.periodic, d.bond_active, d.bond_axis, d.bond_previous_length,
+                d.bond_tangential_force, d.bond_normal_moment, d.bond_tangential_moment,
+                d.bond_break_time, d.bond_break_mode, d.bond_break_energy, state.time,
+                increment_dt, self.musen_compat, self.force_i, self.moment_i, self.moment_j)
 
     def energy(self, model, state):
         """Elastic energy stored in each bond (J), shape (B,), copied to the host."""

@@ -32,8 +32,8 @@ def write_checkpoint(path, state: State, *, frames: int, scene_text: str = "",
     arrays, scalars, extra_kinds = {}, {}, {}
     for f in fields(State):
         value = getattr(state, f.name)
-        if f.name == "extra":
-            continue
+        if f.name == "extra" or value is None:
+            continue  # None: an optional array not set (bond_previous_length)
         if isinstance(value, np.ndarray):
             arrays[f"state/{f.name}"] = value
         else:
@@ -81,6 +81,8 @@ def read_checkpoint(path):
                 continue
             if f.name in meta["scalars"]:
                 kwargs[f.name] = data[f"scalar/{f.name}"].item()
+            elif f"state/{f.name}" not in data and f.default is None:
+                continue  # optional array absent from older checkpoints: its default
             else:
                 kwargs[f.name] = np.ascontiguousarray(data[f"state/{f.name}"])
         extra = {}

@@ -117,7 +117,7 @@ class Case:
 
 CASES: dict = {}
 _MODULES = ("two_particle", "cantilever", "wave", "strength", "rotation", "contact",
-            "refdata")
+            "refdata", "musen_run")
 
 
 def case(name, *, quick):

@@ -66,3 +66,103 @@ def musen_bond_step(xi, xj, vi, vj, wi, wj, previous_bond, overlap, normal_momen
     unsym = np.cross(current * 0.5, tangential_force)
     return (normal_force + tangential_force, normal_moment, tangential_moment, unsym,
             overlap, current)
+
+
+def musen_breaks(strain, normal_force, overlap_force, normal_moment, tangential_moment,
+                 diameter, axial_moment, area, normal_strength, tangential_strength,
+                 criterion):
+    """MUSEN 1547403's breakage test (CONSIDER_BREAKAGE = criterion: 0 none, 1, 2)."""
+    if criterion == 0:
+        return False
+    force_length = np.linalg.norm(normal_force) * (1.0 if strain > 0 else -1.0)
+    stress1 = force_length / area
+    stress2 = np.linalg.norm(tangential_moment) * diameter / (2.0 * axial_moment)
+    torque1 = np.linalg.norm(overlap_force) / area
+    torque2 = np.linalg.norm(normal_moment) * diameter / (4.0 * axial_moment)
+    if criterion == 1:
+        return stress1 + stress2 >= normal_strength or torque1 + torque2 >= tangential_strength
+    return (stress1 >= normal_strength or (stress2 >= normal_strength and strain > 0)
+            or torque1 >= tangential_strength or torque2 >= tangential_strength)
+
+
+def musen_run(model, state, dt, steps):
+    """Run MUSEN's scheme in plain NumPy from ``state`` (not modified) for ``steps`` steps.
+
+    The start-up ("prediction") force evaluation with bond increments of dt and a half
+    kick without drift, then per step: bond forces (``musen_bond_step``, breakage by
+    ``musen_breaks``; a bond that breaks applies nothing), v += (F + m g)/m dt,
+    w += M/I dt, x += v dt (CPUSimulator.cpp). Bonds only: no contacts, damping, external
+    loads or periodic boundaries. Returns a dict of arrays: position, velocity,
+    angular_velocity (N,3), tangential_force, normal_moment, tangential_moment (B,3) on i,
+    active (B,), break_time (B,) (NaN while intact). SI units.
+    """
+    if model.damping or np.any(model.periodic) or np.any(model.external_force) \
+            or np.any(model.external_moment):
+        raise ValueError("musen_run: bonds and gravity only (no damping, periodic "
+                         "boundaries or external loads)")
+    table = model.bond_material_table()
+    x = state.position.copy()
+    v = state.velocity.copy()
+    w = state.angular_velocity.copy()
+    n_bonds = model.n_bonds
+    pairs = model.bond_pairs
+    radius = 0.5 * model.bond_diameter
+    area = np.pi * radius ** 2
+    axial = 0.25 * np.pi * radius ** 4
+    m_index = model.bond_material
+    young = table["young_modulus"][m_index]
+    shear = young / (2.0 * (1.0 + table["poisson_ratio"][m_index]))
+    # bondem's criterion codes 0 none, 1 combined, 2 separate = MUSEN's CONSIDER_BREAKAGE.
+    criterion = table["criterion"][m_index]
+    previous = x[pairs[:, 0]] - x[pairs[:, 1]]
+    # MUSEN's overlap times G A / L0 is its tangential force, bondem's F_t on i (same sign).
+    overlap = state.bond_tangential_force / (shear * area / model.bond_initial_length)[:, None]
+    normal_moment = state.bond_normal_moment.copy()
+    tangential_moment = state.bond_tangential_moment.copy()
+    active = state.bond_active.copy()
+    break_time = state.bond_break_time.copy()
+    time = state.time
+    mass = model.mass[:, None]
+    inertia = model.inertia[:, None]
+    start_up = not state.started
+    for k in range(steps + (1 if start_up else 0)):
+        force = np.zeros_like(x)
+        moment = np.zeros_like(x)
+        for b in range(n_bonds):
+            if not active[b]:
+                continue
+            i, j = pairs[b]
+            total, mn, mt, unsym, ov, current = musen_bond_step(
+                x[i], x[j], v[i], v[j], w[i], w[j], previous[b], overlap[b],
+                normal_moment[b], tangential_moment[b], model.bond_initial_length[b],
+                young[b], shear[b], area[b], axial[b], dt)
+            overlap[b], normal_moment[b], tangential_moment[b], previous[b] = ov, mn, mt, \
+                current
+            length = np.linalg.norm(current)
+            l0 = model.bond_initial_length[b]
+            strain = (length - l0) / l0
+            normal_force = current / length * (-area[b] * young[b] * strain)
+            if musen_breaks(strain, normal_force, ov * (shear[b] * area[b] / l0), mn, mt,
+                            model.bond_diameter[b], axial[b], area[b],
+                            table["normal_strength"][m_index[b]],
+                            table["tangential_strength"][m_index[b]], criterion[b]):
+                active[b] = False
+                break_time[b] = time
+                continue
+            force[i] += total
+            force[j] -= total
+            moment[i] += mn + mt - unsym
+            moment[j] -= mn + mt + unsym
+        force += model.mass[:, None] * model.gravity
+        free = ~model.fixed
+        kick = 0.5 * dt if (k == 0 and start_up) else dt
+        v[free] += force[free] / mass[free] * kick
+        w[free] += moment[free] / inertia[free] * kick
+        if k == 0 and start_up:
+            continue  # the prediction step moves nothing and takes no time
+        x += v * dt
+        time += dt
+    shear_stiffness = (shear * area / model.bond_initial_length)[:, None]
+    return dict(position=x, velocity=v, angular_velocity=w,
+                tangential_force=overlap * shear_stiffness, normal_moment=normal_moment,
+                tangential_moment=tangential_moment, active=active, break_time=break_time)
