@@ -13,7 +13,7 @@ from numba import prange
 from ..physics import compile_physics
 from ..physics.bond_elastic import INTACT
 
-P = compile_physics(numba.njit(cache=False))
+P = compile_physics(numba.njit(cache=False, fastmath={"contract"}))
 elastic_bond = P.elastic_bond
 bond_stiffnesses = P.bond_stiffnesses
 bond_loads_on_particles = P.bond_loads_on_particles
@@ -30,7 +30,7 @@ _jit = dict(parallel=True, cache=True, fastmath=False, nogil=True)
 SERIAL_BELOW = 2048
 
 
-@numba.njit(**_jit)
+@numba.njit(**dict(_jit, fastmath={"contract"}))
 def elastic_bonds(pairs, diameter, initial_length, bond_material, bm_young, bm_poisson,
                   bm_normal_strength, bm_tangential_strength, bm_criterion, bm_compressive,
                   position, velocity, angular_velocity, box_length, periodic,
