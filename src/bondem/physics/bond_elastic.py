@@ -139,6 +139,21 @@ def bond_break_mode(length, initial_length, f_n, f_t, m_n, m_t, diameter, normal
     inverse_radius = 2.0 / diameter
     inverse_area = inverse_radius * inverse_radius * (1.0 / math.pi)
     bending_factor = 4.0 * inverse_area * inverse_radius
+    # Cheap pre-test without square roots, for the common intact bond: a term below its
+    # strength (half its strength for "combined", where two terms add) squared, with a
+    # margin far above round-off, means no break; otherwise the exact test below decides.
+    margin = 0.999999 * (0.25 if criterion == CRITERION_COMBINED else 1.0)
+    normal_limit = margin * normal_strength * normal_strength if normal_strength > 0.0 \
+        else -1.0
+    tangential_limit = margin * tangential_strength * tangential_strength \
+        if tangential_strength > 0.0 else -1.0
+    area_factor = inverse_area * inverse_area
+    moment_factor = bending_factor * bending_factor
+    if (dot(f_n, f_n) * area_factor < normal_limit
+            and dot(m_t, m_t) * moment_factor < normal_limit
+            and dot(f_t, f_t) * area_factor < tangential_limit
+            and 0.25 * dot(m_n, m_n) * moment_factor < tangential_limit):
+        return INTACT
     axial = norm(f_n) * inverse_area
     bending = norm(m_t) * bending_factor
     shear = norm(f_t) * inverse_area
