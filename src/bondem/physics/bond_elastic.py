@@ -86,21 +86,24 @@ def elastic_bond(r, vi, vj, wi, wj, previous_axis, tangential_force, normal_mome
         carried_twist = dot(n, normal_moment)
 
     f_n = scale(n, normal_stiffness * (length - initial_length))
-    # The increments are projected with the carried vectors below: the projection is
-    # linear, so the tangential parts of v_rel and w_rel need not be formed first; for
-    # the same reason Q's term along n, (1 - cos b) n (n . R v), is left out.
+    # Q's term along n, (1 - cos b) n (n . R v), is left out: the projection below
+    # removes it. The increments are made tangential first, though: adding the axial
+    # parts of v_rel and w_rel (large when the bond stretches or twists) and projecting
+    # them out after would cost F_t and M_t their low bits (round-off that grows in
+    # tests/test_conservation.py's spinning cube).
+    w_twist = dot(n, w_rel)
     u = add(add(scale(tangential_force, c), cross(k, tangential_force)),
             scale(k, dot(k, tangential_force) * inverse))
     f_t = add(add(scale(u, twist_cos), scale(cross(n, u), twist_sin)),
-              scale(v_rel, shear_stiffness * dt))
+              scale(sub(v_rel, scale(n, dot(n, v_rel))), shear_stiffness * dt))
     u = add(add(scale(tangential_moment, c), cross(k, tangential_moment)),
             scale(k, dot(k, tangential_moment) * inverse))
     m_t = sub(add(scale(u, twist_cos), scale(cross(n, u), twist_sin)),
-              scale(w_rel, bending_stiffness * dt))
-    # Project onto the bond's planes: removes the axial increments and the round-off.
+              scale(sub(w_rel, scale(n, w_twist)), bending_stiffness * dt))
+    # Project onto the bond's planes: removes Q's axial term and the round-off.
     f_t = sub(f_t, scale(n, dot(n, f_t)))
     m_t = sub(m_t, scale(n, dot(n, m_t)))
-    m_n = scale(n, carried_twist - twist_stiffness * dt * dot(n, w_rel))
+    m_n = scale(n, carried_twist - twist_stiffness * dt * w_twist)
     return length, n, f_n, f_t, m_n, m_t
 
 

@@ -11,8 +11,8 @@ Rotation by angle b about the unit axis n:
     Q v = cos b v + sin b (n x v) + (1 - cos b) n (n . v)
 The twist angle of one step is tiny (|b| ~ 1e-6 rad), so ``twist_sincos`` evaluates
 sin b and 1 - cos b from their Taylor series below |b| = 0.01 (truncation < 1e-16
-relative, and 1 - cos b without the cancellation of 1 - math.cos(b)); a libm sin and cos
-cost about a third of the whole bond update.
+relative, and 1 - cos b without the cancellation of 1 - math.cos(b)), which spares the bond
+kernel two libm calls per bond (docs/performance.md).
 """
 import math
 
