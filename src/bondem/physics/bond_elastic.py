@@ -24,7 +24,7 @@ compressive breakage is on, in which case always, with s = +1.
 import math
 
 from ._registry import physics
-from .rotation import bond_rotate
+from .rotation import twist_sincos
 from .vector import add, cross, dot, norm, scale, sub
 
 INTACT, TENSION, COMPRESSION, SHEAR = 0, 1, 2, 3
@@ -40,12 +40,14 @@ def bond_stiffnesses(young_modulus, poisson_ratio, diameter, initial_length):
     G J/L0 in N m/rad, E I/L0 in N m/rad)."""
     radius = 0.5 * diameter
     area = math.pi * radius * radius
-    second_moment = 0.25 * math.pi * radius ** 4
-    shear_modulus = young_modulus / (2.0 * (1.0 + poisson_ratio))
-    return (young_modulus * area / initial_length,
-            shear_modulus * area / initial_length,
-            shear_modulus * 2.0 * second_moment / initial_length,
-            young_modulus * second_moment / initial_length)
+    second_moment = 0.25 * area * radius * radius
+    # Two divisions instead of five: this runs for every bond in every step.
+    inverse_length = 1.0 / initial_length
+    shear_modulus = 0.5 * young_modulus / (1.0 + poisson_ratio)
+    return (young_modulus * area * inverse_length,
+            shear_modulus * area * inverse_length,
+            shear_modulus * 2.0 * second_moment * inverse_length,
+            young_modulus * second_moment * inverse_length)
 
 
 @physics
@@ -56,8 +58,9 @@ def elastic_bond(r, vi, vj, wi, wj, previous_axis, tangential_force, normal_mome
 
     r: x_j - x_i (m); vi, vj: velocities (m/s); wi, wj: angular velocities (rad/s);
     previous_axis: unit axis of the previous step; tangential_force (N), normal_moment and
-    tangential_moment (N m): accumulated vectors on i; stiffnesses from
-    ``bond_stiffnesses``; dt: the increment's time (s).
+    tangential_moment (N m): accumulated vectors on i, as stored by the previous step
+    (tangential ones perpendicular to previous_axis, normal_moment parallel to it);
+    stiffnesses from ``bond_stiffnesses``; dt: the increment's time (s).
     Returns (L, n, F_n, F_t, M_n, M_t), all on particle i, the accumulated vectors updated.
     """
     length = norm(r)
@@ -65,22 +68,42 @@ def elastic_bond(r, vi, vj, wi, wj, previous_axis, tangential_force, normal_mome
     w_rel = sub(wi, wj)
     w_sum = add(wi, wj)
     v_rel = sub(sub(vj, vi), scale(cross(w_sum, r), 0.5))
-    v_t = sub(v_rel, scale(n, dot(n, v_rel)))
-    w_n = scale(n, dot(n, w_rel))
-    w_t = sub(w_rel, w_n)
-    twist_angle = 0.5 * dot(w_sum, n) * dt
+    twist_sin, twist_cos, _ = twist_sincos(0.5 * dot(w_sum, n) * dt)
+
+    # T = Q R (rotation.bond_rotate) with R's constants shared by the carried vectors.
+    k = cross(previous_axis, n)
+    c = dot(previous_axis, n)
+    if c > -1.0 + 1e-12:
+        inverse = 1.0 / (1.0 + c)
+        # M_n is parallel to the previous axis and R carries that axis onto n, so
+        # T M_n = n (n_prev . M_n) (the twist about n leaves it unchanged).
+        carried_twist = dot(previous_axis, normal_moment)
+    else:
+        # Half turn: as align_rotate, keep the vectors rather than divide by 0.
+        k = (0.0, 0.0, 0.0)
+        c = 1.0
+        inverse = 0.0
+        carried_twist = dot(n, normal_moment)
 
     f_n = scale(n, normal_stiffness * (length - initial_length))
-    f_t = add(bond_rotate(tangential_force, previous_axis, n, twist_angle),
-              scale(v_t, shear_stiffness * dt))
-    m_n = sub(bond_rotate(normal_moment, previous_axis, n, twist_angle),
-              scale(w_n, twist_stiffness * dt))
-    m_t = sub(bond_rotate(tangential_moment, previous_axis, n, twist_angle),
-              scale(w_t, bending_stiffness * dt))
-    # Round-off leaves the carried vectors slightly off their planes; project them back.
+    # Q's term along n, (1 - cos b) n (n . R v), is left out: the projection below
+    # removes it. The increments are made tangential first, though: adding the axial
+    # parts of v_rel and w_rel (large when the bond stretches or twists) and projecting
+    # them out after would cost F_t and M_t their low bits (round-off that grows in
+    # tests/test_conservation.py's spinning cube).
+    w_twist = dot(n, w_rel)
+    u = add(add(scale(tangential_force, c), cross(k, tangential_force)),
+            scale(k, dot(k, tangential_force) * inverse))
+    f_t = add(add(scale(u, twist_cos), scale(cross(n, u), twist_sin)),
+              scale(sub(v_rel, scale(n, dot(n, v_rel))), shear_stiffness * dt))
+    u = add(add(scale(tangential_moment, c), cross(k, tangential_moment)),
+            scale(k, dot(k, tangential_moment) * inverse))
+    m_t = sub(add(scale(u, twist_cos), scale(cross(n, u), twist_sin)),
+              scale(sub(w_rel, scale(n, w_twist)), bending_stiffness * dt))
+    # Project onto the bond's planes: removes Q's axial term and the round-off.
     f_t = sub(f_t, scale(n, dot(n, f_t)))
     m_t = sub(m_t, scale(n, dot(n, m_t)))
-    m_n = scale(n, dot(n, m_n))
+    m_n = scale(n, carried_twist - twist_stiffness * dt * w_twist)
     return length, n, f_n, f_t, m_n, m_t
 
 
@@ -115,13 +138,29 @@ def bond_break_mode(length, initial_length, f_n, f_t, m_n, m_t, diameter, normal
     """
     if criterion == CRITERION_NONE:
         return INTACT
-    radius = 0.5 * diameter
-    area = math.pi * radius * radius
-    second_moment = 0.25 * math.pi * radius ** 4
-    axial = norm(f_n) / area
-    bending = norm(m_t) * radius / second_moment
-    shear = norm(f_t) / area
-    torsion = norm(m_n) * radius / (2.0 * second_moment)
+    # One division per bond: 1/A = (2/d)^2/pi, R/I = 4 (2/d)^3/pi, R/J = 2 (2/d)^3/pi.
+    inverse_radius = 2.0 / diameter
+    inverse_area = inverse_radius * inverse_radius * (1.0 / math.pi)
+    bending_factor = 4.0 * inverse_area * inverse_radius
+    # Cheap pre-test without square roots, for the common intact bond: a term below its
+    # strength (half its strength for "combined", where two terms add) squared, with a
+    # margin far above round-off, means no break; otherwise the exact test below decides.
+    margin = 0.999999 * (0.25 if criterion == CRITERION_COMBINED else 1.0)
+    normal_limit = margin * normal_strength * normal_strength if normal_strength > 0.0 \
+        else -1.0
+    tangential_limit = margin * tangential_strength * tangential_strength \
+        if tangential_strength > 0.0 else -1.0
+    area_factor = inverse_area * inverse_area
+    moment_factor = bending_factor * bending_factor
+    if (dot(f_n, f_n) * area_factor < normal_limit
+            and dot(m_t, m_t) * moment_factor < normal_limit
+            and dot(f_t, f_t) * area_factor < tangential_limit
+            and 0.25 * dot(m_n, m_n) * moment_factor < tangential_limit):
+        return INTACT
+    axial = norm(f_n) * inverse_area
+    bending = norm(m_t) * bending_factor
+    shear = norm(f_t) * inverse_area
+    torsion = norm(m_n) * (0.5 * bending_factor)
     in_tension = length > initial_length
     normal_mode = TENSION if in_tension else COMPRESSION
     normal_checked = in_tension or compressive_breakage
