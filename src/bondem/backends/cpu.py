@@ -16,8 +16,8 @@ from ..physics.bond_elastic import INTACT
 # No fastmath, not even FMA contraction ({"contract"}: 10 % faster bond kernel): it moves
 # the rounding of L = |r|, and L - L0 amplifies that to 3e-12 relative in F_n, above the
 # 1e-12 of the MUSEN transcription check (validation/rotation.py).
-# Numba's cache keys a kernel on this file only: after editing a physics function, touch
-# this file (or delete __pycache__/*.nbi) or a cached kernel keeps the old physics.
+# Numba's cache keys a kernel on this file only; backends/__init__.py drops the cached
+# kernels when a physics source changes (with NUMBA_CACHE_DIR set, delete them by hand).
 P = compile_physics(numba.njit(cache=False))
 elastic_bond = P.elastic_bond
 elastic_bond_musen = P.elastic_bond_musen
