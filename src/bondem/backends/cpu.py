@@ -65,34 +65,26 @@ def elastic_bonds(pairs, diameter, initial_length, bond_material, bm_young, bm_p
                           periodic[0], periodic[1], periodic[2])
         kn, kt, ktw, kb = bond_stiffnesses(bm_young[m], bm_poisson[m], diameter[b],
                                            initial_length[b])
+        vi = (velocity[i, 0], velocity[i, 1], velocity[i, 2])
+        vj = (velocity[j, 0], velocity[j, 1], velocity[j, 2])
+        wi = (angular_velocity[i, 0], angular_velocity[i, 1], angular_velocity[i, 2])
+        wj = (angular_velocity[j, 0], angular_velocity[j, 1], angular_velocity[j, 2])
+        f_t0 = (tangential_force[b, 0], tangential_force[b, 1], tangential_force[b, 2])
+        m_n0 = (normal_moment[b, 0], normal_moment[b, 1], normal_moment[b, 2])
+        m_t0 = (tangential_moment[b, 0], tangential_moment[b, 1], tangential_moment[b, 2])
         if musen:
             # MUSEN's numerics (physics/bond_elastic_musen.py): previous bond with length.
             lp = previous_length[b]
             length, n, f_n, f_t, m_n, m_t = elastic_bond_musen(
-                r,
-                (velocity[i, 0], velocity[i, 1], velocity[i, 2]),
-                (velocity[j, 0], velocity[j, 1], velocity[j, 2]),
-                (angular_velocity[i, 0], angular_velocity[i, 1], angular_velocity[i, 2]),
-                (angular_velocity[j, 0], angular_velocity[j, 1], angular_velocity[j, 2]),
-                (axis[b, 0] * lp, axis[b, 1] * lp, axis[b, 2] * lp),
-                (tangential_force[b, 0], tangential_force[b, 1], tangential_force[b, 2]),
-                (normal_moment[b, 0], normal_moment[b, 1], normal_moment[b, 2]),
-                (tangential_moment[b, 0], tangential_moment[b, 1], tangential_moment[b, 2]),
-                initial_length[b], bm_young[m], bm_poisson[m], diameter[b], dt)
+                r, vi, vj, wi, wj, (axis[b, 0] * lp, axis[b, 1] * lp, axis[b, 2] * lp),
+                f_t0, m_n0, m_t0, initial_length[b], bm_young[m], bm_poisson[m],
+                diameter[b], dt)
             mode = bond_break_mode_musen(length, initial_length[b], f_n, f_t, m_n, m_t,
                                          diameter[b], bm_normal_strength[m],
                                          bm_tangential_strength[m], bm_criterion[m])
         else:
             length, n, f_n, f_t, m_n, m_t = elastic_bond(
-                r,
-                (velocity[i, 0], velocity[i, 1], velocity[i, 2]),
-                (velocity[j, 0], velocity[j, 1], velocity[j, 2]),
-                (angular_velocity[i, 0], angular_velocity[i, 1], angular_velocity[i, 2]),
-                (angular_velocity[j, 0], angular_velocity[j, 1], angular_velocity[j, 2]),
-                (axis[b, 0], axis[b, 1], axis[b, 2]),
-                (tangential_force[b, 0], tangential_force[b, 1], tangential_force[b, 2]),
-                (normal_moment[b, 0], normal_moment[b, 1], normal_moment[b, 2]),
-                (tangential_moment[b, 0], tangential_moment[b, 1], tangential_moment[b, 2]),
+                r, vi, vj, wi, wj, (axis[b, 0], axis[b, 1], axis[b, 2]), f_t0, m_n0, m_t0,
                 initial_length[b], kn, kt, ktw, kb, dt)
             mode = bond_break_mode(length, initial_length[b], f_n, f_t, m_n, m_t,
                                    diameter[b], bm_normal_strength[m],
