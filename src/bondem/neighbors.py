@@ -104,6 +104,18 @@ def _neighbour_cells(c, counts, periodic):
     return out, m
 
 
+@numba.njit(cache=True, nogil=True)
+def sort_row(values, start, stop):
+    """Insertion sort of values[start:stop] in place (a row of a few neighbours)."""
+    for s in range(start + 1, stop):
+        v = values[s]
+        t = s - 1
+        while t >= start and values[t] > v:
+            values[t + 1] = values[t]
+            t -= 1
+        values[t + 1] = v
+
+
 @numba.njit(**_jit)
 def _pair_pass(position, radius, skin, low, width, counts, periodic, box_length,
                cell_start, order, row_start, out_j, fill):
@@ -130,15 +142,8 @@ def _pair_pass(position, radius, skin, low, width, counts, periodic, box_length,
                         out_j[row_start[i] + found] = j
                     found += 1
         if fill:
-            # Insertion sort of the row: pairs ordered by (i, j) whatever the cell order.
-            a = row_start[i]
-            for s in range(a + 1, a + found):
-                v = out_j[s]
-                t = s - 1
-                while t >= a and out_j[t] > v:
-                    out_j[t + 1] = out_j[t]
-                    t -= 1
-                out_j[t + 1] = v
+            # Pairs ordered by (i, j) whatever the cell order.
+            sort_row(out_j, row_start[i], row_start[i] + found)
         else:
             row_start[i + 1] = found
 

@@ -21,7 +21,7 @@ import numpy as np
 from numba import prange
 
 from .model import Material
-from .neighbors import grid_shape
+from .neighbors import grid_shape, sort_row
 from .physics import compile_physics
 
 closest_point_on_triangle = compile_physics(numba.njit(cache=False)).closest_point_on_triangle
@@ -288,14 +288,7 @@ def _wall_pass(position, radius, skin, rows, types, low, width, counts, cell_sta
                         out_e[row_start[p] + found] = e
                     found += 1
         if fill:
-            a = row_start[p]
-            for s in range(a + 1, a + found):
-                v = out_e[s]
-                t = s - 1
-                while t >= a and out_e[t] > v:
-                    out_e[t + 1] = out_e[t]
-                    t -= 1
-                out_e[t + 1] = v
+            sort_row(out_e, row_start[p], row_start[p] + found)
         else:
             row_start[p + 1] = found
 
