@@ -146,6 +146,21 @@ def test_bench_command_json(tmp_path):
     assert bad.exit_code == 2 and "--sizes" in bad.output
 
 
+def test_bench_profile_reports_the_bond_kernel_against_the_roofline(monkeypatch):
+    from click.testing import CliRunner
+    from bondem.cli import main
+    monkeypatch.setattr(bench, "stream_triad", lambda: 20e9)
+    result = CliRunner().invoke(main, ["bench", "lattice", "--sizes", "4", "--steps", "3",
+                                       "--profile", "--triad"])
+    assert result.exit_code == 0, result.output
+    line = next(x for x in result.output.splitlines() if "bond kernel:" in x)
+    ns_per_bond = float(line.split("bond kernel:")[1].split("ns")[0])
+    share = float(line.split("GB/s):")[1].split("%")[0])
+    # roofline 325 B / 20 GB/s = 16.25 ns per bond, over the measured time
+    assert "16.2 ns" in line or "16.3 ns" in line
+    assert share == pytest.approx(100 * 16.25 / ns_per_bond, rel=0.05, abs=1)
+
+
 def test_energy_counters_balance_kinetic_energy():
     """Leapfrog identity: with gravity and local damping on free particles, the change
     of kinetic energy equals work_external - dissipated_damping (to round-off), and both

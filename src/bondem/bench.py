@@ -29,6 +29,11 @@ BOND_DIAMETER = 1e-3    # m
 TIME_STEP = 1e-7        # s
 STRENGTH = {"intact": 1e30, "breaking": 2e5}   # Pa, sigma_max = tau_max
 ORDERS = ("morton", "lattice", "random")
+# Bytes a bond update must move at the least (docs/performance.md): reads pair 16,
+# diameter 8, L0 8, material 4, active 1, axis and carried vectors 96, ~24 of particle
+# state (each particle's 72 B shared by its bonds); writes the carried vectors 96 and the
+# per-bond loads 72. Write-allocate is not counted, as the triad does not count it.
+BOND_UPDATE_BYTES = 325
 
 
 def lattice_system(n, variant="intact", *, seed=42):
@@ -236,6 +241,13 @@ def profile_step(sim, steps=20):
         for key, value in zip(parts, (t1 - t, t2 - t1, t3 - t2, t4 - t3, t5 - t4)):
             parts[key] += value / steps
     return parts
+
+
+def bond_roofline_share(bond_kernel_s_per_step, bonds, bandwidth):
+    """Fraction of the memory-bandwidth roofline the bond kernel reaches: the time that
+    BOND_UPDATE_BYTES per bond take at ``bandwidth`` (B/s) over the kernel's measured
+    seconds per step for ``bonds`` bonds (1 would be the hardware limit)."""
+    return BOND_UPDATE_BYTES * bonds / bandwidth / bond_kernel_s_per_step
 
 
 def stream_triad(n=20_000_000, repeats=5):

@@ -11,7 +11,8 @@ import numpy as np
 from numba import prange
 
 from ..physics import compile_physics
-from ..physics.bond_elastic import INTACT
+from ..physics.bond_elastic import CRITERION_NONE, INTACT
+from ..physics.rotation import SMALL_ANGLE
 
 # No fastmath, not even FMA contraction ({"contract"}: 10 % faster bond kernel): it moves
 # the rounding of L = |r|, and L - L0 amplifies that to 3e-12 relative in F_n, above the
@@ -27,6 +28,17 @@ bond_loads_on_particles = P.bond_loads_on_particles
 bond_break_mode = P.bond_break_mode
 bond_elastic_energy = P.bond_elastic_energy
 minimum_image = P.minimum_image
+
+# The same physics for the vectorised bond loop (``advance_bond_block``): inlined into the
+# loop, without the twist's libm branch (bonds with a large twist are redone by the scalar
+# path), and without zero-division checks (a zero-length bond gives NaN, which
+# ``integrate`` reports), so that LLVM can turn the loop into AVX code.
+V = compile_physics(numba.njit(cache=False, inline="always", error_model="numpy"),
+                    substitute={"twist_sincos": "twist_sincos_series"})
+elastic_bond_inline = V.elastic_bond
+bond_stiffnesses_inline = V.bond_stiffnesses
+bond_loads_on_particles_inline = V.bond_loads_on_particles
+bond_surely_intact_inline = V.bond_surely_intact
 
 STATUS_OK, STATUS_NOT_FINITE, STATUS_OUT_OF_DOMAIN = 0, 1, 2
 
@@ -46,6 +58,8 @@ def elastic_bonds(pairs, diameter, initial_length, bond_material, bm_young, bm_p
                   out_force_i, out_moment_i, out_moment_j):
     """Advance every intact bond by one increment dt (s) and store its loads per bond.
 
+    One bond at a time: the kernel of MUSEN-compatible runs, and the reference that
+    tests/test_bond_blocked.py holds ``elastic_bonds_blocked`` (SPEC runs) to, bit for bit.
     musen: MUSEN's numerics (``elastic_bond_musen``, ``bond_break_mode_musen``) instead of
     the SPEC's; previous_length (B,) m: |r| of the last step, which MUSEN's rotation needs.
     """
@@ -111,6 +125,176 @@ def elastic_bonds(pairs, diameter, initial_length, bond_material, bm_young, bm_p
             out_force_i[b, k] = force_i[k]
             out_moment_i[b, k] = moment_i[k]
             out_moment_j[b, k] = moment_j[k]
+
+
+# Bonds per block of the vectorised kernel, and the rows of a thread's scratch: the
+# block's inputs, gathered from the particle and bond arrays, then its results.
+BOND_BLOCK = 32
+(_R, _VI, _VJ, _WI, _WJ, _AXIS, _FT0, _MN0, _MT0) = range(0, 27, 3)
+(_L0, _DIAMETER, _YOUNG, _POISSON, _NORMAL_STRENGTH, _TANGENTIAL_STRENGTH,
+ _CRITERION) = range(27, 34)
+(_N, _FT, _MN, _MT, _FORCE_I, _MOMENT_I, _MOMENT_J) = range(34, 55, 3)
+_LENGTH, _SLOW = 55, 56
+SCRATCH_ROWS = 57
+
+
+@numba.njit(cache=True, error_model="numpy")
+def advance_bond_block(s, count, dt):
+    """Advance the ``count`` bonds gathered in scratch ``s`` by dt (s), without branches.
+
+    Reads the input rows, writes the result rows; row _SLOW is 1 where the twist may be
+    too large for the series (redo with ``elastic_bond``) or the bond may break (test it
+    exactly): both rare, both left to the caller's scalar path.
+    """
+    B = BOND_BLOCK
+    small_angle_sq = SMALL_ANGLE * SMALL_ANGLE
+    for q in range(count):
+        r = (s[(_R + 0) * B + q], s[(_R + 1) * B + q], s[(_R + 2) * B + q])
+        vi = (s[(_VI + 0) * B + q], s[(_VI + 1) * B + q], s[(_VI + 2) * B + q])
+        vj = (s[(_VJ + 0) * B + q], s[(_VJ + 1) * B + q], s[(_VJ + 2) * B + q])
+        wi = (s[(_WI + 0) * B + q], s[(_WI + 1) * B + q], s[(_WI + 2) * B + q])
+        wj = (s[(_WJ + 0) * B + q], s[(_WJ + 1) * B + q], s[(_WJ + 2) * B + q])
+        axis = (s[(_AXIS + 0) * B + q], s[(_AXIS + 1) * B + q], s[(_AXIS + 2) * B + q])
+        f_t0 = (s[(_FT0 + 0) * B + q], s[(_FT0 + 1) * B + q], s[(_FT0 + 2) * B + q])
+        m_n0 = (s[(_MN0 + 0) * B + q], s[(_MN0 + 1) * B + q], s[(_MN0 + 2) * B + q])
+        m_t0 = (s[(_MT0 + 0) * B + q], s[(_MT0 + 1) * B + q], s[(_MT0 + 2) * B + q])
+        initial_length = s[_L0 * B + q]
+        diameter = s[_DIAMETER * B + q]
+        kn, kt, ktw, kb = bond_stiffnesses_inline(s[_YOUNG * B + q], s[_POISSON * B + q],
+                                             diameter, initial_length)
+        length, n, f_n, f_t, m_n, m_t = elastic_bond_inline(
+            r, vi, vj, wi, wj, axis, f_t0, m_n0, m_t0, initial_length, kn, kt, ktw, kb, dt)
+        force_i, moment_i, moment_j = bond_loads_on_particles_inline(r, f_n, f_t, m_n, m_t)
+        # |twist angle| = |(w_i + w_j) . n| dt / 2 <= |w_i + w_j| dt / 2.
+        w_sum = (wi[0] + wj[0], wi[1] + wj[1], wi[2] + wj[2])
+        large_twist = 0.25 * dt * dt * (w_sum[0] * w_sum[0] + w_sum[1] * w_sum[1]
+                                        + w_sum[2] * w_sum[2]) >= small_angle_sq
+        criterion = s[_CRITERION * B + q]
+        surely_intact = bond_surely_intact_inline(
+            f_n, f_t, m_n, m_t, diameter, s[_NORMAL_STRENGTH * B + q],
+            s[_TANGENTIAL_STRENGTH * B + q], criterion)
+        may_break = (criterion != CRITERION_NONE) & (not surely_intact)
+        s[_LENGTH * B + q] = length
+        s[_SLOW * B + q] = 1.0 if large_twist | may_break else 0.0
+        s[(_N + 0) * B + q], s[(_N + 1) * B + q], s[(_N + 2) * B + q] = n
+        s[(_FT + 0) * B + q], s[(_FT + 1) * B + q], s[(_FT + 2) * B + q] = f_t
+        s[(_MN + 0) * B + q], s[(_MN + 1) * B + q], s[(_MN + 2) * B + q] = m_n
+        s[(_MT + 0) * B + q], s[(_MT + 1) * B + q], s[(_MT + 2) * B + q] = m_t
+        (s[(_FORCE_I + 0) * B + q], s[(_FORCE_I + 1) * B + q],
+         s[(_FORCE_I + 2) * B + q]) = force_i
+        (s[(_MOMENT_I + 0) * B + q], s[(_MOMENT_I + 1) * B + q],
+         s[(_MOMENT_I + 2) * B + q]) = moment_i
+        (s[(_MOMENT_J + 0) * B + q], s[(_MOMENT_J + 1) * B + q],
+         s[(_MOMENT_J + 2) * B + q]) = moment_j
+
+
+@numba.njit(**_jit)
+def elastic_bonds_blocked(pairs, diameter, initial_length, bond_material, bm_young,
+                          bm_poisson, bm_normal_strength, bm_tangential_strength,
+                          bm_criterion, bm_compressive, position, velocity,
+                          angular_velocity, box_length, periodic, active, axis,
+                          previous_length, tangential_force, normal_moment,
+                          tangential_moment, break_time, break_mode, break_energy, time, dt,
+                          scratch, out_force_i, out_moment_i, out_moment_j):
+    """``elastic_bonds`` (SPEC numerics) in blocks of BOND_BLOCK bonds: the same results
+    to the bit, ~1.6x faster. scratch: (threads, SCRATCH_ROWS * BOND_BLOCK) float64.
+
+    Each block is gathered into its thread's scratch, advanced by the vectorised
+    ``advance_bond_block`` and scattered back; a bond it marks slow is advanced again by
+    the scalar physics (large twist) and tested for breakage exactly.
+    """
+    B = BOND_BLOCK
+    n_bonds = pairs.shape[0]
+    for block in prange((n_bonds + B - 1) // B):
+        s = scratch[numba.get_thread_id()]
+        start = block * B
+        count = min(B, n_bonds - start)
+        for q in range(count):
+            b = start + q
+            i = pairs[b, 0]
+            j = pairs[b, 1]
+            m = bond_material[b]
+            r = minimum_image((position[j, 0] - position[i, 0],
+                               position[j, 1] - position[i, 1],
+                               position[j, 2] - position[i, 2]),
+                              (box_length[0], box_length[1], box_length[2]),
+                              periodic[0], periodic[1], periodic[2])
+            for k in range(3):
+                s[(_R + k) * B + q] = r[k]
+                s[(_VI + k) * B + q] = velocity[i, k]
+                s[(_VJ + k) * B + q] = velocity[j, k]
+                s[(_WI + k) * B + q] = angular_velocity[i, k]
+                s[(_WJ + k) * B + q] = angular_velocity[j, k]
+                s[(_AXIS + k) * B + q] = axis[b, k]
+                s[(_FT0 + k) * B + q] = tangential_force[b, k]
+                s[(_MN0 + k) * B + q] = normal_moment[b, k]
+                s[(_MT0 + k) * B + q] = tangential_moment[b, k]
+            s[_L0 * B + q] = initial_length[b]
+            s[_DIAMETER * B + q] = diameter[b]
+            s[_YOUNG * B + q] = bm_young[m]
+            s[_POISSON * B + q] = bm_poisson[m]
+            s[_NORMAL_STRENGTH * B + q] = bm_normal_strength[m]
+            s[_TANGENTIAL_STRENGTH * B + q] = bm_tangential_strength[m]
+            s[_CRITERION * B + q] = bm_criterion[m]
+        advance_bond_block(s, count, dt)
+        for q in range(count):
+            b = start + q
+            if not active[b]:
+                for k in range(3):
+                    out_force_i[b, k] = 0.0
+                    out_moment_i[b, k] = 0.0
+                    out_moment_j[b, k] = 0.0
+                continue
+            if s[_SLOW * B + q] != 0.0:
+                m = bond_material[b]
+                r = (s[_R * B + q], s[(_R + 1) * B + q], s[(_R + 2) * B + q])
+                kn, kt, ktw, kb = bond_stiffnesses(bm_young[m], bm_poisson[m], diameter[b],
+                                                   initial_length[b])
+                length, n, f_n, f_t, m_n, m_t = elastic_bond(
+                    r, (s[_VI * B + q], s[(_VI + 1) * B + q], s[(_VI + 2) * B + q]),
+                    (s[_VJ * B + q], s[(_VJ + 1) * B + q], s[(_VJ + 2) * B + q]),
+                    (s[_WI * B + q], s[(_WI + 1) * B + q], s[(_WI + 2) * B + q]),
+                    (s[_WJ * B + q], s[(_WJ + 1) * B + q], s[(_WJ + 2) * B + q]),
+                    (s[_AXIS * B + q], s[(_AXIS + 1) * B + q], s[(_AXIS + 2) * B + q]),
+                    (s[_FT0 * B + q], s[(_FT0 + 1) * B + q], s[(_FT0 + 2) * B + q]),
+                    (s[_MN0 * B + q], s[(_MN0 + 1) * B + q], s[(_MN0 + 2) * B + q]),
+                    (s[_MT0 * B + q], s[(_MT0 + 1) * B + q], s[(_MT0 + 2) * B + q]),
+                    initial_length[b], kn, kt, ktw, kb, dt)
+                mode = bond_break_mode(length, initial_length[b], f_n, f_t, m_n, m_t,
+                                       diameter[b], bm_normal_strength[m],
+                                       bm_tangential_strength[m], bm_criterion[m],
+                                       bm_compressive[m])
+                if mode != INTACT:
+                    active[b] = False
+                    break_time[b] = time
+                    break_mode[b] = mode
+                    break_energy[b] = bond_elastic_energy(length, initial_length[b], f_t,
+                                                          m_n, m_t, kn, kt, ktw, kb)
+                    for k in range(3):
+                        out_force_i[b, k] = 0.0
+                        out_moment_i[b, k] = 0.0
+                        out_moment_j[b, k] = 0.0
+                    continue
+                force_i, moment_i, moment_j = bond_loads_on_particles(r, f_n, f_t, m_n, m_t)
+                previous_length[b] = length
+                for k in range(3):
+                    axis[b, k] = n[k]
+                    tangential_force[b, k] = f_t[k]
+                    normal_moment[b, k] = m_n[k]
+                    tangential_moment[b, k] = m_t[k]
+                    out_force_i[b, k] = force_i[k]
+                    out_moment_i[b, k] = moment_i[k]
+                    out_moment_j[b, k] = moment_j[k]
+                continue
+            previous_length[b] = s[_LENGTH * B + q]
+            for k in range(3):
+                axis[b, k] = s[(_N + k) * B + q]
+                tangential_force[b, k] = s[(_FT + k) * B + q]
+                normal_moment[b, k] = s[(_MN + k) * B + q]
+                tangential_moment[b, k] = s[(_MT + k) * B + q]
+                out_force_i[b, k] = s[(_FORCE_I + k) * B + q]
+                out_moment_i[b, k] = s[(_MOMENT_I + k) * B + q]
+                out_moment_j[b, k] = s[(_MOMENT_J + k) * B + q]
 
 
 @numba.njit(**_jit)
@@ -256,6 +440,9 @@ class ElasticBonds:
         self.force_i = np.zeros((n_bonds, 3))
         self.moment_i = np.zeros((n_bonds, 3))
         self.moment_j = np.zeros((n_bonds, 3))
+        # One scratch row per Numba thread (get_thread_id < NUMBA_NUM_THREADS).
+        self._scratch = np.zeros((numba.config.NUMBA_NUM_THREADS,
+                                  SCRATCH_ROWS * BOND_BLOCK))
 
     def accumulate(self, model, state, force, moment, increment_dt):
         """Advance the bonds by ``increment_dt`` (s); add loads to force (N), moment (N m)."""
@@ -266,6 +453,17 @@ class ElasticBonds:
 
     def compute(self, model, state, increment_dt):
         """Advance every intact bond by ``increment_dt`` (s); loads kept per bond."""
+        if not self.musen_compat:
+            elastic_bonds_blocked(
+                model.bond_pairs, model.bond_diameter, model.bond_initial_length,
+                model.bond_material, *self._table, state.position, state.velocity,
+                state.angular_velocity, self._box_length, model.periodic, state.bond_active,
+                state.bond_axis, state.bond_previous_length, state.bond_tangential_force,
+                state.bond_normal_moment, state.bond_tangential_moment,
+                state.bond_break_time, state.bond_break_mode, state.bond_break_energy,
+                state.time, increment_dt, self._scratch, self.force_i, self.moment_i,
+                self.moment_j)
+            return
         elastic_bonds(model.bond_pairs, model.bond_diameter, model.bond_initial_length,
                       model.bond_material, *self._table, state.position, state.velocity,
                       state.angular_velocity, self._box_length, model.periodic,

@@ -85,6 +85,16 @@ def command(scene, sizes, steps, variant, backend, order, json_path, peer, peer_
         if r.get("profile"):
             parts = ", ".join(f"{k} {v * 1e3:.3f}" for k, v in r["profile"].items())
             click.echo(f"n={r['n']} ms per step: {parts}")
+            bond_s = r["profile"]["bond kernel"]
+            line = f"n={r['n']} bond kernel: {bond_s / r['bonds'] * 1e9:.1f} ns per bond"
+            if "triad_bytes_per_s" in extra:
+                bandwidth = extra["triad_bytes_per_s"]
+                r["bond_roofline_share"] = bench.bond_roofline_share(bond_s, r["bonds"],
+                                                                     bandwidth)
+                line += (f", roofline {bench.BOND_UPDATE_BYTES / bandwidth * 1e9:.1f} ns "
+                         f"({bench.BOND_UPDATE_BYTES} B at {bandwidth / 1e9:.1f} GB/s): "
+                         f"{100 * r['bond_roofline_share']:.0f} % of the roofline")
+            click.echo(line)
     cpu_runs = [r for r in results if r.get("backend") == "cpu" and r["bonds"]]
     if cpu_runs:
         estimate = bench.memory_estimate(cpu_runs[-1])

@@ -130,6 +130,32 @@ def bond_stresses(length, initial_length, f_n, f_t, m_n, m_t, diameter):
 
 
 @physics
+def bond_surely_intact(f_n, f_t, m_n, m_t, diameter, normal_strength, tangential_strength,
+                       criterion):
+    """True when no stress term can reach its strength: a cheap test without square roots
+    (or branches) that ``bond_break_mode`` makes first; False means "test exactly".
+
+    Each term squared against its strength squared (half its strength for "combined",
+    where two terms add), with a margin far above round-off. Strengths in Pa.
+    """
+    # One division per bond: 1/A = (2/d)^2/pi, R/I = 4 (2/d)^3/pi, R/J = 2 (2/d)^3/pi.
+    inverse_radius = 2.0 / diameter
+    inverse_area = inverse_radius * inverse_radius * (1.0 / math.pi)
+    bending_factor = 4.0 * inverse_area * inverse_radius
+    margin = 0.999999 * (0.25 if criterion == CRITERION_COMBINED else 1.0)
+    normal_limit = margin * normal_strength * normal_strength if normal_strength > 0.0 \
+        else -1.0
+    tangential_limit = margin * tangential_strength * tangential_strength \
+        if tangential_strength > 0.0 else -1.0
+    area_factor = inverse_area * inverse_area
+    moment_factor = bending_factor * bending_factor
+    return ((dot(f_n, f_n) * area_factor < normal_limit)
+            & (dot(m_t, m_t) * moment_factor < normal_limit)
+            & (dot(f_t, f_t) * area_factor < tangential_limit)
+            & (0.25 * dot(m_n, m_n) * moment_factor < tangential_limit))
+
+
+@physics
 def bond_break_mode(length, initial_length, f_n, f_t, m_n, m_t, diameter, normal_strength,
                     tangential_strength, criterion, compressive_breakage):
     """INTACT, or the mode (TENSION, COMPRESSION, SHEAR) in which the bond breaks now.
@@ -138,25 +164,12 @@ def bond_break_mode(length, initial_length, f_n, f_t, m_n, m_t, diameter, normal
     """
     if criterion == CRITERION_NONE:
         return INTACT
-    # One division per bond: 1/A = (2/d)^2/pi, R/I = 4 (2/d)^3/pi, R/J = 2 (2/d)^3/pi.
+    if bond_surely_intact(f_n, f_t, m_n, m_t, diameter, normal_strength,
+                          tangential_strength, criterion):
+        return INTACT
     inverse_radius = 2.0 / diameter
     inverse_area = inverse_radius * inverse_radius * (1.0 / math.pi)
     bending_factor = 4.0 * inverse_area * inverse_radius
-    # Cheap pre-test without square roots, for the common intact bond: a term below its
-    # strength (half its strength for "combined", where two terms add) squared, with a
-    # margin far above round-off, means no break; otherwise the exact test below decides.
-    margin = 0.999999 * (0.25 if criterion == CRITERION_COMBINED else 1.0)
-    normal_limit = margin * normal_strength * normal_strength if normal_strength > 0.0 \
-        else -1.0
-    tangential_limit = margin * tangential_strength * tangential_strength \
-        if tangential_strength > 0.0 else -1.0
-    area_factor = inverse_area * inverse_area
-    moment_factor = bending_factor * bending_factor
-    if (dot(f_n, f_n) * area_factor < normal_limit
-            and dot(m_t, m_t) * moment_factor < normal_limit
-            and dot(f_t, f_t) * area_factor < tangential_limit
-            and 0.25 * dot(m_n, m_n) * moment_factor < tangential_limit):
-        return INTACT
     axial = norm(f_n) * inverse_area
     bending = norm(m_t) * bending_factor
     shear = norm(f_t) * inverse_area

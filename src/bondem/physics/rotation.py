@@ -35,17 +35,24 @@ SMALL_ANGLE = 0.01  # rad; below it the series of twist_sincos are exact to roun
 
 
 @physics
+def twist_sincos_series(angle):
+    """(sin b, cos b, 1 - cos b) of ``angle`` b (rad) by series: exact to round-off only
+    for |b| < SMALL_ANGLE, and free of branches and libm calls, so loops vectorise."""
+    b2 = angle * angle
+    # Horner forms of b - b^3/3! + b^5/5! - b^7/7! and b^2/2! - b^4/4! + b^6/6! - b^8/8!;
+    # the first omitted terms are below 1e-16 of the leading ones at |b| = 0.01.
+    sb = angle * (1.0 - b2 * (1.0 / 6.0) * (1.0 - b2 * (1.0 / 20.0)
+                                             * (1.0 - b2 * (1.0 / 42.0))))
+    omc = 0.5 * b2 * (1.0 - b2 * (1.0 / 12.0) * (1.0 - b2 * (1.0 / 30.0)
+                                                   * (1.0 - b2 * (1.0 / 56.0))))
+    return sb, 1.0 - omc, omc
+
+
+@physics
 def twist_sincos(angle):
     """(sin b, cos b, 1 - cos b) of ``angle`` b (rad), by series for |b| < SMALL_ANGLE."""
     if abs(angle) < SMALL_ANGLE:
-        b2 = angle * angle
-        # Horner forms of b - b^3/3! + b^5/5! - b^7/7! and b^2/2! - b^4/4! + b^6/6! - b^8/8!;
-        # the first omitted terms are below 1e-16 of the leading ones at |b| = 0.01.
-        sb = angle * (1.0 - b2 * (1.0 / 6.0) * (1.0 - b2 * (1.0 / 20.0)
-                                                 * (1.0 - b2 * (1.0 / 42.0))))
-        omc = 0.5 * b2 * (1.0 - b2 * (1.0 / 12.0) * (1.0 - b2 * (1.0 / 30.0)
-                                                       * (1.0 - b2 * (1.0 / 56.0))))
-        return sb, 1.0 - omc, omc
+        return twist_sincos_series(angle)
     cb = math.cos(angle)
     return math.sin(angle), cb, 1.0 - cb
 
