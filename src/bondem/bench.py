@@ -182,6 +182,8 @@ def lattice_run(n, steps, *, variant="intact", backend="cpu", order="morton", wa
     active1 = int(np.count_nonzero(sim.state.bond_active))
     n_p, n_b = model.n_particles, model.n_bonds
     per_particle, per_bond, other = array_bytes(sim)
+    parts, best_parts = (profile_step(sim) if profile and backend == "cpu"
+                         else (None, None))
     return {
         "scene": "lattice", "n": n, "variant": variant, "backend": backend, "order": order,
         "particles": n_p, "bonds": n_b, "steps": steps,
@@ -196,7 +198,7 @@ def lattice_run(n, steps, *, variant="intact", backend="cpu", order="morton", wa
         "bytes_per_bond": per_bond / n_b if n_b else 0.0,
         "bytes_other": other,
         "peak_rss_bytes": peak_rss_bytes(),
-        "profile": profile_step(sim) if profile and backend == "cpu" else None,
+        "profile": parts, "profile_best": best_parts,
     }
 
 
@@ -211,13 +213,19 @@ def memory_estimate(result, particles=1_000_000, bonds_per_particle=3.0):
                         + bonds_per_particle * result["bytes_per_bond"])
 
 
-def profile_step(sim, steps=20):
+def profile_step(sim, steps=40):
     """Wall seconds per step of each part of the CPU step (zero, bonds, gather, other laws,
-    integrate), timed one kernel at a time over ``steps`` steps (same work as ``step``)."""
+    integrate), timed one kernel at a time over ``steps`` steps (same work as ``step``).
+
+    Returns (median, best): dicts of each part's median and minimum over the steps. On a
+    shared machine a step now and then waits for a preempted thread, which swings a mean
+    by tens of percent; the minimum is what the hardware can do (compare it with the
+    triad, itself a best of 5).
+    """
     model, state = sim.model, sim.state
     bonds = sim.bonds
-    parts = dict.fromkeys(("zero loads", "bond kernel", "gather", "other laws",
-                           "integrate"), 0.0)
+    names = ("zero loads", "bond kernel", "gather", "other laws", "integrate")
+    samples = np.zeros((steps, len(names)))
     dt = sim.time_step
     sim.step(1)
     bonds.compute(model, state, dt)          # compile the kernels the step does not use
@@ -238,9 +246,9 @@ def profile_step(sim, steps=20):
         state.time += dt
         state.step += 1
         t5 = time.perf_counter()
-        for key, value in zip(parts, (t1 - t, t2 - t1, t3 - t2, t4 - t3, t5 - t4)):
-            parts[key] += value / steps
-    return parts
+        samples[rep] = (t1 - t, t2 - t1, t3 - t2, t4 - t3, t5 - t4)
+    return (dict(zip(names, (float(x) for x in np.median(samples, axis=0)))),
+            dict(zip(names, (float(x) for x in samples.min(axis=0)))))
 
 
 def bond_roofline_share(bond_kernel_s_per_step, bonds, bandwidth):
