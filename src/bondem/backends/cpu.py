@@ -160,8 +160,9 @@ def advance_bond_block(s, count, dt):
         m_t0 = (s[(_MT0 + 0) * B + q], s[(_MT0 + 1) * B + q], s[(_MT0 + 2) * B + q])
         initial_length = s[_L0 * B + q]
         diameter = s[_DIAMETER * B + q]
-        kn, kt, ktw, kb = bond_stiffnesses_inline(s[_YOUNG * B + q], s[_POISSON * B + q],
-                                             diameter, initial_length)
+        kn, kt, ktw, kb = bond_stiffnesses_inline(s[_YOUNG * B + q],
+                                                  s[_POISSON * B + q], diameter,
+                                                  initial_length)
         length, n, f_n, f_t, m_n, m_t = elastic_bond_inline(
             r, vi, vj, wi, wj, axis, f_t0, m_n0, m_t0, initial_length, kn, kt, ktw, kb, dt)
         force_i, moment_i, moment_j = bond_loads_on_particles_inline(r, f_n, f_t, m_n, m_t)
@@ -197,7 +198,8 @@ def elastic_bonds_blocked(pairs, diameter, initial_length, bond_material, bm_you
                           tangential_moment, break_time, break_mode, break_energy, time, dt,
                           scratch, out_force_i, out_moment_i, out_moment_j):
     """``elastic_bonds`` (SPEC numerics) in blocks of BOND_BLOCK bonds: the same results
-    to the bit, ~1.6x faster. scratch: (threads, SCRATCH_ROWS * BOND_BLOCK) float64.
+    to the bit, 1.3-1.9x faster (docs/performance.md). scratch: (NUMBA_NUM_THREADS,
+    SCRATCH_ROWS * BOND_BLOCK) float64, one row set per thread, owned by one simulation.
 
     Each block is gathered into its thread's scratch, advanced by the vectorised
     ``advance_bond_block`` and scattered back; a bond it marks slow is advanced again by
