@@ -1,7 +1,7 @@
-"""The vectorised bond kernel (cpu.elastic_bonds_blocked) gives the scalar kernel's bits.
+"""The vectorised path of the bond kernel (cpu.elastic_bonds) gives the scalar path's bits.
 
-Both advance the same random bonded cluster for several steps: particles spinning fast
-enough that some twists leave the series' range (the blocked kernel's scalar path), bonds
+Both paths advance the same random bonded cluster for several steps: particles spinning fast
+enough that some twists leave the series' range (the vectorised path's fallback), bonds
 that break in tension, shear and compression under three criteria (its exact break test),
 bonds already broken, a periodic axis, and a bond count that is not a multiple of the
 block. Every array the kernels write must be identical, not merely close.
@@ -47,23 +47,12 @@ def random_cluster(seed, n_particles=150, periodic=False):
     return model, state
 
 
-def advance(kernel, model, state, steps):
+def advance(vectorised, model, state, steps):
     bonds = cpu.ElasticBonds(model)
-    bonds.musen_compat = False
+    bonds.vectorised = vectorised
     loads = []
     for step in range(steps):
-        if kernel == "scalar":
-            cpu.elastic_bonds(
-                model.bond_pairs, model.bond_diameter, model.bond_initial_length,
-                model.bond_material, *bonds._table, state.position, state.velocity,
-                state.angular_velocity, model.box_length, model.periodic,
-                state.bond_active, state.bond_axis, state.bond_previous_length,
-                state.bond_tangential_force, state.bond_normal_moment,
-                state.bond_tangential_moment, state.bond_break_time, state.bond_break_mode,
-                state.bond_break_energy, state.time, DT, False, bonds.force_i,
-                bonds.moment_i, bonds.moment_j)
-        else:
-            bonds.compute(model, state, DT)
+        bonds.compute(model, state, DT)
         loads.append(np.concatenate([bonds.force_i, bonds.moment_i, bonds.moment_j]))
         # Move the particles so that the bonds stretch, shear, bend and twist.
         state.position += state.velocity * DT * 20
@@ -72,12 +61,12 @@ def advance(kernel, model, state, steps):
 
 
 @pytest.mark.parametrize("periodic", [False, True])
-def test_blocked_kernel_matches_the_scalar_kernel_bit_for_bit(periodic):
+def test_vectorised_path_matches_the_scalar_path_bit_for_bit(periodic):
     model, start = random_cluster(7, periodic=periodic)
     assert model.n_bonds % cpu.BOND_BLOCK != 0
     scalar, blocked = copy.deepcopy(start), copy.deepcopy(start)
-    loads_scalar = advance("scalar", model, scalar, 12)
-    loads_blocked = advance("blocked", model, blocked, 12)
+    loads_scalar = advance(False, model, scalar, 12)
+    loads_blocked = advance(True, model, blocked, 12)
     for a, b in zip(loads_scalar, loads_blocked):
         np.testing.assert_array_equal(a, b)
     for name in ("bond_active", "bond_axis", "bond_previous_length",
@@ -93,7 +82,7 @@ def test_blocked_kernel_matches_the_scalar_kernel_bit_for_bit(periodic):
     assert np.any(0.5 * np.linalg.norm(w_sum, axis=1) * DT > SMALL_ANGLE)
 
 
-def test_blocked_kernel_is_the_same_with_one_and_two_threads():
+def test_vectorised_path_is_the_same_with_one_and_two_threads():
     model, start = random_cluster(11)
     results = []
     previous = numba.get_num_threads()
@@ -101,7 +90,7 @@ def test_blocked_kernel_is_the_same_with_one_and_two_threads():
         for threads in (1, min(2, numba.config.NUMBA_NUM_THREADS)):
             numba.set_num_threads(threads)
             state = copy.deepcopy(start)
-            results.append((advance("blocked", model, state, 5), state))
+            results.append((advance(True, model, state, 5), state))
     finally:
         numba.set_num_threads(previous)
     (loads_1, state_1), (loads_2, state_2) = results

@@ -49,84 +49,6 @@ _jit = dict(parallel=True, cache=True, fastmath=False, nogil=True)
 SERIAL_BELOW = 2048
 
 
-@numba.njit(**_jit)
-def elastic_bonds(pairs, diameter, initial_length, bond_material, bm_young, bm_poisson,
-                  bm_normal_strength, bm_tangential_strength, bm_criterion, bm_compressive,
-                  position, velocity, angular_velocity, box_length, periodic,
-                  active, axis, previous_length, tangential_force, normal_moment,
-                  tangential_moment, break_time, break_mode, break_energy, time, dt, musen,
-                  out_force_i, out_moment_i, out_moment_j):
-    """Advance every intact bond by one increment dt (s) and store its loads per bond.
-
-    One bond at a time: the kernel of MUSEN-compatible runs, and the reference that
-    tests/test_bond_blocked.py holds ``elastic_bonds_blocked`` (SPEC runs) to, bit for bit.
-    musen: MUSEN's numerics (``elastic_bond_musen``, ``bond_break_mode_musen``) instead of
-    the SPEC's; previous_length (B,) m: |r| of the last step, which MUSEN's rotation needs.
-    """
-    for b in prange(pairs.shape[0]):
-        if not active[b]:
-            for k in range(3):
-                out_force_i[b, k] = 0.0
-                out_moment_i[b, k] = 0.0
-                out_moment_j[b, k] = 0.0
-            continue
-        i = pairs[b, 0]
-        j = pairs[b, 1]
-        m = bond_material[b]
-        r = minimum_image((position[j, 0] - position[i, 0], position[j, 1] - position[i, 1],
-                           position[j, 2] - position[i, 2]),
-                          (box_length[0], box_length[1], box_length[2]),
-                          periodic[0], periodic[1], periodic[2])
-        kn, kt, ktw, kb = bond_stiffnesses(bm_young[m], bm_poisson[m], diameter[b],
-                                           initial_length[b])
-        vi = (velocity[i, 0], velocity[i, 1], velocity[i, 2])
-        vj = (velocity[j, 0], velocity[j, 1], velocity[j, 2])
-        wi = (angular_velocity[i, 0], angular_velocity[i, 1], angular_velocity[i, 2])
-        wj = (angular_velocity[j, 0], angular_velocity[j, 1], angular_velocity[j, 2])
-        f_t0 = (tangential_force[b, 0], tangential_force[b, 1], tangential_force[b, 2])
-        m_n0 = (normal_moment[b, 0], normal_moment[b, 1], normal_moment[b, 2])
-        m_t0 = (tangential_moment[b, 0], tangential_moment[b, 1], tangential_moment[b, 2])
-        if musen:
-            # MUSEN's numerics (physics/bond_elastic_musen.py): previous bond with length.
-            lp = previous_length[b]
-            length, n, f_n, f_t, m_n, m_t = elastic_bond_musen(
-                r, vi, vj, wi, wj, (axis[b, 0] * lp, axis[b, 1] * lp, axis[b, 2] * lp),
-                f_t0, m_n0, m_t0, initial_length[b], bm_young[m], bm_poisson[m],
-                diameter[b], dt)
-            mode = bond_break_mode_musen(length, initial_length[b], f_n, f_t, m_n, m_t,
-                                         diameter[b], bm_normal_strength[m],
-                                         bm_tangential_strength[m], bm_criterion[m])
-        else:
-            length, n, f_n, f_t, m_n, m_t = elastic_bond(
-                r, vi, vj, wi, wj, (axis[b, 0], axis[b, 1], axis[b, 2]), f_t0, m_n0, m_t0,
-                initial_length[b], kn, kt, ktw, kb, dt)
-            mode = bond_break_mode(length, initial_length[b], f_n, f_t, m_n, m_t,
-                                   diameter[b], bm_normal_strength[m],
-                                   bm_tangential_strength[m], bm_criterion[m],
-                                   bm_compressive[m])
-        if mode != INTACT:
-            active[b] = False
-            break_time[b] = time
-            break_mode[b] = mode
-            break_energy[b] = bond_elastic_energy(length, initial_length[b], f_t, m_n, m_t,
-                                                  kn, kt, ktw, kb)
-            for k in range(3):
-                out_force_i[b, k] = 0.0
-                out_moment_i[b, k] = 0.0
-                out_moment_j[b, k] = 0.0
-            continue
-        force_i, moment_i, moment_j = bond_loads_on_particles(r, f_n, f_t, m_n, m_t)
-        previous_length[b] = length
-        for k in range(3):
-            axis[b, k] = n[k]
-            tangential_force[b, k] = f_t[k]
-            normal_moment[b, k] = m_n[k]
-            tangential_moment[b, k] = m_t[k]
-            out_force_i[b, k] = force_i[k]
-            out_moment_i[b, k] = moment_i[k]
-            out_moment_j[b, k] = moment_j[k]
-
-
 # Bonds per block of the vectorised kernel, and the rows of a thread's scratch: the
 # block's inputs, gathered from the particle and bond arrays, then its results.
 BOND_BLOCK = 32
@@ -190,20 +112,24 @@ def advance_bond_block(s, count, dt):
 
 
 @numba.njit(**_jit)
-def elastic_bonds_blocked(pairs, diameter, initial_length, bond_material, bm_young,
-                          bm_poisson, bm_normal_strength, bm_tangential_strength,
-                          bm_criterion, bm_compressive, position, velocity,
-                          angular_velocity, box_length, periodic, active, axis,
-                          previous_length, tangential_force, normal_moment,
-                          tangential_moment, break_time, break_mode, break_energy, time, dt,
-                          scratch, out_force_i, out_moment_i, out_moment_j):
-    """``elastic_bonds`` (SPEC numerics) in blocks of BOND_BLOCK bonds: the same results
-    to the bit, 1.3-1.9x faster (docs/performance.md). scratch: (NUMBA_NUM_THREADS,
-    SCRATCH_ROWS * BOND_BLOCK) float64, one row set per thread, owned by one simulation.
+def elastic_bonds(pairs, diameter, initial_length, bond_material, bm_young, bm_poisson,
+                  bm_normal_strength, bm_tangential_strength, bm_criterion, bm_compressive,
+                  position, velocity, angular_velocity, box_length, periodic, active, axis,
+                  previous_length, tangential_force, normal_moment, tangential_moment,
+                  break_time, break_mode, break_energy, time, dt, musen, vectorised,
+                  scratch, out_force_i, out_moment_i, out_moment_j):
+    """Advance every intact bond by one increment dt (s) and store its loads per bond.
 
-    Each block is gathered into its thread's scratch, advanced by the vectorised
-    ``advance_bond_block`` and scattered back; a bond it marks slow is advanced again by
-    the scalar physics (large twist) and tested for breakage exactly.
+    Bonds go in blocks of BOND_BLOCK: gathered into the thread's scratch, advanced by the
+    vectorised ``advance_bond_block`` (if ``vectorised``), scattered back. A bond that it
+    marks slow (large twist, possible break), or every bond when not ``vectorised``, is
+    advanced one at a time by the scalar physics and tested for breakage exactly; both
+    paths give the same bits (tests/test_bond_blocked.py), the vectorised one 1.3-1.9x
+    faster (docs/performance.md).
+    musen: MUSEN's numerics (``elastic_bond_musen``, ``bond_break_mode_musen``, scalar
+    only) instead of the SPEC's; previous_length (B,) m: |r| of the last step, which
+    MUSEN's rotation needs. scratch: (NUMBA_NUM_THREADS, SCRATCH_ROWS * BOND_BLOCK)
+    float64, one row set per thread, owned by one simulation.
     """
     B = BOND_BLOCK
     n_bonds = pairs.shape[0]
@@ -238,7 +164,8 @@ def elastic_bonds_blocked(pairs, diameter, initial_length, bond_material, bm_you
             s[_NORMAL_STRENGTH * B + q] = bm_normal_strength[m]
             s[_TANGENTIAL_STRENGTH * B + q] = bm_tangential_strength[m]
             s[_CRITERION * B + q] = bm_criterion[m]
-        advance_bond_block(s, count, dt)
+        if vectorised:
+            advance_bond_block(s, count, dt)
         for q in range(count):
             b = start + q
             if not active[b]:
@@ -247,56 +174,65 @@ def elastic_bonds_blocked(pairs, diameter, initial_length, bond_material, bm_you
                     out_moment_i[b, k] = 0.0
                     out_moment_j[b, k] = 0.0
                 continue
-            if s[_SLOW * B + q] != 0.0:
-                m = bond_material[b]
-                r = (s[_R * B + q], s[(_R + 1) * B + q], s[(_R + 2) * B + q])
-                kn, kt, ktw, kb = bond_stiffnesses(bm_young[m], bm_poisson[m], diameter[b],
-                                                   initial_length[b])
-                length, n, f_n, f_t, m_n, m_t = elastic_bond(
-                    r, (s[_VI * B + q], s[(_VI + 1) * B + q], s[(_VI + 2) * B + q]),
-                    (s[_VJ * B + q], s[(_VJ + 1) * B + q], s[(_VJ + 2) * B + q]),
-                    (s[_WI * B + q], s[(_WI + 1) * B + q], s[(_WI + 2) * B + q]),
-                    (s[_WJ * B + q], s[(_WJ + 1) * B + q], s[(_WJ + 2) * B + q]),
-                    (s[_AXIS * B + q], s[(_AXIS + 1) * B + q], s[(_AXIS + 2) * B + q]),
-                    (s[_FT0 * B + q], s[(_FT0 + 1) * B + q], s[(_FT0 + 2) * B + q]),
-                    (s[_MN0 * B + q], s[(_MN0 + 1) * B + q], s[(_MN0 + 2) * B + q]),
-                    (s[_MT0 * B + q], s[(_MT0 + 1) * B + q], s[(_MT0 + 2) * B + q]),
-                    initial_length[b], kn, kt, ktw, kb, dt)
-                mode = bond_break_mode(length, initial_length[b], f_n, f_t, m_n, m_t,
-                                       diameter[b], bm_normal_strength[m],
-                                       bm_tangential_strength[m], bm_criterion[m],
-                                       bm_compressive[m])
-                if mode != INTACT:
-                    active[b] = False
-                    break_time[b] = time
-                    break_mode[b] = mode
-                    break_energy[b] = bond_elastic_energy(length, initial_length[b], f_t,
-                                                          m_n, m_t, kn, kt, ktw, kb)
-                    for k in range(3):
-                        out_force_i[b, k] = 0.0
-                        out_moment_i[b, k] = 0.0
-                        out_moment_j[b, k] = 0.0
-                    continue
-                force_i, moment_i, moment_j = bond_loads_on_particles(r, f_n, f_t, m_n, m_t)
-                previous_length[b] = length
+            if vectorised and s[_SLOW * B + q] == 0.0:
+                previous_length[b] = s[_LENGTH * B + q]
                 for k in range(3):
-                    axis[b, k] = n[k]
-                    tangential_force[b, k] = f_t[k]
-                    normal_moment[b, k] = m_n[k]
-                    tangential_moment[b, k] = m_t[k]
-                    out_force_i[b, k] = force_i[k]
-                    out_moment_i[b, k] = moment_i[k]
-                    out_moment_j[b, k] = moment_j[k]
+                    axis[b, k] = s[(_N + k) * B + q]
+                    tangential_force[b, k] = s[(_FT + k) * B + q]
+                    normal_moment[b, k] = s[(_MN + k) * B + q]
+                    tangential_moment[b, k] = s[(_MT + k) * B + q]
+                    out_force_i[b, k] = s[(_FORCE_I + k) * B + q]
+                    out_moment_i[b, k] = s[(_MOMENT_I + k) * B + q]
+                    out_moment_j[b, k] = s[(_MOMENT_J + k) * B + q]
                 continue
-            previous_length[b] = s[_LENGTH * B + q]
+            m = bond_material[b]
+            l0 = initial_length[b]
+            r = (s[_R * B + q], s[(_R + 1) * B + q], s[(_R + 2) * B + q])
+            vi = (s[_VI * B + q], s[(_VI + 1) * B + q], s[(_VI + 2) * B + q])
+            vj = (s[_VJ * B + q], s[(_VJ + 1) * B + q], s[(_VJ + 2) * B + q])
+            wi = (s[_WI * B + q], s[(_WI + 1) * B + q], s[(_WI + 2) * B + q])
+            wj = (s[_WJ * B + q], s[(_WJ + 1) * B + q], s[(_WJ + 2) * B + q])
+            n_prev = (s[_AXIS * B + q], s[(_AXIS + 1) * B + q], s[(_AXIS + 2) * B + q])
+            f_t0 = (s[_FT0 * B + q], s[(_FT0 + 1) * B + q], s[(_FT0 + 2) * B + q])
+            m_n0 = (s[_MN0 * B + q], s[(_MN0 + 1) * B + q], s[(_MN0 + 2) * B + q])
+            m_t0 = (s[_MT0 * B + q], s[(_MT0 + 1) * B + q], s[(_MT0 + 2) * B + q])
+            kn, kt, ktw, kb = bond_stiffnesses(bm_young[m], bm_poisson[m], diameter[b], l0)
+            if musen:
+                # MUSEN's numerics (physics/bond_elastic_musen.py): previous bond with length.
+                lp = previous_length[b]
+                length, n, f_n, f_t, m_n, m_t = elastic_bond_musen(
+                    r, vi, vj, wi, wj, (n_prev[0] * lp, n_prev[1] * lp, n_prev[2] * lp),
+                    f_t0, m_n0, m_t0, l0, bm_young[m], bm_poisson[m], diameter[b], dt)
+                mode = bond_break_mode_musen(length, l0, f_n, f_t, m_n, m_t, diameter[b],
+                                             bm_normal_strength[m],
+                                             bm_tangential_strength[m], bm_criterion[m])
+            else:
+                length, n, f_n, f_t, m_n, m_t = elastic_bond(
+                    r, vi, vj, wi, wj, n_prev, f_t0, m_n0, m_t0, l0, kn, kt, ktw, kb, dt)
+                mode = bond_break_mode(length, l0, f_n, f_t, m_n, m_t, diameter[b],
+                                       bm_normal_strength[m], bm_tangential_strength[m],
+                                       bm_criterion[m], bm_compressive[m])
+            if mode != INTACT:
+                active[b] = False
+                break_time[b] = time
+                break_mode[b] = mode
+                break_energy[b] = bond_elastic_energy(length, l0, f_t, m_n, m_t, kn, kt,
+                                                      ktw, kb)
+                for k in range(3):
+                    out_force_i[b, k] = 0.0
+                    out_moment_i[b, k] = 0.0
+                    out_moment_j[b, k] = 0.0
+                continue
+            force_i, moment_i, moment_j = bond_loads_on_particles(r, f_n, f_t, m_n, m_t)
+            previous_length[b] = length
             for k in range(3):
-                axis[b, k] = s[(_N + k) * B + q]
-                tangential_force[b, k] = s[(_FT + k) * B + q]
-                normal_moment[b, k] = s[(_MN + k) * B + q]
-                tangential_moment[b, k] = s[(_MT + k) * B + q]
-                out_force_i[b, k] = s[(_FORCE_I + k) * B + q]
-                out_moment_i[b, k] = s[(_MOMENT_I + k) * B + q]
-                out_moment_j[b, k] = s[(_MOMENT_J + k) * B + q]
+                axis[b, k] = n[k]
+                tangential_force[b, k] = f_t[k]
+                normal_moment[b, k] = m_n[k]
+                tangential_moment[b, k] = m_t[k]
+                out_force_i[b, k] = force_i[k]
+                out_moment_i[b, k] = moment_i[k]
+                out_moment_j[b, k] = moment_j[k]
 
 
 @numba.njit(**_jit)
@@ -430,6 +366,8 @@ class ElasticBonds:
     name = "elastic_bond"
     # True: MUSEN's numerics (bond_elastic_musen), set by Simulation(musen_compat=True).
     musen_compat = False
+    # False: every bond by the scalar path (the reference the vectorised one is tested to).
+    vectorised = True
 
     def __init__(self, model):
         table = model.bond_material_table()
@@ -455,17 +393,6 @@ class ElasticBonds:
 
     def compute(self, model, state, increment_dt):
         """Advance every intact bond by ``increment_dt`` (s); loads kept per bond."""
-        if not self.musen_compat:
-            elastic_bonds_blocked(
-                model.bond_pairs, model.bond_diameter, model.bond_initial_length,
-                model.bond_material, *self._table, state.position, state.velocity,
-                state.angular_velocity, self._box_length, model.periodic, state.bond_active,
-                state.bond_axis, state.bond_previous_length, state.bond_tangential_force,
-                state.bond_normal_moment, state.bond_tangential_moment,
-                state.bond_break_time, state.bond_break_mode, state.bond_break_energy,
-                state.time, increment_dt, self._scratch, self.force_i, self.moment_i,
-                self.moment_j)
-            return
         elastic_bonds(model.bond_pairs, model.bond_diameter, model.bond_initial_length,
                       model.bond_material, *self._table, state.position, state.velocity,
                       state.angular_velocity, self._box_length, model.periodic,
@@ -473,8 +400,9 @@ class ElasticBonds:
                       state.bond_tangential_force, state.bond_normal_moment,
                       state.bond_tangential_moment, state.bond_break_time,
                       state.bond_break_mode, state.bond_break_energy, state.time,
-                      increment_dt, self.musen_compat, self.force_i, self.moment_i,
-                      self.moment_j)
+                      increment_dt, self.musen_compat,
+                      self.vectorised and not self.musen_compat, self._scratch, self.force_i,
+                      self.moment_i, self.moment_j)
 
     def gather(self, force, moment):
         """Add the per-bond loads of the last ``compute`` to force (N), moment (N m)."""
