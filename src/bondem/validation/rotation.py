@@ -70,8 +70,19 @@ def rigid_turn(p, axis):
 
 
 def transcription_difference(p):
-    """Largest relative difference between MUSEN's transcribed formulas and bondem's
-    kernel for one step from rest with random velocities and spins."""
+    """Largest difference between MUSEN's transcribed formulas and bondem's kernel for one
+    step from rest with random velocities and spins, in units of its round-off estimate.
+
+    Each compared load is a sum of terms computed in a different order by the two codes,
+    so they may differ by a few eps times the sum of the terms' magnitudes, not times the
+    result: F_n = k_n (L - L0) cancels L against L0 (one ulp of L is eps k_n L, up to
+    1/strain times |F_n| eps), the tangential increments cancel v_j - v_i against
+    (w_i + w_j) x r / 2. The estimate per sample, in N and N m:
+        force:  eps (k_n L + k_s dt V),   V = |v_i| + |v_j| + |w_i + w_j| L / 2 (m/s)
+        moment: eps ((k_tw + k_b) dt (|w_i| + |w_j|) + L / 2 k_s dt V)
+    Returns max |ours - MUSEN's| / estimate (dimensionless; a sign or factor error gives
+    ~1/eps, round-off a few units).
+    """
     from bondem.backends.cpu import bond_loads_on_particles, elastic_bond
     rng = np.random.default_rng(p["run"]["seed"])
     length = p["bond"]["initial_length"]
@@ -80,6 +91,7 @@ def transcription_difference(p):
     radius = b["diameter"] / 2
     area, second = np.pi * radius ** 2, np.pi * radius ** 4 / 4
     shear_modulus = b["young_modulus"] / (2 * (1 + b["poisson_ratio"]))
+    eps = np.finfo(float).eps
     worst = 0.0
     for _ in range(20):
         direction = rng.normal(size=3)
@@ -97,12 +109,18 @@ def transcription_difference(p):
         total, mn, mt, unsym, _, _ = musen_bond_step(
             xi, xj, vi, vj, wi, wj, xi - xj, np.zeros(3), np.zeros(3), np.zeros(3), length,
             b["young_modulus"], shear_modulus, area, second, dt)
+        size = np.linalg.norm(r)
+        speed = (np.linalg.norm(vi) + np.linalg.norm(vj)
+                 + np.linalg.norm(wi + wj) * size / 2)
+        force_scale = eps * (kn * size + ks * dt * speed)
+        moment_scale = eps * ((ktw + kb) * dt * (np.linalg.norm(wi) + np.linalg.norm(wj))
+                              + size / 2 * ks * dt * speed)
         # MUSEN (CPUSimulator::CalculateForcesSB): on left += M_n + M_t - unsym, on right
         # -= M_n + M_t + unsym.
-        pairs = [(np.array(force_i), total), (np.array(moment_i), mn + mt - unsym),
-                 (np.array(moment_j), -(mn + mt + unsym))]
-        for ours, theirs in pairs:
-            scale = max(np.linalg.norm(ours), 1e-300)
+        pairs = [(np.array(force_i), total, force_scale),
+                 (np.array(moment_i), mn + mt - unsym, moment_scale),
+                 (np.array(moment_j), -(mn + mt + unsym), moment_scale)]
+        for ours, theirs, scale in pairs:
             worst = max(worst, float(np.linalg.norm(ours - theirs) / scale))
     return worst
 
@@ -139,7 +157,8 @@ def run(p, compat, quick=False):
                                  " (docs/musen_compat.md)", absolute=True))
                 bars.append((label, _angle(ours, exact), _angle(musen, exact)))
     rows.append(compare("rotation", "one step from rest: MUSEN's formulas vs bondem "
-                        "(max relative difference)", 0.0, transcription_difference(p),
+                        "(max difference / round-off estimate)", 0.0,
+                        transcription_difference(p),
                         run_p["tolerance_transcription"], absolute=True))
     x = list(range(len(bars)))
     plot = Plot("Rigid quarter turn: direction error of the stored F_t",
