@@ -42,11 +42,43 @@ def test_force_displacement_curve(plates):
     assert curve["wall"] == 1                     # the plate that moved
     assert curve["displacement"] == pytest.approx(1e-4 * np.arange(N_FRAMES))
     assert curve["peak_index"] == 12 and curve["peak_force"] == pytest.approx(12.0)
-    assert curve["peak_displacement"] == pytest.approx(1.2e-3)
+    assert curve["displacement_at_peak_force"] == pytest.approx(1.2e-3)
+    assert curve["partner"] == 0                  # the fixed anvil it presses against
+    assert curve["gap"] == pytest.approx(3e-3 - 1e-4 * np.arange(N_FRAMES))
+    assert curve["gap_at_peak_force"] == pytest.approx(1.8e-3)
+    assert curve["force_mismatch"] == pytest.approx(0.0)
     assert curve["first_break_index"] == 9 and curve["first_break_force"] == pytest.approx(9)
     assert curve["first_break_displacement"] == pytest.approx(0.9e-3)
     assert fixed["displacement"].tolist() == [0.0] * N_FRAMES
     assert fixed["peak_force"] == pytest.approx(12.0)   # |F| for a wall that stays
+
+
+def test_two_plates_closing_use_the_gap_and_both_forces(tmp_path):
+    """Plates at z = 0 and z = 4 mm close at 0.1 and 0.2 mm per frame: the displacement is
+    the gap's decrease (0.3 mm per frame, not one plate's travel), the force the mean of
+    the two plates' forces (here 10 % apart: the upper one reads 1.1 times the lower)."""
+    k = np.arange(N_FRAMES)
+    push = np.where(k <= 8, 2.0 * k, 16.0 - (k - 8))   # N on the lower plate, downwards
+    walls_force = np.zeros((N_FRAMES, 2, 3))
+    walls_force[:, 0, 2] = -push
+    walls_force[:, 1, 2] = 1.1 * push
+    walls_position = np.zeros((N_FRAMES, 2, 3))
+    walls_position[:, 0, 2] = 1e-4 * k
+    walls_position[:, 1, 2] = 4e-3 - 2e-4 * k
+    path = write_static(tmp_path / "two.h5", [[0, 0, 1e-3], [0, 0, 2e-3]], 5e-4, [[0, 1]],
+                        np.ones((N_FRAMES, 1), bool), time=k * 1e-4,
+                        walls=(walls_force, walls_position))
+    with Results(path) as results:
+        curve = wall_curve(results)
+        numbers = key_numbers(results)
+    assert curve["wall"] == 1 and curve["partner"] == 0
+    assert curve["displacement"] == pytest.approx(3e-4 * k)
+    assert curve["gap"] == pytest.approx(4e-3 - 3e-4 * k)
+    assert curve["force"] == pytest.approx(1.05 * push)
+    assert curve["peak_index"] == 8 and curve["peak_force"] == pytest.approx(16.8)
+    assert numbers["displacement_at_peak_force"] == pytest.approx(2.4e-3)
+    assert numbers["plate_gap_at_peak_force"] == pytest.approx(1.6e-3)
+    assert numbers["plate_force_mismatch"] == pytest.approx(1.6 / 16.8)
 
 
 def test_energy_balance_of_a_run_from_rest_uses_the_work(plates):

@@ -71,6 +71,7 @@ def run_scene(scene, out_dir, *, progress=True, resume=False, checkpoint_minutes
     else:
         sim = scene.make_simulation()
         writer = ResultsWriter(results_path, sim, scene_text=scene.text, backend=scene.backend,
+                               scene_name=Path(scene.path).name,
                                material_names=list(scene.data.get("materials", {})) or None,
                                bond_material_names=list(scene.data.get("bond_materials", {}))
                                or None)

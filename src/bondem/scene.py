@@ -303,8 +303,8 @@ def _build(data, text, path):
     material_names = list(materials)
     bond_material_names = list(bond_materials)
 
-    position, radius, material_index, velocity, angular_velocity, particles = _particles(
-        data["particles"], material_names, path)
+    position, radius, material_index, velocity, angular_velocity, fixed, particles = \
+        _particles(data["particles"], material_names, path)
     bonds, bond_diameter, bond_material_index = _bonds(
         data.get("bonds"), position, radius, bond_material_names, path)
     if bonds.shape[0] and not bond_material_objects:
@@ -318,7 +318,7 @@ def _build(data, text, path):
     try:
         model, state = make_system(
             position, radius, material_objects, material_index=material_index,
-            velocity=velocity, angular_velocity=angular_velocity, bonds=bonds,
+            velocity=velocity, angular_velocity=angular_velocity, fixed=fixed, bonds=bonds,
             bond_diameter=bond_diameter if bonds.shape[0] else None,
             bond_material=bond_material_objects or None,
             bond_material_index=bond_material_index if bonds.shape[0] else None,
@@ -481,6 +481,7 @@ def _particles(table, material_names, path):
                     if "vx" in columns else np.zeros_like(position))
         angular_velocity = (np.column_stack([columns["wx"], columns["wy"], columns["wz"]])
                             if "wx" in columns else np.zeros_like(position))
+        fixed = columns.get("fixed")
     else:
         position, radius, names = particles_from_generator(p["generator"], str(path))
         position = np.asarray(position, dtype=np.float64)
@@ -488,6 +489,7 @@ def _particles(table, material_names, path):
         names = np.broadcast_to(np.asarray(names), position.shape[:1])
         velocity = np.zeros_like(position)
         angular_velocity = np.zeros_like(position)
+        fixed = None
     unknown = sorted(set(names.tolist()) - set(material_names))
     if unknown:
         raise InputError(f"material {unknown[0]!r} is not defined; defined materials: "
@@ -498,7 +500,7 @@ def _particles(table, material_names, path):
     position = position + np.array(p["offset"])
     velocity = velocity + np.array(p["velocity"])
     angular_velocity = angular_velocity + np.array(p["angular_velocity"])
-    return position, radius, index, velocity, angular_velocity, p
+    return position, radius, index, velocity, angular_velocity, fixed, p
 
 
 def _bonds(table, position, radius, bond_material_names, path):

@@ -13,7 +13,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.collections import EllipseCollection  # noqa: E402
-from matplotlib.ticker import MaxNLocator  # noqa: E402
+from matplotlib.ticker import (LogLocator, MaxNLocator, NullFormatter,  # noqa: E402
+                               ScalarFormatter)
 
 from .breakage import MODES, radial_breakage  # noqa: E402
 from .fragments import count_distribution, frame_fragments, size_distribution  # noqa: E402
@@ -79,11 +80,19 @@ def plot_energy(balance):
 
 
 def plot_wall(curve):
-    """Wall force against displacement with the first breakage and the peak marked."""
+    """Wall force against displacement (the decrease of the plate gap when two plates
+    press the body; time for a wall that stays) with the first breakage and the peak."""
     fig, ax = plt.subplots(figsize=(6, 3.6), layout="constrained")
     moved = np.any(curve["displacement"] != 0)
     x = curve["displacement"] * 1e3 if moved else curve["time"] * 1e3
-    ax.plot(x, curve["force"], color="k")
+    if curve["partner"] is not None:
+        ax.plot(x, curve["force_wall"], color="tab:blue", lw=0.8,
+                label=f"wall {curve['wall']} (loading)")
+        ax.plot(x, curve["force_partner"], color="tab:green", lw=0.8,
+                label=f"wall {curve['partner']}")
+        ax.plot(x, curve["force"], color="k", label="mean of both")
+    else:
+        ax.plot(x, curve["force"], color="k")
     peak = curve["peak_index"]
     ax.plot(x[peak], curve["force"][peak], "v", color="tab:red", ms=9,
             label=f"peak {curve['peak_force']:.3g} N")
@@ -91,8 +100,13 @@ def plot_wall(curve):
     if first is not None:
         ax.plot(x[first], curve["force"][first], "o", color="tab:orange", ms=8,
                 label="first broken bond")
-    ax.set_xlabel("wall displacement (mm)" if moved else "time (ms)")
-    ax.set_ylabel(f"force on wall {curve['wall']} (N)")
+    if not moved:
+        ax.set_xlabel("time (ms)")
+    elif curve["partner"] is not None:
+        ax.set_xlabel("displacement: decrease of the plate gap (mm)")
+    else:
+        ax.set_xlabel(f"travel of wall {curve['wall']} (mm)")
+    ax.set_ylabel("compressive force (N)" if moved else f"|force| on wall {curve['wall']} (N)")
     ax.legend(fontsize=8)
     return fig
 
@@ -108,9 +122,15 @@ def plot_size_distribution(data):
     ax.set_xlabel("fragment mass (kg)")
     ax.set_ylabel("cumulative mass fraction")
     right.bar(data["particles"], data["number"], color="tab:orange", edgecolor="k")
-    right.set_xscale("log" if data["particles"].max() > 20 else "linear")
+    if data["particles"].max() > 20:
+        # decades only, written as plain integers: integer ticks on a log axis crowd
+        right.set_xscale("log")
+        right.xaxis.set_major_locator(LogLocator(base=10))
+        right.xaxis.set_major_formatter(ScalarFormatter())
+        right.xaxis.set_minor_formatter(NullFormatter())
+    else:
+        right.xaxis.set_major_locator(MaxNLocator(integer=True))
     right.set_xlabel("particles per fragment")
-    right.xaxis.set_major_locator(MaxNLocator(integer=True))
     right.set_ylabel("fragments")
     right.yaxis.set_major_locator(MaxNLocator(integer=True))
     fig.suptitle(f"t = {data['time'] * 1e3:.4g} ms, {len(data['masses'])} fragments",

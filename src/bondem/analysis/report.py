@@ -23,36 +23,103 @@ CAPTIONS = {
     "radial": "Fraction of bonds broken in each radial shell of the body at t = 0.",
     "energy": "Energy balance: stored energy against the work done and the losses; the "
               "residual is relative to the initial kinetic energy.",
-    "wall": "Force on the moving wall against its displacement; the first broken bond and "
-            "the peak force are marked.",
+    "wall": "Force on the walls; the first broken bond and the peak force are marked.",
     "size_distribution": "Fragment sizes at the last frame: cumulative mass distribution "
                          "and number of fragments by particle count.",
 }
-UNITS = {"final_time": "s", "first_break_time": "s", "peak_wall_force": "N",
-         "peak_wall_displacement": "m", "energy_reference": "J"}
 
 
-def _format(value):
-    if value is None:
-        return "n/a"
+def wall_caption(curve):
+    """Caption of the wall figure for this curve (what its axes are)."""
+    if curve["partner"] is not None:
+        return (f"Compressive force of walls {curve['wall']} and {curve['partner']} and their "
+                "mean against the decrease of the gap between them; the first broken bond "
+                "and the peak of the mean force are marked.")
+    if curve["displacement"].any():
+        return (f"Compressive force on wall {curve['wall']} against its travel; the first "
+                "broken bond and the peak force are marked.")
+    return (f"Magnitude of the force on wall {curve['wall']} (it does not move) against "
+            "time; the first broken bond and the peak force are marked.")
+
+
+def _cell(value):
     if isinstance(value, float):
-        return f"{value:.6g}"
+        return f"{value:.4g}"
+    if isinstance(value, list):
+        return "[" + ", ".join(_cell(v) for v in value) + "]"
+    if isinstance(value, dict):
+        return ", ".join(f"{k} = {_cell(v)}" for k, v in value.items())
     return str(value)
 
 
-def render_html(title, numbers, images, attrs=None):
-    """HTML text: ``numbers`` {name: value} as a table, ``images`` {name: PNG bytes}
-    inlined with their captions, ``attrs`` {name: value} of the results file."""
+def _table(rows, header):
+    head = "".join(f"<th>{html.escape(h)}</th>" for h in header)
+    body = "\n".join("<tr>" + "".join(f"<td>{html.escape(_cell(c))}</td>" for c in row)
+                     + "</tr>" for row in rows)
+    return f"<table><tr>{head}</tr>{body}</table>"
+
+
+SIMULATION_UNITS = {"end_time": "s", "time_step": "s", "save_every": "s", "gravity": "m/s^2",
+                    "damping": "-", "safety_factor": "-", "checkpoint_minutes": "min"}
+MATERIAL_UNITS = {"density": "kg/m^3", "young_modulus": "Pa", "poisson_ratio": "-",
+                  "restitution": "-", "friction": "-", "rolling_friction": "-",
+                  "normal_strength": "Pa", "tangential_strength": "Pa"}
+
+
+def scene_html(scene_text, attrs):
+    """HTML tables of a scene's settings (simulation and time, materials, bond materials,
+    particles, bonds, walls) from its TOML text and the results file's attributes."""
+    import tomllib
+    try:
+        scene = tomllib.loads(scene_text) if scene_text else {}
+    except tomllib.TOMLDecodeError:
+        return "<p>(the scene stored in the results file is not valid TOML)</p>"
+    parts = []
+    simulation = dict(scene.get("simulation", {}))
+    if "time_step" in attrs:
+        simulation["time_step"] = (f"{float(attrs['time_step']):.4g} "
+                                   f"({simulation.get('time_step', 'auto')}; "
+                                   f"limited by {attrs.get('time_step_cause', '?')})")
+    if simulation:
+        parts.append("<h3>Simulation and time</h3>" + _table(
+            [(k, v, SIMULATION_UNITS.get(k, "")) for k, v in simulation.items()],
+            ("key", "value", "unit")))
+    for key, title in (("materials", "Particle materials"), ("bond_materials", "Bond materials")):
+        tables = scene.get(key, {})
+        if tables:
+            names = list(dict.fromkeys(k for t in tables.values() for k in t))
+            header = ["name"] + [f"{n} ({MATERIAL_UNITS[n]})" if n in MATERIAL_UNITS else n
+                                 for n in names]
+            rows = [[name] + [t.get(n, "default") for n in names] for name, t in tables.items()]
+            parts.append(f"<h3>{title}</h3>" + _table(rows, header))
+    for key, title in (("particles", "Particles"), ("bonds", "Bonds")):
+        if scene.get(key):
+            parts.append(f"<h3>{title}</h3>" + _table(list(scene[key].items()), ("key", "value")))
+    walls = scene.get("walls", [])
+    if walls:
+        names = sorted({k for w in walls for k in w})
+        rows = [[k] + [w.get(n, "") for n in names] for k, w in enumerate(walls)]
+        parts.append("<h3>Walls (m, m/s)</h3>" + _table(rows, ["wall"] + names))
+    return "\n".join(parts) or "<p>(no scene stored in the results file)</p>"
+
+
+def render_html(title, numbers, images, attrs=None, scene_text="", captions=None):
+    """HTML text: ``numbers`` {name: value} as a table with units, the scene's settings
+    (``scene_text``, TOML), ``images`` {name: PNG bytes} inlined with their captions
+    (``captions`` {name: text} overriding the defaults), ``attrs`` {name: value} of the
+    results file."""
+    from .summary import format_number
+    captions = {**CAPTIONS, **(captions or {})}
     rows = "\n".join(
-        f"<tr><td>{html.escape(k.replace('_', ' '))}</td><td>{html.escape(_format(v))}"
-        f"</td><td>{UNITS.get(k, '')}</td></tr>" for k, v in numbers.items())
+        f"<tr><td>{html.escape(k.replace('_', ' '))}</td>"
+        f"<td>{html.escape(format_number(k, v))}</td></tr>" for k, v in numbers.items())
     meta = "\n".join(
         f"<tr><td>{html.escape(str(k))}</td><td>{html.escape(str(v)[:200])}</td></tr>"
         for k, v in (attrs or {}).items())
     figures = "\n".join(
         f'<figure id="{name}"><img alt="{name}" src="data:image/png;base64,'
         f'{base64.b64encode(png).decode("ascii")}"><figcaption>'
-        f"{html.escape(CAPTIONS.get(name, name))}</figcaption></figure>"
+        f"{html.escape(captions.get(name, name))}</figcaption></figure>"
         for name, png in images.items())
     stamp = datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
     return f"""<!DOCTYPE html>
@@ -62,6 +129,7 @@ table{{border-collapse:collapse}}td{{border:1px solid #ccc;padding:2px 8px}}
 img{{max-width:100%}}figure{{margin:1.5em 0}}figcaption{{color:#444}}</style></head>
 <body><h1>{html.escape(title)}</h1><p>bondem report, {stamp}</p>
 <h2>Key numbers</h2><table id="key-numbers">{rows}</table>
+<h2>Scene</h2><div id="scene">{scene_html(scene_text, attrs or {})}</div>
 <h2>Figures</h2>{figures}
 <h2>Run</h2><table id="attributes">{meta}</table></body></html>
 """
@@ -79,7 +147,11 @@ def write_report(path, out=None, frames=(0, -1)):
         data = analyze(results)
         numbers = key_numbers(results, data)
         figures = build_figures(results, frames, data=data)
-        attrs = {k: v for k, v in results.attrs.items() if "scene" not in k}
+        all_attrs = results.attrs
+        attrs = {k: v for k, v in all_attrs.items() if k not in ("scene", "scene_name")}
+        scene_text = str(all_attrs.get("scene", ""))
+        name = str(all_attrs.get("scene_name", "")) or (
+            path.parent.name if path.name == "results.h5" else path.name)
     order = ("bodies", "fragments", "breakage", "radial", "energy", "wall",
              "size_distribution")
     images = {}
@@ -91,6 +163,7 @@ def write_report(path, out=None, frames=(0, -1)):
     for fig, _ in figures.values():
         plt.close(fig)
     out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(render_html(f"bondem run: {path.name}", numbers, images, attrs),
-                   encoding="utf-8")
+    captions = {"wall": wall_caption(data["wall"])} if data["wall"] is not None else {}
+    out.write_text(render_html(f"bondem: {name}", numbers, images, attrs, scene_text,
+                               captions), encoding="utf-8")
     return out, numbers

@@ -10,6 +10,26 @@ from .results import Results
 from .walls import wall_curve
 
 
+UNITS = {"frames": "frames", "final_time": "s", "particles": "particles",
+         "bonds": "bonds", "intact_bond_fraction": "of all bonds", "fragments": "fragments",
+         "fragments_multi": "fragments of 2+ particles",
+         "largest_fragment_fraction": "of the total mass", "first_break_time": "s",
+         "peak_wall_force": "N", "displacement_at_peak_force": "m",
+         "plate_gap_at_peak_force": "m", "plate_force_mismatch": "of the peak force",
+         "energy_balance_error": "of the reference energy", "energy_reference": "J"}
+UNITS.update({f"broken_{name}": "bonds" for name in MODES})
+
+
+def format_number(key, value):
+    """``value`` of key number ``key`` rounded to 4 significant digits with its unit."""
+    if value is None:
+        return "n/a"
+    unit = UNITS.get(key, "")
+    if isinstance(value, float):
+        return f"{value:.4g} {unit}".strip()
+    return f"{value} {unit}".strip()
+
+
 def analyze(results):
     """All analyses of an open ``Results``: {"fragments", "broken", "energy", "wall"}
     (see ``fragment_series``, ``broken_series``, ``energy_balance``, ``wall_curve``;
@@ -22,8 +42,10 @@ def key_numbers(results, data=None):
     """The numbers a person reads first, as a flat dict of plain Python values: frames,
     final_time (s), particles, bonds, intact_bond_fraction, broken_<mode> counts,
     fragments, fragments_multi (2+ particles), largest_fragment_fraction,
-    first_break_time (s), peak_wall_force (N), peak_wall_displacement (m),
-    energy_balance_error (max |residual| / reference), energy_reference (J)."""
+    first_break_time (s), peak_wall_force (N), displacement_at_peak_force (m, the
+    decrease of the plate gap between two plates), plate_gap_at_peak_force (m),
+    plate_force_mismatch (-, up to the peak), energy_balance_error (max |residual| /
+    reference, -), energy_reference (J)."""
     data = analyze(results) if data is None else data
     fragments, broken = data["fragments"], data["broken"]
     last = -1 if results.n_frames else None
@@ -41,7 +63,11 @@ def key_numbers(results, data=None):
         numbers["first_break_time"] = first_break_time(results)
     wall, energy = data["wall"], data["energy"]
     numbers["peak_wall_force"] = wall["peak_force"] if wall else None
-    numbers["peak_wall_displacement"] = wall["peak_displacement"] if wall else None
+    numbers["displacement_at_peak_force"] = (wall["displacement_at_peak_force"]
+                                             if wall else None)
+    if wall and wall["partner"] is not None:
+        numbers["plate_gap_at_peak_force"] = wall["gap_at_peak_force"]
+        numbers["plate_force_mismatch"] = wall["force_mismatch"]
     numbers["energy_balance_error"] = energy["max_relative_error"] if energy else None
     numbers["energy_reference"] = energy["reference"] if energy else None
     return numbers
@@ -68,6 +94,10 @@ def time_series(data):
     if wall:
         columns["wall_displacement"] = wall["displacement"]
         columns["wall_force"] = wall["force"]
+        if wall["partner"] is not None:
+            columns["plate_gap"] = wall["gap"]
+            columns["wall_force_loading"] = wall["force_wall"]
+            columns["wall_force_partner"] = wall["force_partner"]
     return columns
 
 

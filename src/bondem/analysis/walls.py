@@ -1,26 +1,55 @@
-"""Wall force against wall displacement, e.g. an agglomerate compressed between plates.
+"""Wall force against displacement, e.g. an agglomerate compressed between plates.
 
 /walls/force (F,W,3) is the total force the particles exert on each wall and
-/walls/position (F,W,3) a reference point of each wall. A wall's displacement is measured
-along its direction of travel u = (p_last - p_0) / |p_last - p_0|: s = (p - p_0) . u
-(m). The compressive force is the component resisting that travel, -F . u (N, positive
-when the body pushes back on an advancing plate). A wall that does not move has no
-direction of travel; its curve uses |F| against time only.
+/walls/position (F,W,3) a reference point of each wall. The loading wall is the one that
+travelled farthest; its direction of travel is u = (p_last - p_0) / |p_last - p_0|.
+Its counterpart, when there is one, is a wall travelling the other way (two plates closing
+on the body) or, failing that, a fixed wall the body pushes along u (an anvil).
+
+With a counterpart the displacement is the decrease of the gap between the two plates,
+s = (p_a - p_a0) . u_a + (p_b - p_b0) . u_b (m; each plate's travel counts), the gap is
+g = g_0 - s with g_0 = |(p_b0 - p_a0) . u|, and the force is the mean of the two plates'
+compressive forces -F_a . u and F_b . u (N, positive when the body pushes back); their
+difference is a quasi-static check. Without one, s is the loading wall's own travel and
+the force its compressive force. A wall that does not move has no direction of travel;
+its curve is |F| against time.
 """
 from __future__ import annotations
 
 import numpy as np
 
 
-def wall_curve(results, wall=None):
-    """Force-displacement curve of one wall of an open ``Results``.
+def _counterpart(force, position, travel, wall, direction):
+    """Index of the wall facing the loading wall, or None (see the module docstring)."""
+    best, best_push = None, 0.0
+    for other in range(force.shape[1]):
+        if other == wall:
+            continue
+        if travel[other] > 0.0:
+            u_other = (position[-1, other] - position[0, other]) / travel[other]
+            if np.dot(u_other, direction) < -0.5:
+                return other
+            continue
+        push = float(np.mean(force[:, other] @ direction))
+        if push > best_push:
+            best, best_push = other, push
+    return best
 
-    wall: index; default the wall that travelled farthest (the moving plate).
-    Returns None without walls, else {"wall": index, "time": (F,) s, "displacement":
-    (F,) m, "force": (F,) N compressive force (|F| if the wall does not move),
-    "force_magnitude": (F,) N, "peak_index", "peak_force" N, "peak_displacement" m,
-    "first_break_index": first frame with a broken bond or None, "first_break_force" N,
-    "first_break_displacement" m}.
+
+def wall_curve(results, wall=None):
+    """Force-displacement curve of the plates of an open ``Results``.
+
+    wall: index of the loading wall; default the wall that travelled farthest.
+    Returns None without walls, else {"wall": index, "partner": index of the facing wall
+    or None, "time": (F,) s, "displacement": (F,) m (decrease of the plate gap, or the
+    wall's travel without a partner; zeros for a wall that stays), "gap": (F,) m or None,
+    "force": (F,) N (mean compressive force of both plates, or of the one wall; |F| for
+    a wall that stays), "force_wall", "force_partner": (F,) N each plate's compressive
+    force (force_partner None without a partner), "force_magnitude": (F,) N |F| of the
+    loading wall, "peak_index", "peak_force" N, "displacement_at_peak_force" m,
+    "gap_at_peak_force" m or None, "force_mismatch": max |F_wall - F_partner| up to the
+    peak over the peak force (None without a partner), "first_break_index": first frame
+    with a broken bond or None, "first_break_force" N, "first_break_displacement" m}.
     """
     if results.n_walls == 0 or results.n_frames == 0:
         return None
@@ -31,18 +60,36 @@ def wall_curve(results, wall=None):
     if not 0 <= wall < results.n_walls:
         raise IndexError(f"wall {wall} out of range: the file has {results.n_walls} walls")
     magnitude = np.linalg.norm(force[:, wall], axis=-1)
+    partner, gap, force_partner = None, None, None
     if travel[wall] > 0.0:
         direction = (position[-1, wall] - position[0, wall]) / travel[wall]
         displacement = (position[:, wall] - position[0, wall]) @ direction
-        compressive = -(force[:, wall] @ direction)
+        force_wall = -(force[:, wall] @ direction)
+        partner = _counterpart(force, position, travel, wall, direction)
     else:
         displacement = np.zeros(len(magnitude))
-        compressive = magnitude
+        force_wall = magnitude
+    compressive = force_wall
+    if partner is not None:
+        if travel[partner] > 0.0:
+            u_partner = (position[-1, partner] - position[0, partner]) / travel[partner]
+            displacement = displacement + (position[:, partner] - position[0, partner]) @ u_partner
+        force_partner = force[:, partner] @ direction
+        compressive = 0.5 * (force_wall + force_partner)
+        gap = abs(float((position[0, partner] - position[0, wall]) @ direction)) - displacement
     peak = int(np.argmax(compressive))
-    out = {"wall": wall, "time": results.time, "displacement": displacement,
-           "force": compressive, "force_magnitude": magnitude, "peak_index": peak,
+    mismatch = None
+    if partner is not None and compressive[peak] > 0.0:
+        mismatch = float(np.max(np.abs(force_wall - force_partner)[:peak + 1])
+                         / compressive[peak])
+    out = {"wall": wall, "partner": partner, "time": results.time,
+           "displacement": displacement, "gap": gap, "force": compressive,
+           "force_wall": force_wall, "force_partner": force_partner,
+           "force_magnitude": magnitude, "peak_index": peak,
            "peak_force": float(compressive[peak]),
-           "peak_displacement": float(displacement[peak]), "first_break_index": None,
+           "displacement_at_peak_force": float(displacement[peak]),
+           "gap_at_peak_force": None if gap is None else float(gap[peak]),
+           "force_mismatch": mismatch, "first_break_index": None,
            "first_break_force": None, "first_break_displacement": None}
     broken = results.any_broken()
     if broken.any():

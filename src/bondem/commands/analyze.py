@@ -21,7 +21,8 @@ def command(results, out_dir, as_json, frames):
     """Fragments, broken bonds, energy balance and wall force of RESULTS.h5."""
     from ..analysis.figures import build_figures, save_figures
     from ..analysis.results import Results
-    from ..analysis.summary import analyze, key_numbers, time_series, write_table
+    from ..analysis.summary import (analyze, format_number, key_numbers, time_series,
+                                    write_table)
 
     frame_list = parse_frames(frames)
     out_dir = results.with_name(results.stem + "_analysis") if out_dir is None else out_dir
@@ -38,8 +39,7 @@ def command(results, out_dir, as_json, frames):
         return
     width = max(len(k) for k in numbers)
     for key, value in numbers.items():
-        shown = "n/a" if value is None else (f"{value:.6g}" if isinstance(value, float)
-                                             else str(value))
+        shown = format_number(key, value)
         click.echo(f"{key.replace('_', ' '):<{width}}  {shown}")
     click.echo(f"figures ({len(written)}), timeseries.csv, summary.json -> {out_dir}")
 

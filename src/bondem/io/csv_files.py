@@ -1,7 +1,8 @@
 """Particle and bond CSV files (SPEC 4).
 
 particles.csv: header ``x,y,z,radius,material`` (m, m, m, m, material name), optionally
-followed by ``vx,vy,vz`` (m/s) and ``wx,wy,wz`` (rad/s). bonds.csv: header
+followed by ``vx,vy,vz`` (m/s), ``wx,wy,wz`` (rad/s) and ``fixed`` (0 or 1: 1 keeps the
+particle's velocities as given, e.g. zero for a clamp). bonds.csv: header
 ``i,j,diameter,material`` with i, j 0-based rows of particles.csv, diameter in m and the
 bond material's name. Columns may come in any order; names are case-sensitive. Errors
 raise ``InputError`` naming the file, the line and the column.
@@ -18,6 +19,7 @@ from ..errors import InputError
 PARTICLE_COLUMNS = ("x", "y", "z", "radius", "material")
 VELOCITY_COLUMNS = ("vx", "vy", "vz")
 ANGULAR_COLUMNS = ("wx", "wy", "wz")
+FIXED_COLUMNS = ("fixed",)
 BOND_COLUMNS = ("i", "j", "diameter", "material")
 
 
@@ -67,6 +69,8 @@ def _read(path, required, optional_groups, kinds):
             out[name] = np.array(values, dtype=object)
         elif kinds[name] == "index":
             out[name] = np.array(values, dtype=np.int64)
+        elif kinds[name] == "flag":
+            out[name] = np.array(values, dtype=np.bool_)
         else:
             out[name] = np.array(values, dtype=np.float64)
     return out
@@ -77,6 +81,11 @@ def _cell(text, kind, path, line, column):
         if not text:
             raise InputError(f"line {line}: empty material name", file=str(path), key=column)
         return text
+    if kind == "flag":
+        if text not in ("0", "1"):
+            raise InputError(f"line {line}: {text!r}; allowed: 0 or 1", file=str(path),
+                             key=column)
+        return int(text)
     if kind == "index":
         try:
             value = int(text)
@@ -101,10 +110,11 @@ def _cell(text, kind, path, line, column):
 
 def read_particles(path):
     """Read particles.csv. Returns a dict of arrays: x, y, z, radius (m), material (names,
-    object array), and vx, vy, vz (m/s), wx, wy, wz (rad/s) when present."""
+    object array), and vx, vy, vz (m/s), wx, wy, wz (rad/s), fixed (bool) when present."""
     kinds = {name: "float" for name in ("x", "y", "z") + VELOCITY_COLUMNS + ANGULAR_COLUMNS}
-    kinds.update(radius="positive", material="name")
-    data = _read(path, PARTICLE_COLUMNS, (VELOCITY_COLUMNS, ANGULAR_COLUMNS), kinds)
+    kinds.update(radius="positive", material="name", fixed="flag")
+    data = _read(path, PARTICLE_COLUMNS, (VELOCITY_COLUMNS, ANGULAR_COLUMNS, FIXED_COLUMNS),
+                 kinds)
     if data["x"].size == 0:
         raise InputError("no particle rows", file=str(path))
     return data

@@ -85,11 +85,12 @@ class ResultsWriter:
     """Append frames of a Simulation to an HDF5 results file (SPEC 6).
 
     path: the file (created, or with ``resume_frames`` reopened and truncated to that
-    many frames); scene_text: the scene TOML; backend: "cpu" | "gpu"; time_step: s.
+    many frames); scene_text: the scene TOML; scene_name: the scene file's name; backend: "cpu" | "gpu"; time_step: s.
     """
 
     def __init__(self, path, sim, *, scene_text="", backend="cpu", material_names=None,
-                 bond_material_names=None, resume_frames=None, compression="gzip"):
+                 bond_material_names=None, resume_frames=None, compression="gzip",
+                 scene_name=""):
         self.path = Path(path)
         self.n_walls = count_walls(sim)
         self._datasets = None
@@ -103,6 +104,7 @@ class ResultsWriter:
         f = h5py.File(self.path, "w", libver="latest")
         self.file = f
         f.attrs["scene"] = scene_text
+        f.attrs["scene_name"] = scene_name
         from .. import __version__
         f.attrs["bondem_version"] = __version__
         f.attrs["backend"] = backend
