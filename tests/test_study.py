@@ -360,7 +360,7 @@ def test_scene_runner_passes_overrides_and_reads_the_results(tmp_path, monkeypat
         calls.append((Path(path), dict(overrides)))
         return dict(overrides)
 
-    def run_scene(scene, out_dir, *, progress=True, resume=False):
+    def run_scene(scene, out_dir, *, progress=True, resume=False, overwrite=False):
         assert progress is False and not resume
         path = Path(out_dir) / "results.h5"
         with h5py.File(path, "w") as handle:

@@ -32,7 +32,7 @@ import numpy as np
 
 from .backends import cpu_contacts as kernels
 from .neighbors import build_pairs, carry_history, max_displacement
-from .walls import WallSet, build_wall_pairs
+from .walls import PLANE, WallSet, build_wall_pairs
 
 PAIR_HISTORY = {"contact_spring": (3,), "contact_force": (3,), "contact_moment_i": (3,),
                 "contact_moment_j": (3,), "contact_energy": ()}
@@ -120,7 +120,13 @@ class ContactLaw:
         self.skin = (self.settings.skin if self.settings.skin is not None
                      else 0.2 * float(model.radius.mean()) if n else 0.0)
         self._box_length = model.box_length
-        self._linear_stiffness = float(self.settings.linear_stiffness or 0.0)
+        self._k_linear = float(self.settings.linear_stiffness or 0.0)  # N/m, 0: default
+        # None selects Hertz-Mindlin in the CPU kernels (by type: only the law in use compiles)
+        self._linear_stiffness = (None if self.pair_law == kernels.MODEL_HERTZ
+                                  or self.pair_law < 0
+                                  else self._k_linear)
+        self._wall_stiffness = (None if self.wall_law == kernels.MODEL_HERTZ
+                                else self._linear_stiffness)
         cutoff = 2.0 * float(model.radius.max(initial=0.0)) + self.skin
         if np.any(model.periodic & (self._box_length < 2.0 * cutoff)):
             raise ValueError(f"periodic box lengths {self._box_length[model.periodic].tolist()} "
@@ -255,7 +261,8 @@ class ContactLaw:
                     self.walls.angular_velocity, self.walls.centers(state.time),
                     *self._wall_materials, state.position, state.velocity,
                     state.angular_velocity, model.radius, model.mass, model.inertia, model.material,
-                    *self._materials, use_rolling, self._linear_stiffness,
+                    *self._materials, use_rolling, self._wall_stiffness,
+                    True if np.any(self.walls.element_type != PLANE) else None,
                     extra["wall_spring"], increment_dt, moved_dt, self._w_distance,
                     self._w_point, self._w_feature, extra["wall_force_rows"],
                     extra["wall_moment_rows"], extra["wall_energy_rows"], self._w_dissipated,

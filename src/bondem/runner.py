@@ -20,6 +20,10 @@ from .io.results import ResultsWriter
 RESULTS_NAME = "results.h5"
 CHECKPOINT_NAME = "checkpoint.npz"
 LAST_GOOD_NAME = "last_good_state.npz"
+# What a run and the commands after it (analyze, report, export vtk) write in its folder:
+# a fresh run with overwrite clears them all, so no stale analysis outlives its results.
+STALE_OUTPUTS = (RESULTS_NAME, CHECKPOINT_NAME, LAST_GOOD_NAME, "results.fragments.h5",
+                 "results_report.html", "results_analysis", "vtk")
 FIRST_BATCH = 16       # steps in the first batch (it includes the JIT compilation)
 BATCH_SECONDS = 1.0    # wall-clock target of a batch of steps
 
@@ -41,16 +45,39 @@ def frame_schedule(scene, time_step):
     return total, stride
 
 
+def clear_outputs(out_dir, overwrite):
+    """Refuse (InputError naming --overwrite) a folder that holds an earlier run's results
+    or checkpoint, unless ``overwrite``: then remove the run's files and the analysis,
+    report and ParaView output made from them (``STALE_OUTPUTS``)."""
+    import shutil
+    out_dir = Path(out_dir)
+    present = [name for name in STALE_OUTPUTS if (out_dir / name).exists()]
+    if not present:
+        return
+    if not overwrite:
+        raise InputError(f"the folder holds results of an earlier run ({', '.join(present)}); "
+                         "give --overwrite to replace them, --resume to continue that run, "
+                         "or another --out", file=out_dir, key="--out")
+    for name in present:
+        target = out_dir / name
+        if target.is_dir() and not target.is_symlink():
+            shutil.rmtree(target)
+        else:
+            target.unlink()
+
+
 def run_scene(scene, out_dir, *, progress=True, resume=False, checkpoint_minutes=None,
-              stop_after_frames=None) -> Path:
+              stop_after_frames=None, overwrite=False) -> Path:
     """Run ``scene`` (from ``load_scene``) and write ``out_dir/results.h5``.
 
     progress: show a tqdm bar (simulated time, steps/s, intact bonds); resume: continue
     from ``out_dir/checkpoint.npz`` and truncate the results to its frame;
     checkpoint_minutes: wall-clock minutes between checkpoints (default: the scene's
     ``simulation.checkpoint_minutes``; 0 means after every batch of steps); stop_after_frames: stop
-    (as if killed) after that many frames in this call, for tests. Returns the results
-    path. Raises InputError (bad resume) or RunFailed (blow-up; the last good state is
+    (as if killed) after that many frames in this call, for tests; overwrite: replace an
+    earlier run's results in ``out_dir`` (and its stale analysis, report and vtk output)
+    instead of refusing them. Returns the results path. Raises InputError (bad resume, or
+    a folder with results without overwrite) or RunFailed (blow-up; the last good state is
     kept in ``out_dir/last_good_state.npz`` and every frame up to it in the results).
     """
     out_dir = Path(out_dir)
@@ -64,11 +91,14 @@ def run_scene(scene, out_dir, *, progress=True, resume=False, checkpoint_minutes
                              file=out_dir, key="--resume")
         state, frames, scene_text, _ = read_checkpoint(checkpoint_path)
         if scene_text != scene.text:
-            raise InputError("the scene changed since the checkpoint was written; run "
-                             "without --resume", file=scene.path, key="--resume")
+            raise InputError("the scene (with its --set values) differs from the one the "
+                             "checkpoint was written with; give the same scene and the same "
+                             "--set options to resume, or run afresh with --overwrite",
+                             file=scene.path, key="--resume")
         sim = scene.make_simulation(state)
         writer = ResultsWriter(results_path, sim, resume_frames=frames)
     else:
+        clear_outputs(out_dir, overwrite)
         sim = scene.make_simulation()
         writer = ResultsWriter(results_path, sim, scene_text=scene.text, backend=scene.backend,
                                scene_name=Path(scene.path).name,

@@ -277,7 +277,7 @@ class _SceneRunner:
             except InputError:
                 results = None
         if results is None:
-            results = run_scene(scene, case_dir, progress=False)
+            results = run_scene(scene, case_dir, progress=False, overwrite=True)
         return scene_quantities(results, self.quantities)
 
 

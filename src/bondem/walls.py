@@ -272,21 +272,25 @@ def _wall_pass(position, radius, skin, rows, types, low, width, counts, cell_sta
                     if fill:
                         out_e[row_start[p] + found] = e
                     found += 1
-        inside = True
-        cell = np.empty(3, dtype=np.int64)
-        for k in range(3):
-            ik = int(np.floor((x[k] - low[k]) / width[k]))
-            if ik < 0 or ik >= counts[k]:
-                inside = False
-            cell[k] = ik
-        if inside:
-            c = (cell[0] * counts[1] + cell[1]) * counts[2] + cell[2]
-            for s in range(cell_start[c], cell_start[c + 1]):
-                e = items[s]
-                if _triangle_distance_sq(x, rows[e, 0], rows[e, 1], rows[e, 2]) < reach * reach:
-                    if fill:
-                        out_e[row_start[p] + found] = e
-                    found += 1
+        # None without triangles: Numba prunes the branch by type and a scene of planes
+        # never compiles the triangle distance (~1.8 s of a first run)
+        if cell_start is not None:
+            inside = True
+            cell = np.empty(3, dtype=np.int64)
+            for k in range(3):
+                ik = int(np.floor((x[k] - low[k]) / width[k]))
+                if ik < 0 or ik >= counts[k]:
+                    inside = False
+                cell[k] = ik
+            if inside:
+                c = (cell[0] * counts[1] + cell[1]) * counts[2] + cell[2]
+                for s in range(cell_start[c], cell_start[c + 1]):
+                    e = items[s]
+                    if _triangle_distance_sq(x, rows[e, 0], rows[e, 1],
+                                             rows[e, 2]) < reach * reach:
+                        if fill:
+                            out_e[row_start[p] + found] = e
+                        found += 1
         if fill:
             sort_row(out_e, row_start[p], row_start[p] + found)
         else:
@@ -310,7 +314,7 @@ def build_wall_pairs(position, radius, skin, rows, types):
         cell_start, items = _bin_triangles(rows, types, reach, low, width, counts)
     else:
         low, width, counts = np.zeros(3), np.ones(3), np.ones(3, dtype=np.int64)
-        cell_start, items = np.zeros(2, dtype=np.int64), np.zeros(0, dtype=np.int64)
+        cell_start, items = None, None
     row_start = np.zeros(n + 1, dtype=np.int64)
     dummy = np.zeros(0, dtype=np.int64)
     _wall_pass(position, radius, float(skin), rows, types, low, width, counts, cell_start,

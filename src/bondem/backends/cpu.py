@@ -126,8 +126,10 @@ def elastic_bonds(pairs, diameter, initial_length, bond_material, bm_young, bm_p
     advanced one at a time by the scalar physics and tested for breakage exactly; both
     paths give the same bits (tests/test_bond_blocked.py), the vectorised one 1.3-1.9x
     faster (docs/performance.md).
-    musen: MUSEN's numerics (``elastic_bond_musen``, ``bond_break_mode_musen``, scalar
-    only) instead of the SPEC's; previous_length (B,) m: |r| of the last step, which
+    musen: True for MUSEN's numerics (``elastic_bond_musen``, ``bond_break_mode_musen``,
+    scalar only) instead of the SPEC's, None for the SPEC's (None, not False: Numba
+    prunes the branch by type, so a SPEC run never compiles MUSEN's law, ~1.2 s);
+    previous_length (B,) m: |r| of the last step, which
     MUSEN's rotation needs. scratch: (NUMBA_NUM_THREADS, SCRATCH_ROWS * BOND_BLOCK)
     float64, one row set per thread, owned by one simulation.
     """
@@ -197,7 +199,7 @@ def elastic_bonds(pairs, diameter, initial_length, bond_material, bm_young, bm_p
             m_n0 = (s[_MN0 * B + q], s[(_MN0 + 1) * B + q], s[(_MN0 + 2) * B + q])
             m_t0 = (s[_MT0 * B + q], s[(_MT0 + 1) * B + q], s[(_MT0 + 2) * B + q])
             kn, kt, ktw, kb = bond_stiffnesses(bm_young[m], bm_poisson[m], diameter[b], l0)
-            if musen:
+            if musen is not None:
                 # MUSEN's numerics (physics/bond_elastic_musen.py): previous bond with length.
                 lp = previous_length[b]
                 length, n, f_n, f_t, m_n, m_t = elastic_bond_musen(
@@ -400,7 +402,7 @@ class ElasticBonds:
                       state.bond_tangential_force, state.bond_normal_moment,
                       state.bond_tangential_moment, state.bond_break_time,
                       state.bond_break_mode, state.bond_break_energy, state.time,
-                      increment_dt, self.musen_compat,
+                      increment_dt, True if self.musen_compat else None,
                       self.vectorised and not self.musen_compat, self._scratch, self.force_i,
                       self.moment_i, self.moment_j)
 

@@ -31,10 +31,14 @@ _jit = dict(parallel=True, cache=True, fastmath=False, nogil=True)
 @numba.njit(cache=True, nogil=True)
 def _pair_law(law, n, overlap, v_rel, w_rel, spring, young_i, poisson_i, young_j, poisson_j,
               restitution, friction, rolling, r_star, m_star, i_star, linear_stiffness, dt):
+    """Loads of one contact. The law is chosen by the type of ``linear_stiffness``: None
+    for Hertz-Mindlin, a float k_n (N/m; <= 0 for the default) for the linear law, so
+    that Numba compiles only the law a scene uses (``law`` is the matching MODEL_ code,
+    for the reader)."""
     e_star = effective_young_modulus(young_i, poisson_i, young_j, poisson_j)
     g_star = effective_shear_modulus(young_i, poisson_i, young_j, poisson_j)
     beta = restitution_beta(restitution)
-    if law == MODEL_HERTZ:
+    if linear_stiffness is None:
         return hertz_mindlin(n, overlap, v_rel, w_rel, spring, e_star, g_star, r_star, m_star,
                              i_star, beta, friction, rolling, dt)
     k_n = linear_stiffness
@@ -161,8 +165,15 @@ def gather_pair_loads(i_start, i_order, j_start, j_order, force_c, moment_i_c, m
 
 
 @numba.njit(cache=True, nogil=True)
-def _element_contact(x, radius, rows, etype):
-    """(distance from centre to the closest point (m), closest point, feature)."""
+def _element_contact(x, radius, rows, etype, triangles):
+    """(distance from centre to the closest point (m), closest point, feature).
+    triangles: None when every element is a plane (Numba then leaves the triangle code
+    out), True otherwise."""
+    if triangles is None:
+        d = ((x[0] - rows[0, 0]) * rows[1, 0] + (x[1] - rows[0, 1]) * rows[1, 1]
+             + (x[2] - rows[0, 2]) * rows[1, 2])
+        q = (x[0] - d * rows[1, 0], x[1] - d * rows[1, 1], x[2] - d * rows[1, 2])
+        return d, q, FACE
     if etype == PLANE:
         d = ((x[0] - rows[0, 0]) * rows[1, 0] + (x[1] - rows[0, 1]) * rows[1, 1]
              + (x[2] - rows[0, 2]) * rows[1, 2])
@@ -180,8 +191,8 @@ def wall_contacts(law, wall_start, wall_pairs, rows, types, element_wall, wall_v
                   wall_omega, wall_center, wall_young, wall_poisson, wall_restitution,
                   wall_friction, wall_rolling, position, velocity, angular_velocity, radius,
                   mass, inertia, material, young, poisson, restitution, friction, rolling,
-                  use_rolling, linear_stiffness, spring, dt, moved_dt, scratch_distance,
-                  scratch_point,
+                  use_rolling, linear_stiffness, triangles, spring, dt, moved_dt,
+                  scratch_distance, scratch_point,
                   scratch_feature, force_c, moment_c, energy_c, out_dissipated, out_work):
     """Loads of every particle-wall candidate (force and moment on the particle) and its
     stored energy, written over the previous step's rows (read first); out_work: J done
@@ -199,7 +210,7 @@ def wall_contacts(law, wall_start, wall_pairs, rows, types, element_wall, wall_v
         tol = 1e-9 * radius[p]
         for c in range(wall_start[p], wall_start[p + 1]):
             e = wall_pairs[c, 1]
-            d, q, feature = _element_contact(x, radius[p], rows[e], types[e])
+            d, q, feature = _element_contact(x, radius[p], rows[e], types[e], triangles)
             scratch_distance[c] = d
             scratch_feature[c] = feature
             for k in range(3):
@@ -210,14 +221,15 @@ def wall_contacts(law, wall_start, wall_pairs, rows, types, element_wall, wall_v
             q = (scratch_point[c, 0], scratch_point[c, 1], scratch_point[c, 2])
             d = scratch_distance[c]
             keep = d < radius[p] and d > -radius[p] and (types[e] == PLANE or d > 0.0)
-            if keep and types[e] != PLANE:
+            if triangles is not None and keep and types[e] != PLANE:
                 for c2 in range(wall_start[p], wall_start[p + 1]):
                     e2 = wall_pairs[c2, 1]
                     if c2 == c or element_wall[e2] != element_wall[e] or types[e2] == PLANE:
                         continue
                     if scratch_distance[c2] >= radius[p]:
                         continue
-                    inside, _, _ = _element_contact(q, radius[p], rows[e2], types[e2])
+                    inside, _, _ = _element_contact(q, radius[p], rows[e2], types[e2],
+                                                    triangles)
                     if inside >= tol:
                         continue
                     gap = 0.0

@@ -500,7 +500,7 @@ class ContactLawGpu(ContactLaw):
             particle_contacts_kernel[_blocks(self._counts[0]), THREADS](
                 self.pair_law, dev["pairs"], dev["pair_bond"], d.bond_active, d.position,
                 d.velocity, d.angular_velocity, self._d_radius, g.mass, self._d_inertia,
-                self._d_material, *self._d_materials, use_rolling, self._linear_stiffness,
+                self._d_material, *self._d_materials, use_rolling, self._k_linear,
                 g.box_length, g.periodic, dev["contact_spring"], increment_dt, moved_dt,
                 dev["contact_force"], dev["contact_moment_i"], dev["contact_moment_j"],
                 dev["contact_energy"], dev["dissipated_rows"])
@@ -519,7 +519,7 @@ class ContactLawGpu(ContactLaw):
                 self._d_types, self._d_element_wall, self._d_wall_velocity,
                 self._d_wall_omega, centers, *self._d_wall_materials, d.position,
                 d.velocity, d.angular_velocity, self._d_radius, g.mass, self._d_inertia,
-                self._d_material, *self._d_materials, use_rolling, self._linear_stiffness,
+                self._d_material, *self._d_materials, use_rolling, self._k_linear,
                 dev["wall_spring"], increment_dt, moved_dt, dev["scratch_distance"],
                 dev["scratch_point"], dev["scratch_feature"], dev["wall_force_rows"],
                 dev["wall_moment_rows"], dev["wall_energy_rows"], force, moment,

@@ -36,7 +36,8 @@ def command(out_dir, end_time, no_progress):
                f"{scene.end_time * 1e3:g} ms")
     start = time.perf_counter()
     try:
-        results = run_scene(scene, out_dir, progress=not no_progress)
+        # the demo's folder is the demo's own: a second `bondem demo` replaces it
+        results = run_scene(scene, out_dir, progress=not no_progress, overwrite=True)
     except RunFailed as error:
         click.echo(f"bondem: run failed: {error}", err=True)
         sys.exit(1)
@@ -50,3 +51,8 @@ def command(out_dir, end_time, no_progress):
                f"{int((~active).sum())} of {active.size} bonds broken")
     click.echo(f"results:  {results}")
     click.echo(f"ParaView: {pvd}  (open it, glyph particles by 'radius')")
+    click.echo("next:")
+    click.echo(f"  bondem analyze {results}    # fragments, broken bonds, energy balance")
+    click.echo(f"  bondem report {results}     # one HTML page with the figures")
+    click.echo(f"  bondem run {out_dir / 'scene.toml'} --out my-run --set "
+               "particles.velocity=[0,0,-3]   # your own variant")

@@ -13,13 +13,19 @@ import click
               help="Override simulation.backend of the scene.")
 @click.option("--resume", is_flag=True,
               help="Continue from the folder's last checkpoint (same scene).")
+@click.option("--overwrite", is_flag=True,
+              help="Replace the results of an earlier run in the output folder (and the "
+                   "analysis, report and vtk output made from them).")
 @click.option("--checkpoint-minutes", type=click.FloatRange(min=0.0),
               help="Wall-clock minutes between checkpoints (scene default: 10).")
 @click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE",
               help="Override a scene value, e.g. --set simulation.end_time=1e-3 (repeatable).")
 @click.option("--no-progress", is_flag=True, help="No progress bar.")
-def command(scene, out_dir, backend, resume, checkpoint_minutes, overrides, no_progress):
-    """Run SCENE (a TOML scene file, SPEC 4) and write results.h5 (SPEC 6)."""
+def command(scene, out_dir, backend, resume, overwrite, checkpoint_minutes, overrides,
+            no_progress):
+    """Run SCENE (a TOML scene file, docs/scene.md) and write OUT/results.h5 with a
+    checkpoint beside it. An output folder that holds results is refused unless
+    --overwrite or --resume is given."""
     from ..runner import RunFailed, default_out_dir, run_scene
     from ..scene import load_scene, parse_override
 
@@ -30,9 +36,11 @@ def command(scene, out_dir, backend, resume, checkpoint_minutes, overrides, no_p
     out_dir = out_dir or default_out_dir(scene)
     try:
         path = run_scene(loaded, out_dir, progress=not no_progress, resume=resume,
-                         checkpoint_minutes=checkpoint_minutes)
+                         checkpoint_minutes=checkpoint_minutes, overwrite=overwrite)
     except RunFailed as error:
         click.echo(f"bondem: run failed: {error}", err=True)
         sys.exit(1)
     click.echo(f"results: {path}")
-    click.echo(f"ParaView: bondem export vtk {path}")
+    click.echo(f"next: bondem analyze {path}   (fragments, broken bonds, energy, wall force)")
+    click.echo(f"      bondem report {path}    (one HTML page with the figures)")
+    click.echo(f"      bondem export vtk {path}   (ParaView files)")
