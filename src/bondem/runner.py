@@ -110,12 +110,14 @@ def run_scene(scene, out_dir, *, progress=True, resume=False, checkpoint_minutes
                          scene_text=scene.text)
     state_steps, stride = frame_schedule(scene, sim.time_step)
     total = state_steps
-    bar = _progress_bar(progress, total, sim.state.step)
+    bar_start = sim.state.step
+    bar = _progress_bar(progress, total, bar_start)
     last_checkpoint = time.monotonic()
     good = sim.state.copy()
     frames_here = 0
     try:
         batch = FIRST_BATCH
+        rate = float("inf")   # steps/s of the last batch (unknown before the first)
         while sim.state.step < total:
             if stop_after_frames is not None and frames_here >= stop_after_frames:
                 return results_path
@@ -123,6 +125,10 @@ def run_scene(scene, out_dir, *, progress=True, resume=False, checkpoint_minutes
             to_frame = min(stride - start_step % stride, total - start_step)
             steps = min(to_frame, batch)
             started = time.monotonic()
+            # A batch far slower than the last ones is Numba compiling a kernel that this
+            # scene needs only now (the first step, the first wall contact, ...).
+            notice = (_compile_notice(bar, max(1.0, 3.0 * steps / rate))
+                      if bar is not None else None)
             try:
                 sim.step(steps)
             except SimulationBlowUp as error:
@@ -134,13 +140,25 @@ def run_scene(scene, out_dir, *, progress=True, resume=False, checkpoint_minutes
             now = time.monotonic()
             # batches of about BATCH_SECONDS, so that checkpoints and the progress bar
             # keep to the wall clock even when frames are hours apart
-            rate = steps / max(now - started, 1e-9)
-            batch = max(1, min(2 * batch, int(rate * BATCH_SECONDS)))
+            if notice is None or not notice.said:
+                rate = steps / max(now - started, 1e-9)
+            batch = (max(1, min(2 * batch, int(rate * BATCH_SECONDS))) if rate < float("inf")
+                     else 2 * batch)
             if steps == to_frame:
                 writer.append(sim)
                 frames_here += 1
                 good = sim.state.copy()
-            if bar is not None:
+            if notice is not None:
+                notice.cancel()
+            if notice is not None and notice.said:
+                # Restart the clock after a compilation, so that the rate and the ETA are
+                # the run's own.
+                bar.initial = 0
+                bar.set_description("bondem", refresh=False)
+                bar.reset(total=total)
+                bar.initial = bar.n = bar.last_print_n = sim.state.step
+                bar.refresh()
+            elif bar is not None:
                 bar.update(sim.state.step - start_step)
                 bar.set_postfix_str(f"t={sim.state.time:.4g} s, intact bonds="
                                     f"{int(sim.state.bond_active.sum())}/"
@@ -154,6 +172,22 @@ def run_scene(scene, out_dir, *, progress=True, resume=False, checkpoint_minutes
         if bar is not None:
             bar.close()
     return results_path
+
+
+def _compile_notice(bar, after):
+    """A started timer that, if the batch of steps is still running after ``after``
+    seconds, says on the progress bar that kernels are compiling; ``.said`` tells whether
+    it did."""
+    import threading
+
+    def say():
+        timer.said = True
+        bar.set_description("compiling kernels (first run only)", refresh=True)
+    timer = threading.Timer(after, say)
+    timer.said = False
+    timer.daemon = True
+    timer.start()
+    return timer
 
 
 def _progress_bar(progress, total, initial):
