@@ -18,9 +18,11 @@ def command():
 @click.option("--every", type=click.IntRange(min=1), default=1, show_default=True,
               help="Write every N-th frame only.")
 def vtk_command(results, out_dir, every):
-    """ParaView files: particles (points with radius, velocity, fragment id) and bonds
-    (lines with active flag, force, normal and shear stress), one per frame, and a .pvd
-    index with the times."""
+    """ParaView files, one set per frame, and a .pvd index with the times: particles
+    (points: radius, velocity, speed, angular velocity, force, material, fragment id),
+    bonds (intact ones as lines, broken ones as points where they broke: active, break
+    mode, force, normal and shear stress) and walls (planes as squares, meshes as
+    triangles, moving with the wall: force). See docs/scene.md."""
     import h5py
 
     from ..io.vtk import export_vtk

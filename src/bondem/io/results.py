@@ -11,9 +11,14 @@ Layout (F frames, N particles, B bonds, W walls; every dataset has a ``unit`` at
        force (F,B,3) N (F_n + F_t on particle i), normal_moment, tangential_moment
        (F,B,3) N m (on particle i); all three zero for broken bonds
 /walls/force, torque, position (F,W,3) N, N m, m
+/walls/geometry/ type (W,) 0 plane 1 mesh, point, normal, velocity, angular_velocity,
+       rotation_center (W,3) m, -, m/s, rad/s, m at t = 0; meshN/vertices (V,3) m and
+       meshN/triangles (T,3) for mesh wall N (for the ParaView export)
+/particles/force (F,N,3) N: the particles' loads of the last force evaluation
 /energy/<term> (F,) J: Simulation.energy_terms()
 /materials/names, /bond_materials/names
-attrs on /: scene (the scene text), bondem_version, backend, time_step (s), ...
+attrs on /: scene (the scene text), scene_name, bondem_version, backend, time_step (s),
+periodic (3,) bool, box_length (3,) m (periodic cell; 1 along other axes), ...
 ```
 The file is opened with ``libver="latest"``, all datasets are created first and then SWMR
 mode is switched on, so readers can follow a running simulation with
@@ -36,7 +41,7 @@ UNITS = {
     "bonds/initial_length": "m", "bonds/material": "1", "bonds/active": "1",
     "bonds/break_time": "s", "bonds/break_mode": "1", "bonds/force": "N",
     "bonds/normal_moment": "N m", "bonds/tangential_moment": "N m", "walls/force": "N",
-    "walls/torque": "N m", "walls/position": "m",
+    "walls/torque": "N m", "walls/position": "m", "particles/force": "N",
 }
 
 
@@ -76,6 +81,33 @@ def _wall_array(sim, name, n_walls):
     return np.asarray(value, dtype=np.float64).reshape(n_walls, 3)
 
 
+def _host(array):
+    """A NumPy copy of a host or device (N,3) array."""
+    return array.copy_to_host() if hasattr(array, "copy_to_host") else np.asarray(array)
+
+
+def write_wall_geometry(f, walls):
+    """/walls/geometry of PlaneWall / MeshWall objects at t = 0 (see the module docstring)."""
+    from ..walls import MeshWall
+    group = f.create_group("walls/geometry")
+    w = len(walls)
+    group["type"] = np.array([1 if isinstance(x, MeshWall) else 0 for x in walls], np.int8)
+    zero = np.zeros(3)
+    for name, unit, get in (
+            ("point", "m", lambda x: getattr(x, "point", zero)),
+            ("normal", "1", lambda x: getattr(x, "normal", zero)),
+            ("velocity", "m/s", lambda x: x.velocity),
+            ("angular_velocity", "rad/s", lambda x: x.angular_velocity),
+            ("rotation_center", "m", lambda x: getattr(x, "rotation_center", zero))):
+        group[name] = np.array([get(x) for x in walls], dtype=np.float64).reshape(w, 3)
+        group[name].attrs["unit"] = unit
+    for k, x in enumerate(walls):
+        if isinstance(x, MeshWall):
+            group[f"mesh{k}/vertices"] = x.vertices
+            group[f"mesh{k}/vertices"].attrs["unit"] = "m"
+            group[f"mesh{k}/triangles"] = x.triangles
+
+
 def count_walls(sim):
     """Number of walls of a Simulation (0 when it has none)."""
     return len(getattr(sim, "walls", None) or ())
@@ -111,6 +143,8 @@ class ResultsWriter:
         f.attrs["time_step"] = float(sim.time_step)
         f.attrs["time_step_cause"] = str(getattr(sim, "time_step_cause", ""))
         f.attrs["n_particles"], f.attrs["n_bonds"], f.attrs["n_walls"] = n, b, w
+        f.attrs["periodic"] = np.asarray(model.periodic, dtype=np.bool_)
+        f.attrs["box_length"] = np.asarray(model.box_length, dtype=np.float64)
         options = dict(compression=compression, shuffle=compression is not None)
 
         def constant(name, data):
@@ -143,8 +177,9 @@ class ResultsWriter:
                              dtype=dtype, chunks=chunks, **options)
             f[name].attrs["unit"] = unit or UNITS[name]
 
+        write_wall_geometry(f, getattr(sim, "walls", None) or ())
         frames("time", ())
-        for name in ("position", "velocity", "angular_velocity"):
+        for name in ("position", "velocity", "angular_velocity", "force"):
             frames(f"particles/{name}", (n, 3))
         frames("bonds/active", (b,), dtype=np.bool_)
         for name in ("force", "normal_moment", "tangential_moment"):
@@ -179,6 +214,7 @@ class ResultsWriter:
             "particles/position": state.position,
             "particles/velocity": state.velocity,
             "particles/angular_velocity": state.angular_velocity,
+            "particles/force": _host(sim.force),
             "bonds/active": state.bond_active,
             "bonds/force": bond_forces(sim.model, state),
             "bonds/normal_moment": _intact_only(state.bond_normal_moment, state.bond_active),
@@ -193,7 +229,9 @@ class ResultsWriter:
             values[f"energy/{name}"] = energy.get(name, np.nan)
         values["time"] = state.time
         if self._datasets is None:  # looking datasets up by name costs more than writing
-            self._datasets = {name: f[name] for name in values}
+            # (files of earlier versions have no /particles/force: resume without it)
+            self._datasets = {name: f[name] for name in values if name in f}
+        values = {name: values[name] for name in self._datasets}
         for name, value in values.items():
             dataset = self._datasets[name]
             dataset.resize(k + 1, axis=0)
