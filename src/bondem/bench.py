@@ -1,4 +1,4 @@
-"""Benchmarks of /work/shared/bench/README.md (the "lattice" scene) and the step profile.
+"""Benchmarks (docs/performance.md: the "lattice" scene) and the step profile.
 
 Figures: particle-steps/s (particles x steps / wall s) and bond-updates/s (active bonds
 x steps / wall s), measured after a warm-up whose wall time (JIT compilation or cache
@@ -281,11 +281,11 @@ def stream_triad(n=20_000_000, repeats=5):
 
 
 def lammps_deck_dir():
-    """benchmarks/lammps of the source tree if present, else /work/shared/bench/lammps."""
-    here = Path(__file__).resolve().parents[2] / "benchmarks" / "lammps"
-    if (here / "run.sh").exists():
-        return here
-    return Path("/work/shared/bench/lammps")
+    """The LAMMPS deck: $BONDEM_LAMMPS_DECK if set, else benchmarks/lammps of the source
+    tree (an installed wheel has none: then set the variable)."""
+    if os.environ.get("BONDEM_LAMMPS_DECK"):
+        return Path(os.environ["BONDEM_LAMMPS_DECK"])
+    return Path(__file__).resolve().parents[2] / "benchmarks" / "lammps"
 
 
 def lammps_run(n, steps):

@@ -47,7 +47,7 @@ def _sizes(text):
               help="Also measure memory bandwidth (STREAM-like triad).")
 def command(scene, sizes, steps, variant, backend, order, json_path, peer, peer_steps,
             profile, triad):
-    """Time SCENE (the bench scenes of shared/bench/README.md) and print a table."""
+    """Time SCENE (the bench scenes of docs/performance.md) and print a table."""
     from .. import bench
 
     if scene == "impact":
@@ -60,6 +60,9 @@ def command(scene, sizes, steps, variant, backend, order, json_path, peer, peer_
         click.echo(f"memory bandwidth (triad): {extra['triad_bytes_per_s'] / 1e9:.1f} GB/s")
     for n in _sizes(sizes):
         n_steps = steps or (1000 if n <= 22 else 200)
+        click.echo(f"bench lattice n={n}: {n ** 3:,} particles, building the scene, "
+                   f"warming up (compiles kernels on a first run), then {n_steps} timed "
+                   "steps ...", err=True)
         try:
             result = bench.lattice_run(n, n_steps, variant=variant, backend=backend,
                                        order=order, profile=profile)
@@ -69,6 +72,7 @@ def command(scene, sizes, steps, variant, backend, order, json_path, peer, peer_
         for note in result["notes"]:
             click.echo(f"n={n}: {note}")
         if peer == "lammps":
+            click.echo(f"bench lattice n={n}: the same scene in LAMMPS ...", err=True)
             try:
                 other = bench.lammps_run(n, peer_steps or n_steps)
             except (RuntimeError, OSError) as error:

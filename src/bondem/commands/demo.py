@@ -55,4 +55,4 @@ def command(out_dir, end_time, no_progress):
     click.echo(f"  bondem analyze {results}    # fragments, broken bonds, energy balance")
     click.echo(f"  bondem report {results}     # one HTML page with the figures")
     click.echo(f"  bondem run {out_dir / 'scene.toml'} --out my-run --set "
-               "particles.velocity=[0,0,-3]   # your own variant")
+               "'particles.velocity=[0,0,-3]'   # your own variant")

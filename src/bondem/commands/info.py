@@ -6,12 +6,15 @@ import click
 
 @click.command(name="info")
 @click.argument("scene", type=click.Path(dir_okay=False, path_type=Path))
-def command(scene):
+@click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE",
+              help="Override a scene value as `bondem run --set` does (repeatable).")
+def command(scene, overrides):
     """Counts, total mass, stable time step (and what limits it), memory estimate."""
-    from ..scene import load_scene
+    from ..scene import load_scene, parse_override
     from ..timestep import stable_time_step
 
-    loaded = load_scene(scene)
+    changes = dict(parse_override(text) for text in overrides)
+    loaded = load_scene(scene, changes or None)
     click.echo("\n".join(describe(loaded, stable_time_step)))
 
 

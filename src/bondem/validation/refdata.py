@@ -46,10 +46,10 @@ def reference_directory(p=None):
         return Path(os.environ["BONDEM_REFDATA"])
     repository = Path(__file__).resolve().parents[3]
     for candidate in (p or {}).get("search", ["../shared/refdata"]):
-        path = Path(candidate)
-        path = path if path.is_absolute() else repository / path
-        if path.is_dir():
-            return path
+        for base in (repository, Path.cwd()):
+            path = base / candidate
+            if path.is_dir():
+                return path
     return None
 
 
