@@ -82,3 +82,26 @@ def test_blow_up_stops_with_message_and_last_good_state(glass, binder):
         sim.run(steps=10, every=1e-9)
     good = error.value.last_good_state
     assert np.all(np.abs(good.position) <= 1.0)
+
+
+def test_reprs_show_counts_time_and_intact_bonds(tmp_path):
+    import bondem
+    from bondem.analysis import Results
+    from bondem.runner import run_scene
+    from bondem.scene import load_scene
+    from scenetools import cube_scene
+    glass = bondem.Material(density=2500.0, young_modulus=1e8)
+    binder = bondem.BondMaterial(young_modulus=1e8, poisson_ratio=0.3)
+    model, state = bondem.make_system(np.array([[0, 0, 0], [2e-3, 0, 0.0]]), radius=1e-3,
+                                      material=glass, bonds=[[0, 1]], bond_diameter=1e-3,
+                                      bond_material=binder)
+    sim = bondem.Simulation(model, state, time_step=1e-6)
+    sim.step(3)
+    assert repr(model).startswith("Model(2 particles, 1 bonds")
+    assert repr(state) == "State(t = 3e-06 s, step 3, 2 particles, 1 of 1 bonds intact)"
+    assert "step 3" in repr(sim) and "dt = 1e-06 s" in repr(sim) and "1 of 1 bonds" in repr(sim)
+    path = run_scene(load_scene(cube_scene(tmp_path, end_time=1e-4)), tmp_path / "o",
+                     progress=False)
+    with Results(path) as results:
+        text = repr(results)
+    assert "frames, t = 0 .. 0.0001 s, 27 particles" in text and "of 54 bonds intact" in text

@@ -84,7 +84,7 @@ def _check_range(where, key, value, low, high, include_low=False, include_high=F
                          f"{lo}{low}, {high}{hi}")
 
 
-@dataclass
+@dataclass(repr=False)
 class Model:
     """Constant part of a system. Arrays indexed by particle (N) or bond (B).
 
@@ -115,6 +115,13 @@ class Model:
     box_low: np.ndarray = field(default_factory=lambda: np.full(3, -np.inf))
     box_high: np.ndarray = field(default_factory=lambda: np.full(3, np.inf))
     damping: float = 0.0
+
+    def __repr__(self):
+        periodic = "".join(a for a, p in zip("xyz", self.periodic) if p) or "none"
+        return (f"Model({self.n_particles} particles, {self.n_bonds} bonds, "
+                f"{len(self.materials)} materials, {len(self.bond_materials)} bond materials, "
+                f"{int(np.count_nonzero(self.fixed))} fixed, periodic {periodic}, "
+                f"gravity {self.gravity.tolist()} m/s^2, damping {self.damping:g})")
 
     @property
     def n_particles(self) -> int:
@@ -149,7 +156,7 @@ class Model:
         }
 
 
-@dataclass
+@dataclass(repr=False)
 class State:
     """Changing part of a system.
 
@@ -183,6 +190,12 @@ class State:
     dissipated_damping: float = 0.0
     bond_previous_length: np.ndarray | None = None
     extra: dict = field(default_factory=dict)
+
+    def __repr__(self):
+        intact = int(np.count_nonzero(self.bond_active))
+        return (f"State(t = {self.time:.6g} s, step {self.step}, "
+                f"{self.position.shape[0]} particles, {intact} of {self.bond_active.shape[0]} "
+                f"bonds intact)")
 
     def copy(self) -> "State":
         """Deep copy (arrays copied)."""

@@ -56,6 +56,7 @@ class Simulation:
             # A state from before this array existed: its bonds start at their L0.
             state.bond_previous_length = model.bond_initial_length.copy()
         self.backend = select_backend(backend, model, state)
+        self.backend_name = backend
         self.contacts = None
         if contact is not None or len(walls):
             from .contacts import ContactSettings
@@ -74,6 +75,15 @@ class Simulation:
         self.laws = [self.bonds, *laws]
         self.integrator = self.backend.integrator(model)
         self.force, self.moment = self.backend.load_arrays(model.n_particles)
+
+    def __repr__(self):
+        state = self.state
+        intact = int(np.count_nonzero(state.bond_active))
+        contact = self.contacts.settings.model if self.contacts else "none"
+        return (f"Simulation(t = {state.time:.6g} s, step {state.step}, "
+                f"dt = {self.time_step:.4g} s, {self.model.n_particles} particles, "
+                f"{intact} of {self.model.n_bonds} bonds intact, contacts {contact}, "
+                f"{len(self.walls)} walls, backend {self.backend_name})")
 
     @property
     def wall_force(self):

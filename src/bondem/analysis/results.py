@@ -50,6 +50,17 @@ class Results:
     accept negative values as in Python (-1: last complete frame).
     """
 
+    def __repr__(self):
+        if getattr(self, "file", None) is None or not self.file:
+            return f"Results({str(self.path)!r}, closed)"
+        t = f", t = 0 .. {float(self.time[-1]):.6g} s" if self.n_frames else ""
+        intact = ""
+        if self.n_frames and self.n_bonds:
+            active = np.asarray(self.file["bonds/active"][self.n_frames - 1])
+            intact = f", {int(active.sum())} of {self.n_bonds} bonds intact at the end"
+        return (f"Results({str(self.path)!r}: {self.n_frames} frames{t}, "
+                f"{self.n_particles} particles, {self.n_walls} walls{intact})")
+
     def __init__(self, path):
         self.path = Path(path)
         self.file = open_h5(self.path)
