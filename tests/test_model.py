@@ -104,4 +104,5 @@ def test_reprs_show_counts_time_and_intact_bonds(tmp_path):
                      progress=False)
     with Results(path) as results:
         text = repr(results)
-    assert "frames, t = 0 .. 0.0001 s, 27 particles" in text and "of 54 bonds intact" in text
+    assert ": 6 frames, t = 0 .. 9.93042e-05 s, 27 particles" in text
+    assert "of 54 bonds intact at the end" in text
