@@ -11,7 +11,7 @@ import click
 from .errors import InputError
 
 COMMANDS = {
-    "run": "Run a scene and write results.h5 (SPEC 5).",
+    "run": "Run a scene and write results.h5 (docs/scene.md).",
     "info": "Counts, masses, stable time step and memory estimate of a scene.",
     "demo": "Built-in demo: an agglomerate breaking on a wall.",
     "export": "Export results to other formats (ParaView VTK).",

@@ -13,7 +13,8 @@ from ..errors import InputError
 @click.command("validate")
 @click.option("--quick", is_flag=True, help="Only the quick subset (the one CI runs).")
 @click.option("--compat", type=click.Choice(["musen"]), default=None,
-              help="Reproduce MUSEN's numerical choices where they differ from the SPEC.")
+              help="Reproduce MUSEN's numerical choices where they differ from bondem's "
+                   "(docs/musen_compat.md).")
 @click.option("--out", "out_dir", type=click.Path(file_okay=False), default=None,
               help="Write validation.csv, validation.md and plots (PNG) here.")
 @click.option("--case", "cases", multiple=True, metavar="NAME",
