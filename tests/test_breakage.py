@@ -2,10 +2,10 @@
 strength, the mode and break time are recorded, and the broken bond applies no force.
 
 Particles are driven kinematically (fixed = prescribed velocities), so the stress history
-is known in closed form. The bond increments of the step evaluated at t = m dt use the
-velocities of [t, t + dt]; the start-up evaluation adds half a step (dt/2, SPEC 1).
-Hence after the evaluation at t = m dt, with a relative rate q:
-    accumulated (shear, twist, bending) = k q (m + 3/2) dt,   stretch = v m dt.
+is known in closed form. Each evaluation after the first adds the increment of one step,
+dt; the start-up evaluation at t = 0 adds none (SPEC 1). Hence after the evaluation at
+t = m dt, with a relative rate q:
+    accumulated (shear, twist, bending) = k q m dt,   stretch = v m dt.
 """
 import math
 
@@ -64,7 +64,7 @@ def test_shear_breaks_at_first_step_reaching_tangential_strength(glass):
     # Both particles spin alike about z: v_rel = -(w_i + w_j) x r / 2 = -w L y, no bending.
     spin = 50.0
     (_, ks, _, _), (area, _, _) = bond_constants(bondem.BondMaterial(young_modulus=1e8))
-    tau = lambda m: ks * spin * 2e-3 * (m + 1.5) * DT / area  # noqa: E731
+    tau = lambda m: ks * spin * 2e-3 * m * DT / area  # noqa: E731
     strength = mid_strength(tau, 300)
     _, sim = driven_pair(glass, angular_velocity=[[0, 0, spin], [0, 0, spin]],
                          tangential_strength=strength)
@@ -76,7 +76,7 @@ def test_shear_breaks_at_first_step_reaching_tangential_strength(glass):
 def test_torsion_breaks_at_first_step_reaching_tangential_strength(glass):
     spin = 50.0
     (_, _, ktw, _), (_, _, polar) = bond_constants(bondem.BondMaterial(young_modulus=1e8))
-    tau = lambda m: ktw * spin * (m + 1.5) * DT * 0.5e-3 / polar  # noqa: E731
+    tau = lambda m: ktw * spin * m * DT * 0.5e-3 / polar  # noqa: E731
     strength = mid_strength(tau, 250)
     _, sim = driven_pair(glass, angular_velocity=[[0, 0, 0], [spin, 0, 0]],
                          tangential_strength=strength)
@@ -90,7 +90,7 @@ def test_bending_at_initial_length_breaks_only_with_compressive_breakage(glass):
     # compressive breakage is on (SPEC: the sigma criterion needs L > L0 otherwise).
     spin = 50.0
     (_, _, _, kb), (_, second, _) = bond_constants(bondem.BondMaterial(young_modulus=1e8))
-    sigma = lambda m: kb * 2 * spin * (m + 1.5) * DT * 0.5e-3 / second  # noqa: E731
+    sigma = lambda m: kb * 2 * spin * m * DT * 0.5e-3 / second  # noqa: E731
     strength = mid_strength(sigma, 200)
     w = [[0, 0, spin], [0, 0, -spin]]
     _, sim = driven_pair(glass, angular_velocity=w, normal_strength=strength)
@@ -126,8 +126,8 @@ def test_combined_sums_terms_and_separate_waits_for_one(glass):
     (_, ks, ktw, _), (area, _, polar) = bond_constants(bondem.BondMaterial(young_modulus=1e8))
     w = [[0, 0, spin], [0, 0, spin]]
     w_twist = [[spin, 0, spin], [-spin, 0, spin]]
-    shear = lambda m: ks * spin * 2e-3 * (m + 1.5) * DT / area  # noqa: E731
-    torsion = lambda m: ktw * 2 * spin * (m + 1.5) * DT * 0.5e-3 / polar  # noqa: E731
+    shear = lambda m: ks * spin * 2e-3 * m * DT / area  # noqa: E731
+    torsion = lambda m: ktw * 2 * spin * m * DT * 0.5e-3 / polar  # noqa: E731
     total = lambda m: shear(m) + torsion(m)  # noqa: E731
     strength = mid_strength(total, 200)
     _, combined = driven_pair(glass, angular_velocity=w_twist, tangential_strength=strength)

@@ -74,9 +74,9 @@ def test_reference_folders_appear_as_cases(tmp_path, monkeypatch):
 
 
 def test_musen_compat_switches_the_start_up_increment():
-    # In MUSEN-compatible mode the start-up increment is a full dt: the closed forms use
-    # (m + 2) instead of (m + 3/2). The stress-at-break rows (tolerance 1e-6) pass only if
-    # the simulation really switched: a half-step offset is 1.7e-3 relative here.
+    # In MUSEN-compatible mode the prediction step adds a full dt and t = 0 is evaluated
+    # twice: the closed forms use (m + 2) instead of SPEC mode's m. The stress-at-break
+    # rows (tolerance 1e-6) pass only if the simulation really switched.
     result = CliRunner().invoke(main, ["validate", "--compat", "musen", "--case", "strength"])
     assert result.exit_code == 0, result.output
     assert "MUSEN-compatible" in result.output

@@ -1,10 +1,12 @@
 """One time step: zero loads, add every law's loads, then the semi-implicit Euler update.
 
-SPEC section 1. Laws read the state at the start of the step. The very first force
-evaluation of a run (MUSEN's prediction step) only half-kicks the velocities, v += F/m dt/2,
-without moving particles or advancing time; from then on velocities live at half steps
-(leapfrog). Its bond increments use dt/2, or the full dt in MUSEN-compatible mode as MUSEN
-does.
+SPEC section 1. Laws read the state at the start of the step. The first step of a run
+evaluates the loads at x_0 with zero increments of the incremental springs, kicks the
+velocities by half a step, v_1/2 = v_0 + F/m dt/2, and moves, x_1 = x_0 + v_1/2 dt; every
+later step is a leapfrog step with increments v_n-1/2 dt. The scheme is second order from
+the first step (free fall from rest is exact to round-off). MUSEN-compatible mode keeps
+MUSEN's "prediction step" instead: a first evaluation with increments of the full dt that
+only half-kicks, without moving or advancing time; then the same leapfrog steps.
 """
 from .backends.cpu import STATUS_NOT_FINITE, STATUS_OK, STATUS_OUT_OF_DOMAIN
 
@@ -13,23 +15,37 @@ class SimulationBlowUp(RuntimeError):
     """A particle's position or velocity became NaN/infinite or left the domain."""
 
 
+def step_plan(started, dt, musen_compat=False):
+    """(increment_dt, kick_dt, drift_dt, advances_time) of the next step, in s (SPEC 1):
+    the start-up (not ``started``) as SPEC mode or MUSEN's mode does it, else a leapfrog
+    step. Both backends take their start-up from here."""
+    if started:
+        return dt, dt, dt, True
+    if musen_compat:
+        return dt, 0.5 * dt, 0.0, False
+    return 0.0, 0.5 * dt, dt, True
+
+
+def extra_start_up_steps(started, musen_compat=False):
+    """Evaluations beyond the steps asked for: 1 for MUSEN's prediction step (it takes no
+    time), else 0."""
+    return 1 if (not started and musen_compat) else 0
+
+
 def step(model, state, laws, integrator, force, moment, dt, musen_compat=False):
     """Advance ``state`` in place by one step of ``dt`` seconds (or do the start-up kick).
 
     laws: objects with ``accumulate(model, state, force, moment, increment_dt)``;
     force, moment: (N,3) scratch arrays. Raises SimulationBlowUp on a bad status.
     """
-    start_up = not state.started
-    increment_dt = 0.5 * dt if (start_up and not musen_compat) else dt
+    increment_dt, kick, drift, advances = step_plan(state.started, dt, musen_compat)
     force.fill(0.0)
     moment.fill(0.0)
     for law in laws:
         law.accumulate(model, state, force, moment, increment_dt)
-    if start_up:
-        status = integrator.advance(model, state, force, moment, 0.5 * dt, 0.0)
-        state.started = True
-    else:
-        status = integrator.advance(model, state, force, moment, dt, dt)
+    status = integrator.advance(model, state, force, moment, kick, drift)
+    state.started = True
+    if advances:
         state.time += dt
         state.step += 1
     if status != STATUS_OK:

@@ -160,7 +160,7 @@ class Model:
 class State:
     """Changing part of a system.
 
-    time: s; step: steps taken; started: the start-up half kick is done (velocities then
+    time: s; step: steps taken; started: the start-up step is done (velocities then
     live at half steps); position, velocity, angular_velocity (N,3) in m, m/s, rad/s;
     bond_active (B,); bond_axis (B,3) unit axis of the last step; bond_tangential_force
     (B,3) N; bond_normal_moment, bond_tangential_moment (B,3) N m, all on particle i;

@@ -7,7 +7,7 @@ import math
 import numpy as np
 
 from .backends import select_backend
-from .integrate import SimulationBlowUp
+from .integrate import SimulationBlowUp, extra_start_up_steps
 from .timestep import stable_time_step, time_scales
 
 
@@ -100,11 +100,13 @@ class Simulation:
         return np.array([w.position(self.state.time) for w in self.walls]).reshape(-1, 3)
 
     def step(self, steps=1):
-        """Advance by ``steps`` time steps (the start-up half kick comes first, once)."""
+        """Advance by ``steps`` time steps of ``time_step`` s (the first one is the
+        start-up step of SPEC 1; MUSEN-compatible runs add MUSEN's prediction step)."""
         # CPU: small systems run on one thread (same results, less thread overhead).
         limit = getattr(self.integrator, "thread_limit", None)
         with limit(self.model) if limit else contextlib.nullcontext():
-            for _ in range(steps + (0 if self.state.started else 1)):
+            for _ in range(steps + extra_start_up_steps(self.state.started,
+                                                         self.musen_compat)):
                 self.backend.step(self.model, self.state, self.laws, self.integrator,
                                   self.force, self.moment, self.time_step, self.musen_compat)
         self.backend.to_host(self.state)

@@ -422,8 +422,8 @@ class GpuBackend:
         The elastic bonds (first law) only compute their per-bond loads; the integrator
         gathers them itself. Other laws add into the zeroed force and moment arrays.
         """
-        start_up = not state.started
-        increment_dt = 0.5 * dt if (start_up and not musen_compat) else dt
+        from ..integrate import step_plan
+        increment_dt, kick, drift, advances = step_plan(state.started, dt, musen_compat)
         bonds = laws[0] if laws and isinstance(laws[0], ElasticBondsGpu) else None
         others = laws[1:] if bonds is not None else laws
         if bonds is not None:
@@ -432,12 +432,10 @@ class GpuBackend:
             _zero_kernel[_blocks(force.shape[0]), THREADS](force, moment)
             for law in others:
                 law.accumulate(model, state, force, moment, increment_dt)
-        kick, drift = (0.5 * dt, 0.0) if start_up else (dt, dt)
         integrator.advance(model, state, force, moment, kick, drift, bonds=bonds,
                            use_loads=bool(others))
-        if start_up:
-            state.started = True
-        else:
+        state.started = True
+        if advances:
             state.time += dt
             state.step += 1
 

@@ -27,7 +27,8 @@ Tangential (Mindlin 1949 no-slip stiffness, EDEM form):
 Rolling resistance (constant directional torque, EDEM's "type A", Ai et al. 2011):
     w_roll = (w_i - w_j) tangential part,  M_r = -mu_r R* max(f_n, 0) w_roll / |w_roll| on i
     capped at |w_roll| I* / dt (1/I* = 1/I_i + 1/I_j; wall: I* = I_i), the torque that just
-    stops the relative rolling in one step, so that a resting contact does not chatter.
+    stops the relative rolling in one step, so that a resting contact does not chatter
+    (dt is the increment's time: 0 in the start-up step, which is not capped).
 Loads: on i  F = -f_n n + F_t,  M = a_i n x F_t + M_r; on j the opposite force and
 M = a_j n x F_t - M_r, which conserves angular momentum exactly (a_i + a_j = |x_j - x_i|).
 Stored energy: 8/15 E* sqrt(R*) delta^(5/2) + S_t |xi|^2 / 2. The energy dissipated by
@@ -111,8 +112,10 @@ def friction_and_rolling(n, v_t, w_rel, spring, f_n, k_t, c_t, friction, rolling
     torque = (0.0, 0.0, 0.0)
     if rolling_friction > 0.0 and w_roll_size > 0.0:
         torque_size = rolling_friction * r_star * f_n_positive
-        cap = w_roll_size * i_star / dt
-        torque_size = cap if cap < torque_size else torque_size  # min(torque_size, cap)
+        # dt = 0 in the start-up step (zero increments, SPEC 1): no step to stop in
+        if dt > 0.0:
+            cap = w_roll_size * i_star / dt
+            torque_size = cap if cap < torque_size else torque_size  # min(torque_size, cap)
         torque = scale(w_roll, -torque_size / w_roll_size)
     return f_t, torque, xi
 

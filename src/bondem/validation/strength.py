@@ -2,8 +2,9 @@
 the SPEC's formulas give, and the recorded break mode is right.
 
 Both spheres are fixed (their velocities prescribed), so every bond quantity is known in
-closed form. After the force evaluation at t = m dt (SPEC 1: the start-up evaluation adds
-the increment of dt/2, or of the full dt in MUSEN-compatible mode, so offset s = 3/2 or 2):
+closed form. After the force evaluation at t = m dt the incremental springs hold m dt of
+increments (SPEC 1: the start-up evaluation at t = 0 adds none, so offset s = 0); in
+MUSEN-compatible mode the prediction step adds dt and t = 0 is evaluated once more, s = 2:
 - tension, j moving away at v:        |F_n| = k_n v m dt,       sigma = |F_n| / A
 - shear, both spinning at w about z:  |F_t| = k_s w L0 (m+s) dt, tau = |F_t| / A
 - torsion, j spinning at w about x:   |M_n| = k_tw w (m+s) dt,   tau = |M_n| R_b / J
@@ -61,7 +62,7 @@ def run(p, compat, quick=False):
     v, w, v_b = p["run"]["speed"], p["run"]["spin"], p["run"]["bending_speed"]
     length = p["particles"]["spacing"]
     radius, area, second, polar, k = _constants(p)
-    s = 2.0 if compat == "musen" else 1.5
+    s = 2.0 if compat == "musen" else 0.0
     # Per test: stress(m) in Pa, the loads, the criterion, how to get the stress at break
     # from the break energy E (J), and the expected mode.
     tests = {

@@ -50,7 +50,7 @@ def _run_mode(p, compat, velocity, angular_velocity, observe, omega):
     sim = bondem.Simulation(model, state, time_step=dt, musen_compat=compat == "musen")
     steps = int(p["run"]["periods"] * 2 * np.pi / omega / dt)
     signal = np.empty(steps)
-    sim.step(0)  # the start-up half kick
+    sim.step(0)  # MUSEN's prediction step in --compat musen, nothing otherwise
     for k in range(steps):
         sim.step(1)
         signal[k] = observe(state)
