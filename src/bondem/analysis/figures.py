@@ -13,8 +13,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.collections import EllipseCollection  # noqa: E402
-from matplotlib.ticker import (LogLocator, MaxNLocator, NullFormatter,  # noqa: E402
-                               ScalarFormatter)
+from matplotlib.ticker import (FormatStrFormatter, LogLocator, MaxNLocator,  # noqa: E402
+                               NullFormatter)
 
 from .breakage import MODES, radial_breakage  # noqa: E402
 from .fragments import count_distribution, frame_fragments, size_distribution  # noqa: E402
@@ -121,14 +121,18 @@ def plot_size_distribution(data):
     ax.set_ylim(0, 1.05)
     ax.set_xlabel("fragment mass (kg)")
     ax.set_ylabel("cumulative mass fraction")
-    right.bar(data["particles"], data["number"], color="tab:orange", edgecolor="k")
     if data["particles"].max() > 20:
-        # decades only, written as plain integers: integer ticks on a log axis crowd
+        # bars of equal width on the log axis, ticks at the decades written as integers
+        # (integer ticks on a log axis crowd and overlap)
+        x = np.asarray(data["particles"], dtype=np.float64)
+        right.bar(x / 1.25, data["number"], width=x * (1.25 - 1 / 1.25), align="edge",
+                  color="tab:orange", edgecolor="k")
         right.set_xscale("log")
         right.xaxis.set_major_locator(LogLocator(base=10))
-        right.xaxis.set_major_formatter(ScalarFormatter())
+        right.xaxis.set_major_formatter(FormatStrFormatter("%d"))
         right.xaxis.set_minor_formatter(NullFormatter())
     else:
+        right.bar(data["particles"], data["number"], color="tab:orange", edgecolor="k")
         right.xaxis.set_major_locator(MaxNLocator(integer=True))
     right.set_xlabel("particles per fragment")
     right.set_ylabel("fragments")
