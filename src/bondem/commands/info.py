@@ -33,9 +33,10 @@ def describe(scene, stable_time_step):
     frames = 1 + -(-total // stride)  # t = 0, every stride steps, and the last step
     # State: 3 (N,3) float64 arrays + per-bond history (~17 float64 each) + kernel scratch
     # (force/moment (N,3), per-bond loads 9 floats); results: position, velocity, angular
-    # velocity per frame and particle, force and two moments plus a flag per frame and bond.
+    # velocity and force per frame and particle, force and two moments plus a flag per
+    # frame and bond.
     memory = 8 * (n * (9 + 6 + 6) + b * (17 + 9 + 4))
-    results = frames * 8 * (9 * n + 9 * b) + frames * b
+    results = frames * 8 * (12 * n + 9 * b) + frames * b
     materials = ", ".join(f"{m.name} ({int(np.sum(model.material == k))})"
                           for k, m in enumerate(model.materials))
     lines = [

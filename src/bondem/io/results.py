@@ -117,7 +117,8 @@ class ResultsWriter:
     """Append frames of a Simulation to an HDF5 results file (SPEC 6).
 
     path: the file (created, or with ``resume_frames`` reopened and truncated to that
-    many frames); scene_text: the scene TOML; scene_name: the scene file's name; backend: "cpu" | "gpu"; time_step: s.
+    many frames); scene_text: the scene TOML; scene_name: the scene file's name;
+    backend: "cpu" | "gpu"; time_step: s.
     """
 
     def __init__(self, path, sim, *, scene_text="", backend="cpu", material_names=None,
