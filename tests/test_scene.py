@@ -220,3 +220,30 @@ def test_walls_from_scene(tmp_path):
     _replace(path, 'file = "box.stl"', 'file = "nobox.stl"')
     result = CliRunner().invoke(main, ["info", str(path)])
     assert result.exit_code == 2 and "walls.1.file" in result.stderr
+
+
+def test_first_hour_inputs(tmp_path):
+    """A short run without save_every gets a frame every step (the docs' rounded default);
+    diameter_ratio above 1, --checkpoint-minutes nan and --out '' are exit 2 naming the key."""
+    from pathlib import Path
+
+    from click.testing import CliRunner
+
+    from bondem.cli import main
+    from bondem.scene import load_scene
+    impact = Path(__file__).resolve().parents[1] / "examples" / "impact.toml"
+    scene = load_scene(impact, {"simulation.end_time": 2e-5})
+    dt = scene.make_simulation().time_step
+    assert scene.save_every == dt
+    runner = CliRunner()
+    cases = [(["--set", "bonds.diameter_ratio=5"], "bonds.diameter_ratio"),
+             (["--checkpoint-minutes", "nan"], "--checkpoint-minutes"),
+             (["--out", ""], "--out")]
+    for extra, key in cases:
+        args = ["run", str(impact), "--no-progress"] + extra
+        if "--out" not in extra:
+            args += ["--out", str(tmp_path / "o")]
+        result = runner.invoke(main, args)
+        assert result.exit_code == 2 and key in result.stderr, (extra, result.output)
+        assert len(result.stderr.strip().splitlines()) == 1
+    assert not (tmp_path / "o").exists()

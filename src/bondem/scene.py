@@ -75,7 +75,7 @@ BOND_KEYS = {
     "file": ("str", None, None, None, None, None),
     "max_gap": ("number", None, 0.0, INF, True, False),
     "diameter": ("number", None, 0.0, INF, False, False),
-    "diameter_ratio": ("number", None, 0.0, INF, False, False),
+    "diameter_ratio": ("number", None, 0.0, 1.0, False, True),
     "max_per_particle": ("int", None, 1, INF, True, False),
     "material": ("str", None, None, None, None, None),
 }
@@ -289,8 +289,9 @@ def _build(data, text, path):
         if key not in data:
             raise InputError("missing required table", file=path, key=key)
     sim = _check_table(data["simulation"], SIMULATION_KEYS, "simulation", path)
-    if sim["save_every"] is None:
-        sim["save_every"] = sim["end_time"] / 100.0
+    save_every_given = sim["save_every"] is not None
+    if not save_every_given:
+        sim["save_every"] = sim["end_time"] / 100.0   # rounded up to a step below
 
     materials = _named_tables(data["materials"], "materials", MATERIAL_KEYS, path)
     if not materials:
@@ -344,7 +345,7 @@ def _build(data, text, path):
                   data={"simulation": sim, "materials": materials,
                         "bond_materials": bond_materials, "particles": particles,
                         "walls": walls})
-    _check_time_step(scene, path)
+    _check_time_step(scene, path, save_every_given)
     return scene
 
 
@@ -364,7 +365,7 @@ def _named_tables(tables, where, schema, path):
     return out
 
 
-def _check_time_step(scene, path):
+def _check_time_step(scene, path, save_every_given=True):
     from .timestep import stable_time_step, time_scales
     step = scene.simulation_options["time_step"]
     if step == "auto":
@@ -375,6 +376,10 @@ def _check_time_step(scene, path):
             raise InputError(f"value {step!r} s exceeds the stable limit {critical:.4g} s; allowed "
                              f"(0, {critical:.4g}] or set force_time_step = true", file=path,
                              key="simulation.time_step")
+    if scene.save_every < step and not save_every_given:
+        # the default end_time / 100 of a run shorter than 100 steps: a frame every step
+        scene.save_every = step
+        scene.data["simulation"]["save_every"] = step
     if scene.save_every < step:
         raise InputError(f"value {scene.save_every!r} s is shorter than the time step "
                          f"{step:.4g} s; allowed [{step:.4g}, end_time]", file=path,

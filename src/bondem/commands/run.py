@@ -5,9 +5,19 @@ from pathlib import Path
 import click
 
 
+def _folder(ctx, param, value):
+    """--out as a Path; an empty name (which would mean the current folder) is an error."""
+    from ..errors import InputError
+    if value is None:
+        return None
+    if not value.strip():
+        raise InputError("empty folder name; give a folder, e.g. --out results", key="--out")
+    return Path(value)
+
+
 @click.command(name="run")
 @click.argument("scene", type=click.Path(dir_okay=False, path_type=Path))
-@click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path),
+@click.option("--out", "out_dir", callback=_folder,
               help="Output folder (default: next to the scene, named after it).")
 @click.option("--backend", type=click.Choice(["cpu", "gpu"]),
               help="Override simulation.backend of the scene.")
@@ -16,7 +26,7 @@ import click
 @click.option("--overwrite", is_flag=True,
               help="Replace the results of an earlier run in the output folder (and the "
                    "analysis, report and vtk output made from them).")
-@click.option("--checkpoint-minutes", type=click.FloatRange(min=0.0),
+@click.option("--checkpoint-minutes", type=click.FloatRange(min=0.0, max=1e9),
               help="Wall-clock minutes between checkpoints (scene default: 10).")
 @click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE",
               help="Override a scene value, e.g. --set simulation.end_time=1e-3 (repeatable).")
@@ -29,6 +39,10 @@ def command(scene, out_dir, backend, resume, overwrite, checkpoint_minutes, over
     from ..runner import RunFailed, default_out_dir, run_scene
     from ..scene import load_scene, parse_override
 
+    from ..errors import InputError
+    if checkpoint_minutes is not None and checkpoint_minutes != checkpoint_minutes:
+        raise InputError("nan is not a number of minutes; allowed [0, 1e9]",
+                         key="--checkpoint-minutes")
     changes = dict(parse_override(text) for text in overrides)
     if backend is not None:
         changes["simulation.backend"] = backend
