@@ -10,3 +10,14 @@ class InputError(ValueError):
         self.key = key
         where = ": ".join(str(p) for p in (file, key) if p)
         super().__init__(f"{where}: {message}" if where else message)
+
+
+def decode_text(raw, path):
+    """``raw`` bytes of a text file as str; InputError naming the line of the first byte
+    that is not UTF-8 (Latin-1, UTF-16 and binary files are refused, not guessed)."""
+    try:
+        return raw.decode("utf-8-sig")   # a byte-order mark (spreadsheet CSVs) is fine
+    except UnicodeDecodeError as error:
+        line = raw[:error.start].count(b"\n") + 1
+        raise InputError(f"line {line}: byte 0x{raw[error.start]:02x} is not UTF-8 text; "
+                         "save the file as UTF-8", file=path) from None

@@ -81,7 +81,14 @@ def run_scene(scene, out_dir, *, progress=True, resume=False, checkpoint_minutes
     kept in ``out_dir/last_good_state.npz`` and every frame up to it in the results).
     """
     out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
+    try:
+        out_dir.mkdir(parents=True, exist_ok=True)
+    except (FileExistsError, NotADirectoryError):
+        raise InputError("exists and is not a folder; give a folder", file=out_dir,
+                         key="--out") from None
+    except OSError as error:
+        raise InputError(f"cannot create the folder ({error.strerror})", file=out_dir,
+                         key="--out") from None
     results_path = out_dir / RESULTS_NAME
     checkpoint_path = out_dir / CHECKPOINT_NAME
     minutes = scene.checkpoint_minutes if checkpoint_minutes is None else checkpoint_minutes
@@ -95,11 +102,11 @@ def run_scene(scene, out_dir, *, progress=True, resume=False, checkpoint_minutes
                              "checkpoint was written with; give the same scene and the same "
                              "--set options to resume, or run afresh with --overwrite",
                              file=scene.path, key="--resume")
-        sim = scene.make_simulation(state)
+        sim = _simulation(scene, state)
         writer = ResultsWriter(results_path, sim, resume_frames=frames)
     else:
         clear_outputs(out_dir, overwrite)
-        sim = scene.make_simulation()
+        sim = _simulation(scene)
         writer = ResultsWriter(results_path, sim, scene_text=scene.text, backend=scene.backend,
                                scene_name=Path(scene.path).name,
                                material_names=list(scene.data.get("materials", {})) or None,
@@ -172,6 +179,17 @@ def run_scene(scene, out_dir, *, progress=True, resume=False, checkpoint_minutes
         if bar is not None:
             bar.close()
     return results_path
+
+
+def _simulation(scene, state=None):
+    """scene.make_simulation(state); a backend this machine lacks is an InputError that
+    names the scene key."""
+    try:
+        return scene.make_simulation(state)
+    except InputError as error:
+        if scene.backend != "cpu" and "backend" in str(error):
+            raise InputError(str(error), file=scene.path, key="simulation.backend") from None
+        raise
 
 
 def _compile_notice(bar, after):

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import InputError
+from .errors import InputError, decode_text
 from .generate import bonds_from_gap, particles_from_generator
 from .io.csv_files import read_bonds, read_particles
 from .model import BondMaterial, Material, make_system
@@ -136,9 +136,10 @@ def load_scene(path, overrides: dict | None = None) -> Scene:
     """
     path = Path(path)
     try:
-        text = path.read_text()
+        raw = path.read_bytes()
     except OSError as error:
         raise InputError(f"cannot read the scene file ({error.strerror})", file=path)
+    text = decode_text(raw, path)
     try:
         data = tomllib.loads(text)
     except tomllib.TOMLDecodeError as error:
@@ -226,7 +227,12 @@ def _check_number(value, low, high, inc_low, inc_high, key, path):
         allowed = _range_text(low, high, inc_low, inc_high)
         raise InputError(f"value {value!r}: expected a number in {allowed}",
                          file=path, key=key)
-    value = float(value)
+    try:
+        value = float(value)
+    except OverflowError:
+        raise InputError(f"value of {len(str(value))} digits is outside the allowed range "
+                         f"{_range_text(low, high, inc_low, inc_high)}", file=path,
+                         key=key) from None
     ok = ((value >= low if inc_low else value > low)
           and (value <= high if inc_high else value < high))
     if math.isnan(value) or not ok:

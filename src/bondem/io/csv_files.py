@@ -10,11 +10,12 @@ raise ``InputError`` naming the file, the line and the column.
 from __future__ import annotations
 
 import csv
+import io
 import math
 
 import numpy as np
 
-from ..errors import InputError
+from ..errors import InputError, decode_text
 
 PARTICLE_COLUMNS = ("x", "y", "z", "radius", "material")
 VELOCITY_COLUMNS = ("vx", "vy", "vz")
@@ -27,10 +28,10 @@ def _read(path, required, optional_groups, kinds):
     """Rows of a CSV file as dict of columns; kinds: column -> 'float' | 'positive' |
     'index' | 'name'."""
     try:
-        handle = open(path, newline="", encoding="utf-8")
+        raw = open(path, "rb").read()
     except OSError as error:
         raise InputError(f"cannot open: {error.strerror}", file=str(path)) from None
-    with handle:
+    with io.StringIO(decode_text(raw, str(path)), newline="") as handle:
         reader = csv.reader(handle)
         header = next(reader, None)
         if header is None:
@@ -92,8 +93,10 @@ def _cell(text, kind, path, line, column):
         except ValueError:
             raise InputError(f"line {line}: {text!r} is not an integer index >= 0",
                              file=str(path), key=column) from None
-        if value < 0:
-            raise InputError(f"line {line}: {value} is not an integer index >= 0",
+        if not 0 <= value < 2 ** 62:
+            raise InputError(f"line {line}: {text[:20]!r}... is not an integer index in "
+                             f"[0, 2^62)" if len(text) > 20 else
+                             f"line {line}: {value} is not an integer index in [0, 2^62)",
                              file=str(path), key=column)
         return value
     try:

@@ -1,0 +1,75 @@
+"""Files a user may really have: not UTF-8 (Latin-1, UTF-16, binary), numbers too large
+for a float, an index beyond int64, an output path that is a file, a GPU scene on a
+machine without one. Each ends with exit status 2 and one line naming the file (and line,
+for CSV) and the key; none is a traceback. A byte-order mark is accepted."""
+from pathlib import Path
+
+import pytest
+from click.testing import CliRunner
+
+from bondem.cli import main
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+
+
+def _cantilever(tmp_path, particles=None, bonds=None, scene_edit=lambda s: s):
+    scene = (EXAMPLES / "cantilever.toml").read_text()
+    (tmp_path / "p.csv").write_bytes(particles if particles is not None else
+                                     (EXAMPLES / "cantilever_particles.csv").read_bytes())
+    (tmp_path / "b.csv").write_bytes(bonds if bonds is not None else
+                                     (EXAMPLES / "cantilever_bonds.csv").read_bytes())
+    scene = scene.replace("cantilever_particles.csv", "p.csv").replace("cantilever_bonds.csv",
+                                                                        "b.csv")
+    path = tmp_path / "scene.toml"
+    path.write_bytes(scene_edit(scene).encode("utf-8") if isinstance(scene_edit(scene), str)
+                     else scene_edit(scene))
+    return path
+
+
+def _fails_cleanly(args, *names):
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code == 2, result.output
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in result.output, result.output
+    for name in names:
+        assert name in lines[0], (name, lines[0])
+    return lines[0]
+
+
+PARTICLES = (EXAMPLES / "cantilever_particles.csv").read_bytes()
+
+
+@pytest.mark.parametrize("label, particles, bonds, edit, names", [
+    ("latin-1 particles", PARTICLES.replace(b"glass", b"gl\xe4ss", 1), None, None,
+     ("p.csv", "line 2", "particles.file")),
+    ("utf-16 bonds", None, (EXAMPLES / "cantilever_bonds.csv").read_text().encode("utf-16"),
+     None, ("b.csv", "line 1", "bonds.file")),
+    ("binary scene", None, None, lambda s: b"\x00\x81\xff" + s.encode(), ("scene.toml",)),
+    ("400-digit number", None, None,
+     lambda s: s.replace("end_time = 0.05", "end_time = 1" + "0" * 400),
+     ("scene.toml", "simulation.end_time", "digits")),
+    ("index beyond int64", None, b"i,j,diameter,material\n0," + b"9" * 30 + b",0.002,binder\n",
+     None, ("b.csv", "line 2", "j")),
+])
+def test_bad_files_are_input_errors(tmp_path, label, particles, bonds, edit, names):
+    scene = _cantilever(tmp_path, particles, bonds, edit or (lambda s: s))
+    _fails_cleanly(["info", str(scene)], *names)
+
+
+def test_byte_order_mark_is_accepted(tmp_path):
+    scene = _cantilever(tmp_path, particles=b"\xef\xbb\xbf" + PARTICLES)
+    result = CliRunner().invoke(main, ["info", str(scene)])
+    assert result.exit_code == 0, result.output
+
+
+def test_output_folder_that_is_a_file_and_gpu_without_gpu(tmp_path, monkeypatch):
+    (tmp_path / "taken").write_text("")
+    scene = EXAMPLES / "cantilever.toml"
+    _fails_cleanly(["run", str(scene), "--out", str(tmp_path / "taken"), "--no-progress"],
+                   "taken", "--out")
+    monkeypatch.delenv("NUMBA_ENABLE_CUDASIM", raising=False)
+    from numba import cuda
+    if cuda.is_available():
+        pytest.skip("a GPU is here")
+    _fails_cleanly(["run", str(scene), "--out", str(tmp_path / "g"), "--backend", "gpu",
+                    "--no-progress"], "cantilever.toml", "simulation.backend")
