@@ -73,3 +73,49 @@ def test_output_folder_that_is_a_file_and_gpu_without_gpu(tmp_path, monkeypatch)
         pytest.skip("a GPU is here")
     _fails_cleanly(["run", str(scene), "--out", str(tmp_path / "g"), "--backend", "gpu",
                     "--no-progress"], "cantilever.toml", "simulation.backend")
+
+
+BLOW_UP = """
+[simulation]
+end_time = 1e-3
+time_step = 5e-6          # 8.7 times the stable step
+force_time_step = true
+save_every = 1e-4
+[materials.glass]
+density = 2500.0
+young_modulus = 1e8
+[bond_materials.binder]
+young_modulus = 1e8
+normal_strength = 1e6
+tangential_strength = 1e6
+[particles]
+generator = { shape = "sphere", radius = 2e-3, particle_radius = 2.5e-4, solids_fraction = 0.55, seed = 2, material = "glass" }
+velocity = [0.0, 0.0, -1.0]
+[bonds]
+max_gap = 2e-5
+diameter_ratio = 0.5
+material = "binder"
+"""
+
+
+def test_an_energy_blow_up_is_a_failed_run(tmp_path):
+    """A forced time step far above the stable one creates energy from nothing (every bond
+    breaks, the energy balance is off by 100 times the initial energy) without a NaN: the
+    run must stop with exit 1, keep the last good state and every good frame."""
+    import h5py
+    scene = tmp_path / "blow.toml"
+    scene.write_text(BLOW_UP)
+    out = tmp_path / "out"
+    result = CliRunner().invoke(main, ["run", str(scene), "--out", str(out), "--no-progress"])
+    assert result.exit_code == 1, result.output
+    assert "appeared from nothing" in result.stderr and "reduce the time step" in result.stderr
+    assert (out / "last_good_state.npz").is_file()
+    with h5py.File(out / "results.h5", "r", swmr=True) as f:
+        assert f["time"].shape[0] >= 1
+        assert f["bonds/active"][-1].all()       # the good frames are before the blow-up
+    # the same scene at a stable step runs to its end
+    stable = tmp_path / "stable.toml"
+    stable.write_text(BLOW_UP.replace("time_step = 5e-6", "time_step = 5e-7"))
+    result = CliRunner().invoke(main, ["run", str(stable), "--out", str(tmp_path / "s"),
+                                       "--no-progress"])
+    assert result.exit_code == 0, result.output
