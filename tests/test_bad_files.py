@@ -119,3 +119,29 @@ def test_an_energy_blow_up_is_a_failed_run(tmp_path):
     result = CliRunner().invoke(main, ["run", str(stable), "--out", str(tmp_path / "s"),
                                        "--no-progress"])
     assert result.exit_code == 0, result.output
+
+
+def test_second_run_into_a_busy_folder_is_refused(tmp_path):
+    """While one run holds its folder, another run into it stops at once (exit 2) and
+    leaves the first run's files alone."""
+    from bondem.runner import _lock_folder
+    out = tmp_path / "busy"
+    out.mkdir()
+    (out / "results.h5").write_bytes(b"the first run's frames")
+    lock = _lock_folder(out)
+    try:
+        _fails_cleanly(["run", str(EXAMPLES / "cantilever.toml"), "--out", str(out),
+                        "--overwrite", "--no-progress"], "busy", "another bondem run")
+    finally:
+        lock.close()
+    assert (out / "results.h5").read_bytes() == b"the first run's frames"
+    result = CliRunner().invoke(main, ["run", str(EXAMPLES / "cantilever.toml"), "--out",
+                                       str(out), "--overwrite", "--no-progress",
+                                       "--set", "simulation.end_time=1e-3"])
+    assert result.exit_code == 0, result.output
+
+
+def test_runs_beyond_max_steps_are_refused():
+    line = _fails_cleanly(["info", str(EXAMPLES / "impact.toml"), "--set",
+                           "simulation.end_time=1e300"], "simulation.end_time", "max_steps")
+    assert "1.44e+306 steps" in line

@@ -21,6 +21,7 @@ from .io.results import ResultsWriter
 RESULTS_NAME = "results.h5"
 CHECKPOINT_NAME = "checkpoint.npz"
 LAST_GOOD_NAME = "last_good_state.npz"
+LOCK_NAME = ".bondem.lock"
 # What a run and the commands after it (analyze, report, export vtk) write in its folder:
 # a fresh run with overwrite clears them all, so no stale analysis outlives its results.
 STALE_OUTPUTS = (RESULTS_NAME, CHECKPOINT_NAME, LAST_GOOD_NAME, "results.fragments.h5",
@@ -134,6 +135,34 @@ def run_scene(scene, out_dir, *, progress=True, resume=False, checkpoint_minutes
     except OSError as error:
         raise InputError(f"cannot create the folder ({error.strerror})", file=out_dir,
                          key="--out") from None
+    lock = _lock_folder(out_dir)
+    try:
+        return _run_locked(scene, out_dir, progress, resume, checkpoint_minutes,
+                           stop_after_frames, overwrite)
+    finally:
+        lock.close()
+
+
+def _lock_folder(out_dir):
+    """An open file holding an exclusive lock on ``out_dir`` (its ``.bondem.lock``):
+    a second run into the same folder is an InputError instead of two writers mixing
+    their frames in one file. The lock goes with the process, also when it is killed."""
+    handle = open(out_dir / LOCK_NAME, "a")
+    try:
+        import fcntl
+    except ImportError:   # not POSIX: no lock
+        return handle
+    try:
+        fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except OSError:
+        handle.close()
+        raise InputError("another bondem run is writing into this folder; wait for it or "
+                         "give another --out", file=out_dir, key="--out") from None
+    return handle
+
+
+def _run_locked(scene, out_dir, progress, resume, checkpoint_minutes, stop_after_frames,
+                overwrite):
     results_path = out_dir / RESULTS_NAME
     checkpoint_path = out_dir / CHECKPOINT_NAME
     minutes = scene.checkpoint_minutes if checkpoint_minutes is None else checkpoint_minutes

@@ -47,6 +47,7 @@ SIMULATION_KEYS = {
     "bonded_contacts": ("bool", False, None, None, None, None),
     "rolling_resistance": ("bool", True, None, None, None, None),
     "checkpoint_minutes": ("number", 10.0, 0.0, INF, True, False),
+    "max_steps": ("number", 1e9, 0.0, INF, False, True),
 }
 MATERIAL_KEYS = {
     "density": ("number", REQUIRED, 0.0, INF, False, False),
@@ -382,6 +383,12 @@ def _check_time_step(scene, path, save_every_given=True):
             raise InputError(f"value {step!r} s exceeds the stable limit {critical:.4g} s; allowed "
                              f"(0, {critical:.4g}] or set force_time_step = true", file=path,
                              key="simulation.time_step")
+    steps = scene.end_time / step
+    limit = scene.data["simulation"]["max_steps"]
+    if steps > limit:
+        raise InputError(f"value {scene.end_time!r} s is {steps:.3g} steps of {step:.4g} s, "
+                         f"more than simulation.max_steps = {limit:.3g}; shorten the run or "
+                         "raise max_steps", file=path, key="simulation.end_time")
     if scene.save_every < step and not save_every_given:
         # the default end_time / 100 of a run shorter than 100 steps: a frame every step
         scene.save_every = step
