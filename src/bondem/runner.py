@@ -147,7 +147,11 @@ def _lock_folder(out_dir):
     """An open file holding an exclusive lock on ``out_dir`` (its ``.bondem.lock``):
     a second run into the same folder is an InputError instead of two writers mixing
     their frames in one file. The lock goes with the process, also when it is killed."""
-    handle = open(out_dir / LOCK_NAME, "a")
+    try:
+        handle = open(out_dir / LOCK_NAME, "a")
+    except OSError as error:
+        raise InputError(f"cannot write into the folder ({error.strerror})", file=out_dir,
+                         key="--out") from None
     try:
         import fcntl
     except ImportError:   # not POSIX: no lock
