@@ -18,14 +18,28 @@ def demo_folder() -> Path:
               default=Path("bondem-demo"), show_default=True, help="Output folder.")
 @click.option("--end-time", type=click.FloatRange(min=0.0, min_open=True),
               help="End time (s) instead of the demo's 1 ms.")
+@click.option("--overwrite", is_flag=True,
+              help="Replace results in OUT that are not an earlier demo's.")
 @click.option("--no-progress", is_flag=True, help="No progress bar.")
-def command(out_dir, end_time, no_progress):
+def command(out_dir, end_time, overwrite, no_progress):
     """Run the demo: a bonded agglomerate of 369 particles hits a wall at 6 m/s; writes
     results.h5 and ParaView files into OUT and says where they are."""
     from ..io.vtk import export_vtk
     from ..runner import RunFailed, run_scene
     from ..scene import load_scene
 
+    # A second `bondem demo` replaces its own earlier run; a folder holding anything else's
+    # results is refused as `bondem run` refuses it.
+    from ..errors import InputError
+    from ..runner import clear_outputs
+    earlier = out_dir / "scene.toml"
+    own = (earlier.is_file()
+           and earlier.read_bytes() == (demo_folder() / "scene.toml").read_bytes())
+    if earlier.exists() and not (own or overwrite):
+        raise InputError("holds a scene.toml that is not the demo's; give another --out",
+                         file=out_dir, key="--out")
+    if out_dir.is_dir():
+        clear_outputs(out_dir, overwrite=own or overwrite)
     out_dir.mkdir(parents=True, exist_ok=True)
     for name in ("scene.toml", "particles.csv", "bonds.csv"):
         shutil.copyfile(demo_folder() / name, out_dir / name)
@@ -36,8 +50,7 @@ def command(out_dir, end_time, no_progress):
                f"{scene.end_time * 1e3:g} ms")
     start = time.perf_counter()
     try:
-        # the demo's folder is the demo's own: a second `bondem demo` replaces it
-        results = run_scene(scene, out_dir, progress=not no_progress, overwrite=True)
+        results = run_scene(scene, out_dir, progress=not no_progress)
     except RunFailed as error:
         click.echo(f"bondem: run failed: {error}", err=True)
         sys.exit(1)
