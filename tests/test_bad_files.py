@@ -145,3 +145,18 @@ def test_runs_beyond_max_steps_are_refused():
     line = _fails_cleanly(["info", str(EXAMPLES / "impact.toml"), "--set",
                            "simulation.end_time=1e300"], "simulation.end_time", "max_steps")
     assert "1.44e+306 steps" in line
+
+
+def test_demo_replaces_only_its_own_run(tmp_path):
+    own = tmp_path / "demo"
+    for _ in range(2):   # a second demo replaces the first
+        result = CliRunner().invoke(main, ["demo", "--out", str(own), "--end-time", "5e-5",
+                                           "--no-progress"])
+        assert result.exit_code == 0, result.output
+    other = tmp_path / "mine"
+    other.mkdir()
+    (other / "results.h5").write_bytes(b"my run")
+    _fails_cleanly(["demo", "--out", str(other), "--end-time", "5e-5", "--no-progress"],
+                   "mine", "--overwrite")
+    assert (other / "results.h5").read_bytes() == b"my run"
+    assert not (other / "scene.toml").exists()
