@@ -5,36 +5,9 @@ A backend object gives ``Simulation`` what it runs: ``bond_law(model)``,
 (one time step, ``integrate.step``'s signature), ``to_host(state)`` (refresh the host
 state after a batch of steps), ``check_laws(laws)`` and ``synchronize()``.
 """
-import hashlib
-from pathlib import Path
-
 import numpy as np
 
 BACKENDS = ("cpu", "gpu")
-
-
-def _drop_stale_kernel_cache():
-    """Numba keys a cached kernel on its own source file only, but the kernels here inline
-    the physics functions of ``bondem/physics``: after a physics edit a cached kernel would
-    keep the old physics. Drop this folder's cached kernels when the physics sources
-    changed (a read-only install simply keeps its cache)."""
-    here = Path(__file__).parent
-    digest = hashlib.sha256(b"".join(
-        path.read_bytes() for path in sorted((here.parent / "physics").glob("*.py")))).hexdigest()
-    cache = here / "__pycache__"
-    stamp = cache / "physics.sha256"
-    try:
-        if stamp.is_file() and stamp.read_text() == digest:
-            return
-        for path in cache.glob("*.nb[ic]"):
-            path.unlink()
-        cache.mkdir(exist_ok=True)
-        stamp.write_text(digest)
-    except OSError:
-        pass
-
-
-_drop_stale_kernel_cache()
 
 
 class CpuBackend:
