@@ -1,6 +1,6 @@
 """bondem: discrete element simulation of bonded particles (MUSEN's elastic solid bond)."""
 from .model import BondMaterial, Material, Model, State, make_system
-from .integrate import SimulationBlowUp
+from .status import SimulationBlowUp
 from .simulation import Simulation
 from .contacts import ContactSettings
 from .walls import MeshWall, PlaneWall

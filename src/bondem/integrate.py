@@ -8,11 +8,7 @@ the first step (free fall from rest is exact to round-off). MUSEN-compatible mod
 MUSEN's "prediction step" instead: a first evaluation with increments of the full dt that
 only half-kicks, without moving or advancing time; then the same leapfrog steps.
 """
-from .backends.cpu import STATUS_NOT_FINITE, STATUS_OK, STATUS_OUT_OF_DOMAIN
-
-
-class SimulationBlowUp(RuntimeError):
-    """A particle's position or velocity became NaN/infinite or left the domain."""
+from .status import STATUS_OK, SimulationBlowUp, blow_up  # noqa: F401 (re-exported)
 
 
 def step_plan(started, dt, musen_compat=False):
@@ -49,8 +45,4 @@ def step(model, state, laws, integrator, force, moment, dt, musen_compat=False):
         state.time += dt
         state.step += 1
     if status != STATUS_OK:
-        what = {STATUS_NOT_FINITE: "a position or velocity became NaN or infinite",
-                STATUS_OUT_OF_DOMAIN: "a particle left the domain"}.get(status, "bad status")
-        raise SimulationBlowUp(f"simulation blew up at t = {state.time:.6g} s "
-                               f"(step {state.step}): {what}; reduce the time step or check "
-                               "the loads")
+        raise blow_up(status, state.time, state.step)

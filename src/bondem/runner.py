@@ -14,7 +14,7 @@ import time
 from pathlib import Path
 
 from .errors import InputError
-from .integrate import SimulationBlowUp
+from .status import SimulationBlowUp
 from .io.checkpoint import read_checkpoint, write_checkpoint
 from .io.results import ResultsWriter
 

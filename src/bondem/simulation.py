@@ -7,7 +7,8 @@ import math
 import numpy as np
 
 from .backends import select_backend
-from .integrate import SimulationBlowUp, extra_start_up_steps
+from .integrate import extra_start_up_steps
+from .status import SimulationBlowUp
 from .timestep import stable_time_step, time_scales
 
 
@@ -60,13 +61,9 @@ class Simulation:
         self.contacts = None
         if contact is not None or len(walls):
             from .contacts import ContactSettings
-            if backend == "gpu":
-                from .backends.cuda_contacts import ContactLawGpu as law_class
-            else:
-                from .contacts import ContactLaw as law_class
             if contact is None:
                 contact = ContactSettings(model="none")
-            self.contacts = law_class(model, contact, walls)
+            self.contacts = self.backend.contact_law(model, contact, walls)
             laws = (self.contacts, *laws)
         self.walls = list(walls)
         self.backend.check_laws(laws)

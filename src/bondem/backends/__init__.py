@@ -7,6 +7,8 @@ state after a batch of steps), ``check_laws(laws)`` and ``synchronize()``.
 """
 import numpy as np
 
+from ..integrate import step as _step
+
 BACKENDS = ("cpu", "gpu")
 
 
@@ -26,12 +28,16 @@ class CpuBackend:
         from .cpu import Integrator
         return Integrator(model)
 
+    def contact_law(self, model, settings, walls):
+        """The contact and wall law (``contacts.ContactLaw``) for this backend."""
+        from ..contacts import ContactLaw
+        return ContactLaw(model, settings, walls)
+
     def load_arrays(self, n_particles):
         return np.zeros((n_particles, 3)), np.zeros((n_particles, 3))
 
     def step(self, *args, **kwargs):
-        from ..integrate import step
-        step(*args, **kwargs)
+        _step(*args, **kwargs)
 
     def to_host(self, state):
         """Nothing to copy: the CPU kernels work on the host state."""

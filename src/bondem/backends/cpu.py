@@ -11,6 +11,7 @@ import numpy as np
 from numba import prange
 
 from ..physics import compile_physics
+from ..status import STATUS_NOT_FINITE, STATUS_OK, STATUS_OUT_OF_DOMAIN  # noqa: F401
 from ..physics.bond_elastic import CRITERION_NONE, INTACT
 from ..physics.rotation import SMALL_ANGLE
 
@@ -40,7 +41,6 @@ bond_stiffnesses_inline = V.bond_stiffnesses
 bond_loads_on_particles_inline = V.bond_loads_on_particles
 bond_surely_intact_inline = V.bond_surely_intact
 
-STATUS_OK, STATUS_NOT_FINITE, STATUS_OUT_OF_DOMAIN = 0, 1, 2
 
 _jit = dict(parallel=True, cache=True, fastmath=False, nogil=True)
 

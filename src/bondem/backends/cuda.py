@@ -33,7 +33,9 @@ from numba import cuda
 from ..errors import InputError
 from ..physics import compile_physics
 from ..physics.bond_elastic import INTACT
-from .cpu import STATUS_NOT_FINITE, STATUS_OK, STATUS_OUT_OF_DOMAIN, particle_bond_index
+from ..integrate import step_plan
+from ..status import STATUS_NOT_FINITE, STATUS_OK, STATUS_OUT_OF_DOMAIN, blow_up
+from .cpu import particle_bond_index
 
 D = compile_physics(cuda.jit(device=True))
 elastic_bond = D.elastic_bond
@@ -360,7 +362,6 @@ class GpuBackend:
 
         Raises SimulationBlowUp if a kernel flagged a NaN or a particle out of the domain
         since the last check (the state is copied first, so it shows the blow-up)."""
-        from ..integrate import SimulationBlowUp
         for name in STATE_ARRAYS:
             getattr(self.device, name).copy_to_host(getattr(state, name))
         state.work_external += float(self.device.work.copy_to_host().sum())
@@ -373,11 +374,7 @@ class GpuBackend:
         status = int(self.status.copy_to_host()[0])
         if status != STATUS_OK:
             self.status.copy_to_device(np.zeros(1, dtype=np.int64))
-            what = {STATUS_NOT_FINITE: "a position or velocity became NaN or infinite",
-                    STATUS_OUT_OF_DOMAIN: "a particle left the domain"}.get(status, "bad status")
-            raise SimulationBlowUp(f"simulation blew up by t = {state.time:.6g} s "
-                                   f"(step {state.step}, backend 'gpu'): {what}; reduce the "
-                                   "time step or check the loads")
+            raise blow_up(status, state.time, state.step, backend="gpu")
 
     def synchronize(self):
         """Wait until every queued kernel has finished (for timing)."""
@@ -409,6 +406,11 @@ class GpuBackend:
     def bond_law(self, model):
         return ElasticBondsGpu(self, model)
 
+    def contact_law(self, model, settings, walls):
+        """The contact and wall law on the device (``cuda_contacts.ContactLawGpu``)."""
+        from .cuda_contacts import ContactLawGpu
+        return ContactLawGpu(model, settings, walls)
+
     def integrator(self, model):
         return IntegratorGpu(self)
 
@@ -422,7 +424,6 @@ class GpuBackend:
         The elastic bonds (first law) only compute their per-bond loads; the integrator
         gathers them itself. Other laws add into the zeroed force and moment arrays.
         """
-        from ..integrate import step_plan
         increment_dt, kick, drift, advances = step_plan(state.started, dt, musen_compat)
         bonds = laws[0] if laws and isinstance(laws[0], ElasticBondsGpu) else None
         others = laws[1:] if bonds is not None else laws
