@@ -376,7 +376,14 @@ def _check_time_step(scene, path, save_every_given=True):
     from .timestep import stable_time_step, time_scales
     step = scene.simulation_options["time_step"]
     if step == "auto":
-        step, _ = stable_time_step(scene.model, scene.simulation_options["safety_factor"])
+        with np.errstate(all="ignore"):   # absurd sizes overflow: reported just below
+            step, cause = stable_time_step(scene.model,
+                                           scene.simulation_options["safety_factor"])
+        if not (step > 0.0 and math.isfinite(step)):
+            key = "bonds" if cause.startswith("bond") else "materials"
+            raise InputError(f"the stable time step is {step!r} s (limited by {cause}): a bond "
+                             "diameter, modulus or particle size is out of any physical "
+                             "range", file=path, key=key)
     else:
         critical = min(time_scales(scene.model).values())
         if step > critical and not scene.simulation_options["force_time_step"]:

@@ -1,0 +1,154 @@
+"""Malformed scenes, CSV files and command lines, generated: every case ends with exit
+status 0 (the input was valid after all) or 2 with one line that names the file, and
+never with a traceback. `bondem info` loads and checks everything a run would."""
+import itertools
+import math
+import tomllib
+from pathlib import Path
+
+import pytest
+import tomli_w
+from click.testing import CliRunner
+
+from bondem.cli import main
+
+EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
+BASE = tomllib.loads((EXAMPLES / "cantilever.toml").read_text())
+BASE["walls"] = [{"type": "plane", "point": [0.0, 0.0, -5e-3], "normal": [0.0, 0.0, 1.0],
+                  "material": "glass"}]
+BASE["simulation"]["contact_model"] = "hertz_mindlin"
+PARTICLES = (EXAMPLES / "cantilever_particles.csv").read_text()
+BONDS = (EXAMPLES / "cantilever_bonds.csv").read_text()
+
+BAD_VALUES = [-1, 0, 0.5, 2, 1e300, -1e300, math.nan, math.inf, -math.inf, "text", "", True,
+              [1.0, 2.0], [1.0, 2.0, 3.0], ["a", "b", "c"], {"a": 1}, 10 ** 400, -(10 ** 30)]
+
+
+def _leaves(table, prefix=()):
+    for key, value in table.items():
+        if isinstance(value, dict):
+            yield from _leaves(value, prefix + (key,))
+        elif isinstance(value, list) and value and isinstance(value[0], dict):
+            for k, item in enumerate(value):
+                yield from _leaves(item, prefix + (key, k))
+        else:
+            yield prefix + (key,)
+
+
+def _set(table, path, value):
+    node = table
+    for part in path[:-1]:
+        node = node[part]
+    node[path[-1]] = value
+
+
+def _scene_cases():
+    paths = list(_leaves(BASE))
+    extra = [("simulation", "save_every"), ("simulation", "damping"),
+             ("simulation", "periodic"), ("simulation", "box_low"), ("particles", "velocity"),
+             ("materials", "glass", "poisson_ratio"), ("bonds", "max_gap"),
+             ("walls", 0, "velocity"), ("simulation", "max_steps")]
+    for path, value in itertools.product(paths + extra, BAD_VALUES):
+        yield f"{'.'.join(map(str, path))}={value!r:.20}", path, value
+
+
+def _write(folder, scene, particles=PARTICLES, bonds=BONDS):
+    text = tomli_w.dumps(scene) if isinstance(scene, dict) else scene
+    path = folder / "scene.toml"
+    path.write_text(text) if isinstance(text, str) else path.write_bytes(text)
+    (folder / "cantilever_particles.csv").write_text(particles) if isinstance(particles, str) \
+        else (folder / "cantilever_particles.csv").write_bytes(particles)
+    (folder / "cantilever_bonds.csv").write_text(bonds) if isinstance(bonds, str) \
+        else (folder / "cantilever_bonds.csv").write_bytes(bonds)
+    return path
+
+
+def _check(args, file_name):
+    result = CliRunner().invoke(main, args)
+    assert result.exception is None or isinstance(result.exception, SystemExit), \
+        f"{args}: {result.exception!r}\n{result.output}"
+    assert result.exit_code in (0, 2), (args, result.output)
+    if result.exit_code == 2:
+        lines = result.stderr.strip().splitlines()
+        assert len(lines) == 1, (args, result.stderr)
+        assert file_name in lines[0], (args, lines[0])
+    return result.exit_code
+
+
+def _dumpable(value):
+    try:
+        tomli_w.dumps({"v": value})
+        return True
+    except (TypeError, ValueError):
+        return False
+
+
+def test_scene_values(tmp_path):
+    """Every scalar key of a scene with contacts, walls and CSV files set to each of 18
+    bad values (about 470 scenes)."""
+    codes = []
+    for label, path, value in _scene_cases():
+        scene = tomllib.loads(tomli_w.dumps(BASE))
+        _set(scene, path, value)
+        if not _dumpable(value):
+            continue
+        codes.append(_check(["info", str(_write(tmp_path, scene))], "scene.toml"))
+    assert len(codes) > 400 and codes.count(2) > 0.6 * len(codes)
+
+
+CSV_CASES = {
+    "empty": ("", None), "header only": ("x,y,z,radius,material\n", None),
+    "missing column": ("x,y,z,material\n0,0,0,glass\n", None),
+    "unknown column": (PARTICLES.replace("fixed", "fixd"), None),
+    "text cell": (PARTICLES.replace("0.001", "one", 1), None),
+    "negative radius": (PARTICLES.replace("0.001", "-0.001", 1), None),
+    "nan": (PARTICLES.replace("0.001", "nan", 1), None),
+    "huge": (PARTICLES.replace("0.001", "1" + "0" * 400, 1), None),
+    "short row": (PARTICLES.replace(",glass,1", ",glass", 1), None),
+    "fixed 2": (PARTICLES.replace(",glass,1", ",glass,2", 1), None),
+    "binary": (b"\x00\x01\x02\xff\xfe", None),
+    "utf-16": (PARTICLES.encode("utf-16"), None),
+    "coincident": (PARTICLES.replace("0.002,0.0", "0.0,0.0", 1), None),
+    "bond self": (None, BONDS.replace("0,1,", "0,0,", 1)),
+    "bond index": (None, BONDS.replace("0,1,", "0,99,", 1)),
+    "bond negative": (None, BONDS.replace("0,1,", "-1,1,", 1)),
+    "bond float index": (None, BONDS.replace("0,1,", "0.5,1,", 1)),
+    "bond duplicate": (None, BONDS + "1,0,0.002,binder\n"),
+    "bond diameter": (None, BONDS.replace("0.002", "0", 1)),
+    "bond material": (None, BONDS.replace("binder", "glue", 1)),
+    "bond huge diameter": (None, BONDS.replace("0.002", "1e300", 1)),
+    "bond huge index": (None, BONDS.replace("0,1,", "0," + "9" * 40 + ",", 1)),
+    "bond empty": (None, ""),
+}
+
+
+@pytest.mark.parametrize("label", sorted(CSV_CASES))
+def test_csv_files(tmp_path, label):
+    particles, bonds = CSV_CASES[label]
+    scene = _write(tmp_path, BASE, PARTICLES if particles is None else particles,
+                   BONDS if bonds is None else bonds)
+    name = "cantilever_particles.csv" if particles is not None else "cantilever_bonds.csv"
+    code = _check(["info", str(scene)], "scene.toml")
+    assert code == 2 or label == "coincident"
+
+
+def test_scene_texts_and_command_lines(tmp_path):
+    scene = _write(tmp_path, BASE)
+    texts = ["", "[simulation", "x = ", "[simulation]\nend_time = 1e-3\n",
+             "[[simulation]]\nend_time = 1\n", "simulation = 3\n", "[materials]\nglass = 1\n",
+             tomli_w.dumps({**BASE, "walls": {"a": 1}}), tomli_w.dumps({**BASE, "walls": [1]}),
+             tomli_w.dumps({**BASE, "extra": 1}), tomli_w.dumps({**BASE, "bonds": 1}),
+             tomli_w.dumps({**BASE, "particles": {"file": "missing.csv"}})]
+    for k, text in enumerate(texts):
+        path = tmp_path / f"t{k}.toml"
+        path.write_text(text)
+        _check(["info", str(path)], f"t{k}.toml")
+    for setting in ["=1", "a", "simulation.end_time=", "simulation.end_time=[1", "x.y.z=1",
+                    "walls.5.velocity=[0,0,1]", "walls.x.velocity=1",
+                    "simulation.end_time.x=1", "materials.glass=3", "simulation=1",
+                    "particles.velocity=[1e400,0,0]", "simulation.gravity=[nan,0,0]"]:
+        result = CliRunner().invoke(main, ["info", str(scene), "--set", setting])
+        assert result.exit_code in (0, 2) and result.exception is None \
+            or isinstance(result.exception, SystemExit), (setting, result.output)
+        if result.exit_code == 2:
+            assert len(result.stderr.strip().splitlines()) == 1, (setting, result.stderr)
