@@ -160,3 +160,16 @@ def test_demo_replaces_only_its_own_run(tmp_path):
                    "mine", "--overwrite")
     assert (other / "results.h5").read_bytes() == b"my run"
     assert not (other / "scene.toml").exists()
+
+
+@pytest.mark.parametrize("setting, key", [
+    ("particles.velocity=[1e300,0,0]", "particles.velocity"),
+    ("simulation.box_high=[0,0,0]", "simulation.box_high"),
+    ("simulation.box_low=[0.01,0,0]", "simulation.box_low"),
+])
+def test_scenes_that_cannot_start_are_input_errors(tmp_path, setting, key):
+    """Checked at load, not found at run time: infinite energy at t = 0, particles outside
+    the domain at t = 0."""
+    _fails_cleanly(["run", str(EXAMPLES / "cantilever.toml"), "--out", str(tmp_path / "o"),
+                    "--no-progress", "--set", setting], "cantilever.toml", key)
+    assert not (tmp_path / "o" / "results.h5").exists()

@@ -334,6 +334,18 @@ def _build(data, text, path):
             box_high=sim["box_high"], damping=sim["damping"])
     except ValueError as error:
         raise InputError(str(error), file=path, key=_guess_key(str(error)))
+    for name, low, high in (("box_low", model.box_low, np.inf), ("box_high", -np.inf,
+                                                                  model.box_high)):
+        outside = np.flatnonzero(np.any((position < low) | (position > high), axis=1))
+        if sim[name] is not None and outside.size:
+            raise InputError(f"{outside.size} of {position.shape[0]} particles lie outside the "
+                             f"domain at t = 0 (particle {int(outside[0])} at "
+                             f"{position[outside[0]].tolist()} m); allowed: box_low <= x <= "
+                             "box_high", file=path, key=f"simulation.{name}")
+    kinetic = 0.5 * float(np.sum(model.mass[:, None] * state.velocity ** 2))
+    if not math.isfinite(kinetic):
+        raise InputError("the initial kinetic energy is not finite: velocities out of any "
+                         "physical range", file=path, key="particles.velocity")
 
     walls_data = data.get("walls", [])
     if not isinstance(walls_data, list):
