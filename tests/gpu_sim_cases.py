@@ -188,7 +188,7 @@ def case_neighbour_search():
     """The GPU cell-list pairs equal the brute-force pairs (scipy cKDTree)."""
     from scipy.spatial import cKDTree
     from numba import cuda
-    from bondem.backends.cuda import device_neighbour_pairs, inclusive_scan, neighbour_pairs
+    from gpu_prototypes import device_neighbour_pairs, inclusive_scan, neighbour_pairs
     rng = np.random.default_rng(7)
     values = rng.integers(0, 20, 1000)
     scanned = inclusive_scan(cuda.to_device(values)).copy_to_host()
@@ -221,7 +221,7 @@ def case_neighbour_search():
 def case_history_remap():
     """Contact history follows its pair across a rebuilt list (dict reference); pairs new
     to the list start from zero; an empty old list gives zeros."""
-    from bondem.backends.cuda import neighbour_pairs, remap_pair_history
+    from gpu_prototypes import neighbour_pairs, remap_pair_history
     rng = np.random.default_rng(3)
     n = 50
     radius = np.full(n, 0.8e-3)
@@ -269,8 +269,8 @@ def case_contact_kernel():
     """make_contact_kernel + CSR gather against a NumPy loop over the same pair law."""
     from numba import cuda
     from bondem.backends.cpu import particle_bond_index
-    from bondem.backends.cuda import (THREADS, gather_bond_loads_kernel,
-                                      make_contact_kernel, neighbour_pairs)
+    from bondem.backends.cuda import THREADS, gather_bond_loads_kernel
+    from gpu_prototypes import make_contact_kernel, neighbour_pairs
     rng = np.random.default_rng(11)
     n = 40
     position = rng.uniform(0.0, 5e-3, (n, 3))
@@ -373,8 +373,10 @@ def case_ptx():
         "_bounds_kernel": (A2, A1, A1),
         "_pair_bond_kernel": (I2, I1, I1, I1),
     }
-    kernels = {name: getattr(gb, name).py_func for name in signatures}
-    kernels["contact_kernel"] = gb.make_contact_kernel(
+    import gpu_prototypes as gp
+    kernels = {name: getattr(gb if hasattr(gb, name) else gp, name).py_func
+               for name in signatures}
+    kernels["contact_kernel"] = gp.make_contact_kernel(
         cuda.jit(device=True)(linear_law)).py_func
     signatures["contact_kernel"] = (I2, I1, B1, A2, A2, A2, A1, A1, I32,
                                     array(f64, 3), A1, B1, A2, f64, A2, A2, A2, A1, A1)
@@ -459,7 +461,7 @@ def colliding_cluster():
 def case_contacts_match_cpu():
     """ParticleContactsGpu (neighbour list, rebuilds with history carried, bonded pairs
     skipped) equals the brute-force CPU reference over 40 steps."""
-    from bondem.backends.cuda import ParticleContactsGpu
+    from gpu_prototypes import ParticleContactsGpu
     table = np.array([[[2e4, 1e4, 0.3, 0.4, 0.05], [3e4, 1.5e4, 0.2, 0.3, 0.02]],
                       [[3e4, 1.5e4, 0.2, 0.3, 0.02], [4e4, 2e4, 0.1, 0.5, 0.0]]])
     gpu_law = ParticleContactsGpu(colliding_cluster()[0], cuda.jit(device=True)(linear_law),
