@@ -342,7 +342,8 @@ def _build(data, text, path):
                              f"domain at t = 0 (particle {int(outside[0])} at "
                              f"{position[outside[0]].tolist()} m); allowed: box_low <= x <= "
                              "box_high", file=path, key=f"simulation.{name}")
-    kinetic = 0.5 * float(np.sum(model.mass[:, None] * state.velocity ** 2))
+    with np.errstate(all="ignore"):   # an overflow here is the error reported below
+        kinetic = 0.5 * float(np.sum(model.mass[:, None] * state.velocity ** 2))
     if not math.isfinite(kinetic):
         raise InputError("the initial kinetic energy is not finite: velocities out of any "
                          "physical range", file=path, key="particles.velocity")
