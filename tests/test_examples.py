@@ -131,3 +131,15 @@ def test_study_example_runs_at_reduced_size(tmp_path):
     assert result.exit_code == 0, result.output
     rows = (tmp_path / "s" / "table.csv").read_text().strip().splitlines()
     assert len(rows) == 3
+
+
+def test_report_is_titled_by_the_scene_and_lists_it(tmp_path):
+    from bondem.analysis.report import write_report
+    results = _run(EXAMPLES / "compression.toml", tmp_path / "r", "simulation.end_time=3e-4")
+    out, numbers = write_report(results, tmp_path / "report.html")
+    page = out.read_text()
+    assert "<title>bondem: examples/compression.toml</title>" in page
+    for text in ("Particle materials", "Bond materials", "binder", "steel", "Walls",
+                 "limited by", "decrease of the gap", "displacement at peak force"):
+        assert text in page, text
+    assert " N</td>" in page and " m</td>" in page     # numbers carry their units

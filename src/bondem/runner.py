@@ -186,7 +186,7 @@ def _run_locked(scene, out_dir, progress, resume, checkpoint_minutes, stop_after
         clear_outputs(out_dir, overwrite)
         sim = _simulation(scene)
         writer = ResultsWriter(results_path, sim, scene_text=scene.text, backend=scene.backend,
-                               scene_name=Path(scene.path).name,
+                               scene_name=_scene_name(scene.path),
                                material_names=list(scene.data.get("materials", {})) or None,
                                bond_material_names=list(scene.data.get("bond_materials", {}))
                                or None)
@@ -261,6 +261,13 @@ def _run_locked(scene, out_dir, progress, resume, checkpoint_minutes, stop_after
         if bar is not None:
             bar.close()
     return results_path
+
+
+def _scene_name(path):
+    """The scene as a report title names it: its folder and file, e.g. 'examples/impact.toml'
+    or 'bondem-demo/scene.toml'."""
+    path = Path(path).resolve()
+    return f"{path.parent.name}/{path.name}" if path.parent.name else path.name
 
 
 def _simulation(scene, state=None):

@@ -150,7 +150,7 @@ def write_report(path, out=None, frames=(0, -1)):
         all_attrs = results.attrs
         attrs = {k: v for k, v in all_attrs.items() if k not in ("scene", "scene_name")}
         scene_text = str(all_attrs.get("scene", ""))
-        name = str(all_attrs.get("scene_name", "")) or (
+        scene_name = str(all_attrs.get("scene_name", "")) or (
             path.parent.name if path.name == "results.h5" else path.name)
     order = ("bodies", "fragments", "breakage", "radial", "energy", "wall",
              "size_distribution")
@@ -164,6 +164,6 @@ def write_report(path, out=None, frames=(0, -1)):
         plt.close(fig)
     out.parent.mkdir(parents=True, exist_ok=True)
     captions = {"wall": wall_caption(data["wall"])} if data["wall"] is not None else {}
-    out.write_text(render_html(f"bondem: {name}", numbers, images, attrs, scene_text,
+    out.write_text(render_html(f"bondem: {scene_name}", numbers, images, attrs, scene_text,
                                captions), encoding="utf-8")
     return out, numbers
