@@ -5,7 +5,7 @@ particle-contact kernel around any device-compiled pair law with its driver
 ``ParticleContactsGpu``. ``Simulation``'s GPU contacts are ``cuda_contacts.ContactLawGpu``
 (host-built lists); these stay as tested building blocks for a device-side search.
 """
-import math  # noqa: F401
+import math
 
 import numpy as np
 from numba import cuda
@@ -18,6 +18,20 @@ from bondem.backends.cuda import THREADS, _blocks, gather_bond_loads_kernel, min
 # ---------------------------------------------------------------------------------------
 
 _KEY_PAD = np.iinfo(np.int64).max
+
+
+@cuda.jit(device=True)
+def _lower_bound(values, n, target):
+    """First index in the sorted values[:n] whose value is >= target (binary search)."""
+    lo = 0
+    hi = n
+    while lo < hi:
+        mid = (lo + hi) // 2
+        if values[mid] < target:
+            lo = mid + 1
+        else:
+            hi = mid
+    return lo
 
 
 @cuda.jit(device=True)
@@ -88,16 +102,7 @@ def cell_start_kernel(keys, n, n_cells, start):
     if c == n_cells:
         start[c] = n
         return
-    target = c * n
-    lo = 0
-    hi = n
-    while lo < hi:
-        mid = (lo + hi) // 2
-        if keys[mid] < target:
-            lo = mid + 1
-        else:
-            hi = mid
-    start[c] = lo
+    start[c] = _lower_bound(keys, n, c * n)
 
 
 @cuda.jit(device=True)
@@ -429,14 +434,7 @@ def _pair_bond_kernel(pairs, bond_keys, bond_index, out):
     n = bond_keys.shape[0]
     out[c] = -1
     key = pairs[c, 0] * bond_index[n] + pairs[c, 1]  # bond_index[n] holds N
-    lo = 0
-    hi = n
-    while lo < hi:
-        mid = (lo + hi) // 2
-        if bond_keys[mid] < key:
-            lo = mid + 1
-        else:
-            hi = mid
+    lo = _lower_bound(bond_keys, n, key)
     if lo < n and bond_keys[lo] == key:
         out[c] = bond_index[lo]
 

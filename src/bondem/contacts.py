@@ -127,6 +127,8 @@ class ContactLaw:
                                   else self._k_linear)
         self._wall_stiffness = (None if self.wall_law == kernels.MODEL_HERTZ
                                 else self._linear_stiffness)
+        # True when a wall has triangles, else None (the kernel then has no triangle code)
+        self._triangles = True if np.any(self.walls.element_type != PLANE) else None
         cutoff = 2.0 * float(model.radius.max(initial=0.0)) + self.skin
         if np.any(model.periodic & (self._box_length < 2.0 * cutoff)):
             raise ValueError(f"periodic box lengths {self._box_length[model.periodic].tolist()} "
@@ -238,7 +240,7 @@ class ContactLaw:
         use_rolling = bool(self.settings.rolling_resistance)
         if extra["contact_pairs"].shape[0]:
             kernels.particle_contacts(
-                self.pair_law, extra["contact_pairs"], self._live, self._pair_bond,
+                extra["contact_pairs"], self._live, self._pair_bond,
                 state.bond_active,
                 state.position, state.velocity, state.angular_velocity, model.radius,
                 model.mass, model.inertia, model.material, *self._materials, use_rolling,
@@ -256,13 +258,13 @@ class ContactLaw:
             wall_pairs = extra["wall_pairs"]
             if wall_pairs.shape[0]:
                 kernels.wall_contacts(
-                    self.wall_law, self._wall_start, wall_pairs, rows,
+                    self._wall_start, wall_pairs, rows,
                     self.walls.element_type, self.walls.element_wall, self.walls.velocity,
                     self.walls.angular_velocity, self.walls.centers(state.time),
                     *self._wall_materials, state.position, state.velocity,
                     state.angular_velocity, model.radius, model.mass, model.inertia, model.material,
                     *self._materials, use_rolling, self._wall_stiffness,
-                    True if np.any(self.walls.element_type != PLANE) else None,
+                    self._triangles,
                     extra["wall_spring"], increment_dt, moved_dt, self._w_distance,
                     self._w_point, self._w_feature, extra["wall_force_rows"],
                     extra["wall_moment_rows"], extra["wall_energy_rows"], self._w_dissipated,

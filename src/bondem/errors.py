@@ -12,6 +12,11 @@ class InputError(ValueError):
         super().__init__(f"{where}: {message}" if where else message)
 
 
+class BackendUnavailable(InputError, RuntimeError):
+    """The requested backend cannot run on this machine (an input error for the command
+    line: one line, exit status 2)."""
+
+
 def decode_text(raw, path):
     """``raw`` bytes of a text file as str; InputError naming the line of the first byte
     that is not UTF-8 (Latin-1, UTF-16 and binary files are refused, not guessed)."""

@@ -240,6 +240,16 @@ def _per_item(name, value, n, dtype, count_name):
     return np.ascontiguousarray(array)
 
 
+def bond_separation(position, pairs, box_length, periodic):
+    """x_j - x_i (B,3) m of each pair (B,2) of rows of position (N,3) m, by the minimum
+    image along the periodic axes (3,) bool, or None, of a cell of box_length (3,) m."""
+    separation = position[pairs[:, 1]] - position[pairs[:, 0]]
+    if np.any(periodic):
+        box = np.where(periodic, box_length, 1.0)
+        separation -= np.where(periodic, box * np.floor(separation / box + 0.5), 0.0)
+    return separation
+
+
 def make_system(position, radius, material, *, material_index=None, velocity=None,
                 angular_velocity=None, fixed=None, external_force=None, external_moment=None,
                 bonds=None, bond_diameter=None, bond_material=None, bond_material_index=None,
@@ -348,8 +358,7 @@ def make_system(position, radius, material, *, material_index=None, velocity=Non
                          f"[0, {len(bond_materials) - 1}]")
 
     box_length = np.where(periodic, box_high - box_low, 1.0)
-    separation = position[bonds[:, 1]] - position[bonds[:, 0]]
-    separation -= np.where(periodic, box_length * np.floor(separation / box_length + 0.5), 0.0)
+    separation = bond_separation(position, bonds, box_length, periodic)
     initial_length = np.linalg.norm(separation, axis=1)
     if n_bonds and np.any(initial_length <= 0.0):
         bad = int(np.flatnonzero(initial_length <= 0.0)[0])

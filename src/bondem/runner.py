@@ -13,7 +13,7 @@ import math
 import time
 from pathlib import Path
 
-from .errors import InputError
+from .errors import BackendUnavailable, InputError
 from .status import SimulationBlowUp
 from .io.checkpoint import read_checkpoint, write_checkpoint
 from .io.results import ResultsWriter
@@ -48,7 +48,8 @@ class EnergyWatch:
         self.most_work = 0.0
 
     def check(self, sim):
-        """Raise SimulationBlowUp when the energy of ``sim`` says the run blew up."""
+        """Raise SimulationBlowUp when the energy of ``sim`` says the run blew up; return
+        its energy terms ({name: J}, for the frame that the results writer appends)."""
         from .analysis.results import ENERGY_LOSSES, ENERGY_STORED, ENERGY_WORK
         terms = sim.energy_terms()
         bad = [name for name, value in terms.items() if not math.isfinite(value)]
@@ -62,7 +63,7 @@ class EnergyWatch:
         self.most_work = max(self.most_work, abs(work))
         if self.first is None:
             self.first = stored
-            return
+            return terms
         if self.baseline is None:
             self.baseline = self.first + terms.get("contact_elastic", 0.0)
         created = stored - self.first - work + total(ENERGY_LOSSES)
@@ -72,6 +73,7 @@ class EnergyWatch:
                 f"simulation blew up at t = {sim.state.time:.6g} s: {created:.4g} J of "
                 f"energy appeared from nothing (start {self.baseline:.4g} J, work "
                 f"{self.most_work:.4g} J): reduce the time step")
+        return terms
 
 
 class RunFailed(RuntimeError):
@@ -170,6 +172,7 @@ def _run_locked(scene, out_dir, progress, resume, checkpoint_minutes, stop_after
     results_path = out_dir / RESULTS_NAME
     checkpoint_path = out_dir / CHECKPOINT_NAME
     minutes = scene.checkpoint_minutes if checkpoint_minutes is None else checkpoint_minutes
+    watch = EnergyWatch()
     if resume:
         if not checkpoint_path.is_file() or not results_path.is_file():
             raise InputError("nothing to resume: no checkpoint.npz and results.h5 there",
@@ -182,6 +185,7 @@ def _run_locked(scene, out_dir, progress, resume, checkpoint_minutes, stop_after
                              file=scene.path, key="--resume")
         sim = _simulation(scene, state)
         writer = ResultsWriter(results_path, sim, resume_frames=frames)
+        watch.check(sim)                        # the first frame: the checkpoint's
     else:
         clear_outputs(out_dir, overwrite)
         sim = _simulation(scene)
@@ -190,15 +194,12 @@ def _run_locked(scene, out_dir, progress, resume, checkpoint_minutes, stop_after
                                material_names=list(scene.data.get("materials", {})) or None,
                                bond_material_names=list(scene.data.get("bond_materials", {}))
                                or None)
-        writer.append(sim)
+        writer.append(sim, watch.check(sim))   # the first frame: t = 0
         write_checkpoint(checkpoint_path, sim.state, frames=writer.n_frames,
                          scene_text=scene.text)
-    watch = EnergyWatch()
-    watch.check(sim)       # the first frame: t = 0, or the checkpoint's
     state_steps, stride = frame_schedule(scene, sim.time_step)
     total = state_steps
-    bar_start = sim.state.step
-    bar = _progress_bar(progress, total, bar_start)
+    bar = _progress_bar(progress, total, sim.state.step)
     last_checkpoint = time.monotonic()
     good = sim.state.copy()
     frames_here = 0
@@ -218,8 +219,7 @@ def _run_locked(scene, out_dir, progress, resume, checkpoint_minutes, stop_after
                       if bar is not None else None)
             try:
                 sim.step(steps)
-                if steps == to_frame:
-                    watch.check(sim)
+                terms = watch.check(sim) if steps == to_frame else None
             except SimulationBlowUp as error:
                 write_checkpoint(out_dir / LAST_GOOD_NAME, good, frames=writer.n_frames,
                                  scene_text=scene.text)
@@ -234,7 +234,7 @@ def _run_locked(scene, out_dir, progress, resume, checkpoint_minutes, stop_after
             batch = (max(1, min(2 * batch, int(rate * BATCH_SECONDS))) if rate < float("inf")
                      else 2 * batch)
             if steps == to_frame:
-                writer.append(sim)
+                writer.append(sim, terms)
                 frames_here += 1
                 good = sim.state.copy()
             if notice is not None:
@@ -275,10 +275,8 @@ def _simulation(scene, state=None):
     names the scene key."""
     try:
         return scene.make_simulation(state)
-    except InputError as error:
-        if scene.backend != "cpu" and "backend" in str(error):
-            raise InputError(str(error), file=scene.path, key="simulation.backend") from None
-        raise
+    except BackendUnavailable as error:
+        raise InputError(str(error), file=scene.path, key="simulation.backend") from None
 
 
 def _compile_notice(bar, after):

@@ -334,13 +334,13 @@ def _build(data, text, path):
             box_high=sim["box_high"], damping=sim["damping"])
     except ValueError as error:
         raise InputError(str(error), file=path, key=_guess_key(str(error)))
-    for name, low, high in (("box_low", model.box_low, np.inf), ("box_high", -np.inf,
-                                                                  model.box_high)):
-        outside = np.flatnonzero(np.any((position < low) | (position > high), axis=1))
-        if sim[name] is not None and outside.size:
-            raise InputError(f"{outside.size} of {position.shape[0]} particles lie outside the "
-                             f"domain at t = 0 (particle {int(outside[0])} at "
-                             f"{position[outside[0]].tolist()} m); allowed: box_low <= x <= "
+    for name, outside in (("box_low", position < model.box_low),
+                          ("box_high", position > model.box_high)):
+        rows = np.flatnonzero(outside.any(axis=1))
+        if rows.size:   # both bounds are infinite unless given
+            raise InputError(f"{rows.size} of {position.shape[0]} particles lie outside the "
+                             f"domain at t = 0 (particle {int(rows[0])} at "
+                             f"{position[rows[0]].tolist()} m); allowed: box_low <= x <= "
                              "box_high", file=path, key=f"simulation.{name}")
     with np.errstate(all="ignore"):   # an overflow here is the error reported below
         kinetic = 0.5 * float(np.sum(model.mass[:, None] * state.velocity ** 2))

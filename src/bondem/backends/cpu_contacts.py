@@ -29,12 +29,11 @@ _jit = dict(parallel=True, cache=True, fastmath=False, nogil=True)
 
 
 @numba.njit(cache=True, nogil=True)
-def _pair_law(law, n, overlap, v_rel, w_rel, spring, young_i, poisson_i, young_j, poisson_j,
+def _pair_law(n, overlap, v_rel, w_rel, spring, young_i, poisson_i, young_j, poisson_j,
               restitution, friction, rolling, r_star, m_star, i_star, linear_stiffness, dt):
     """Loads of one contact. The law is chosen by the type of ``linear_stiffness``: None
     for Hertz-Mindlin, a float k_n (N/m; <= 0 for the default) for the linear law, so
-    that Numba compiles only the law a scene uses (``law`` is the matching MODEL_ code,
-    for the reader)."""
+    that Numba compiles only the law a scene uses."""
     e_star = effective_young_modulus(young_i, poisson_i, young_j, poisson_j)
     g_star = effective_shear_modulus(young_i, poisson_i, young_j, poisson_j)
     beta = restitution_beta(restitution)
@@ -58,7 +57,7 @@ def minimum_image_component(d, length, periodic):
 
 
 @numba.njit(**_jit)
-def particle_contacts(law, pairs, live, pair_bond, bond_active, position, velocity,
+def particle_contacts(pairs, live, pair_bond, bond_active, position, velocity,
                       angular_velocity, radius, mass, inertia, material, young, poisson,
                       restitution, friction, rolling, use_rolling, linear_stiffness, box_length,
                       periodic, spring, dt, moved_dt, force_c, moment_i_c, moment_j_c,
@@ -116,7 +115,7 @@ def particle_contacts(law, pairs, live, pair_bond, bond_active, position, veloci
         b = material[j]
         mu_r = 0.5 * (rolling[a] + rolling[b]) if use_rolling else 0.0
         force_i, torque, f_t, xi, energy = _pair_law(
-            law, n, overlap, v_rel, w_rel, (spring[c, 0], spring[c, 1], spring[c, 2]),
+            n, overlap, v_rel, w_rel, (spring[c, 0], spring[c, 1], spring[c, 2]),
             young[a], poisson[a], young[b], poisson[b],
             0.5 * (restitution[a] + restitution[b]), 0.5 * (friction[a] + friction[b]), mu_r,
             radius[i] * radius[j] / (radius[i] + radius[j]),
@@ -165,20 +164,23 @@ def gather_pair_loads(i_start, i_order, j_start, j_order, force_c, moment_i_c, m
 
 
 @numba.njit(cache=True, nogil=True)
+def _plane_contact(x, rows):
+    """(signed distance (m) of centre x from the plane rows (point, unit normal), its
+    closest point, FACE)."""
+    d = ((x[0] - rows[0, 0]) * rows[1, 0] + (x[1] - rows[0, 1]) * rows[1, 1]
+         + (x[2] - rows[0, 2]) * rows[1, 2])
+    return d, (x[0] - d * rows[1, 0], x[1] - d * rows[1, 1], x[2] - d * rows[1, 2]), FACE
+
+
+@numba.njit(cache=True, nogil=True)
 def _element_contact(x, radius, rows, etype, triangles):
     """(distance from centre to the closest point (m), closest point, feature).
     triangles: None when every element is a plane (Numba then leaves the triangle code
     out), True otherwise."""
     if triangles is None:
-        d = ((x[0] - rows[0, 0]) * rows[1, 0] + (x[1] - rows[0, 1]) * rows[1, 1]
-             + (x[2] - rows[0, 2]) * rows[1, 2])
-        q = (x[0] - d * rows[1, 0], x[1] - d * rows[1, 1], x[2] - d * rows[1, 2])
-        return d, q, FACE
+        return _plane_contact(x, rows)
     if etype == PLANE:
-        d = ((x[0] - rows[0, 0]) * rows[1, 0] + (x[1] - rows[0, 1]) * rows[1, 1]
-             + (x[2] - rows[0, 2]) * rows[1, 2])
-        q = (x[0] - d * rows[1, 0], x[1] - d * rows[1, 1], x[2] - d * rows[1, 2])
-        return d, q, FACE
+        return _plane_contact(x, rows)
     q, feature = closest_point_on_triangle(
         (x[0], x[1], x[2]), (rows[0, 0], rows[0, 1], rows[0, 2]),
         (rows[1, 0], rows[1, 1], rows[1, 2]), (rows[2, 0], rows[2, 1], rows[2, 2]))
@@ -187,7 +189,7 @@ def _element_contact(x, radius, rows, etype, triangles):
 
 
 @numba.njit(**_jit)
-def wall_contacts(law, wall_start, wall_pairs, rows, types, element_wall, wall_velocity,
+def wall_contacts(wall_start, wall_pairs, rows, types, element_wall, wall_velocity,
                   wall_omega, wall_center, wall_young, wall_poisson, wall_restitution,
                   wall_friction, wall_rolling, position, velocity, angular_velocity, radius,
                   mass, inertia, material, young, poisson, restitution, friction, rolling,
@@ -296,7 +298,7 @@ def wall_contacts(law, wall_start, wall_pairs, rows, types, element_wall, wall_v
             a = material[p]
             mu_r = 0.5 * (rolling[a] + wall_rolling[w]) if use_rolling else 0.0
             force_i, torque, f_t, xi, energy = _pair_law(
-                law, n, overlap, v_rel, w_rel, (spring[c, 0], spring[c, 1], spring[c, 2]),
+                n, overlap, v_rel, w_rel, (spring[c, 0], spring[c, 1], spring[c, 2]),
                 young[a], poisson[a], wall_young[w], wall_poisson[w],
                 0.5 * (restitution[a] + wall_restitution[w]),
                 0.5 * (friction[a] + wall_friction[w]), mu_r, radius[p], mass[p], inertia[p],

@@ -30,7 +30,7 @@ import math
 import numpy as np
 from numba import cuda
 
-from ..errors import InputError
+from ..errors import BackendUnavailable, InputError  # noqa: F401
 from ..physics import compile_physics
 from ..physics.bond_elastic import INTACT
 from ..integrate import step_plan
@@ -48,11 +48,6 @@ bond_elastic_energy = D.bond_elastic_energy
 minimum_image = D.minimum_image
 
 THREADS = 128  # threads per block: a multiple of the warp, small enough for any register use
-
-
-class BackendUnavailable(InputError, RuntimeError):
-    """The requested backend cannot run on this machine (an input error for the command
-    line: one line, exit status 2)."""
 
 
 def _blocks(n):

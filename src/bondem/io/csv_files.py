@@ -13,6 +13,8 @@ import csv
 import io
 import math
 
+from pathlib import Path
+
 import numpy as np
 
 from ..errors import InputError, decode_text
@@ -28,7 +30,7 @@ def _read(path, required, optional_groups, kinds):
     """Rows of a CSV file as dict of columns; kinds: column -> 'float' | 'positive' |
     'index' | 'name'."""
     try:
-        raw = open(path, "rb").read()
+        raw = Path(path).read_bytes()
     except OSError as error:
         raise InputError(f"cannot open: {error.strerror}", file=str(path)) from None
     with io.StringIO(decode_text(raw, str(path)), newline="") as handle:
@@ -94,9 +96,8 @@ def _cell(text, kind, path, line, column):
             raise InputError(f"line {line}: {text!r} is not an integer index >= 0",
                              file=str(path), key=column) from None
         if not 0 <= value < 2 ** 62:
-            raise InputError(f"line {line}: {text[:20]!r}... is not an integer index in "
-                             f"[0, 2^62)" if len(text) > 20 else
-                             f"line {line}: {value} is not an integer index in [0, 2^62)",
+            shown = text if len(text) <= 20 else text[:20] + "..."
+            raise InputError(f"line {line}: {shown} is not an integer index in [0, 2^62)",
                              file=str(path), key=column)
         return value
     try:

@@ -33,6 +33,8 @@ from pathlib import Path
 import h5py
 import numpy as np
 
+from ..model import bond_separation
+
 FRAME_CHUNK_ROWS = 65536  # rows of (N,3)/(B,3) per chunk: ~1.5 MB, bounded for big runs
 UNITS = {
     "time": "s", "particles/radius": "m", "particles/material": "1", "particles/mass": "kg",
@@ -53,9 +55,7 @@ def bond_forces(model, state):
     pairs = model.bond_pairs
     if pairs.shape[0] == 0:
         return np.zeros((0, 3))
-    separation = state.position[pairs[:, 1]] - state.position[pairs[:, 0]]
-    box = model.box_length
-    separation -= np.where(model.periodic, box * np.floor(separation / box + 0.5), 0.0)
+    separation = bond_separation(state.position, pairs, model.box_length, model.periodic)
     length = np.linalg.norm(separation, axis=1)
     young = model.bond_material_table()["young_modulus"][model.bond_material]
     area = np.pi * (0.5 * model.bond_diameter) ** 2
@@ -117,7 +117,7 @@ class ResultsWriter:
     """Append frames of a Simulation to an HDF5 results file (SPEC 6).
 
     path: the file (created, or with ``resume_frames`` reopened and truncated to that
-    many frames); scene_text: the scene TOML; scene_name: the scene file's name;
+    many frames); scene_text: the scene TOML; scene_name: the scene's folder and file;
     backend: "cpu" | "gpu"; time_step: s.
     """
 
@@ -206,8 +206,9 @@ class ResultsWriter:
         self.file = f
         self.n_frames = n_frames
 
-    def append(self, sim):
-        """Append the Simulation's current state as one frame and flush it to disk."""
+    def append(self, sim, energy=None):
+        """Append the Simulation's current state as one frame and flush it to disk.
+        energy: its ``energy_terms()`` if the caller has them (J), else computed here."""
         f, state, k = self.file, sim.state, self.n_frames
         # /time is written last: its length is the number of complete frames, even when
         # the process is killed in the middle of an append.
@@ -225,7 +226,7 @@ class ResultsWriter:
             "walls/torque": _wall_array(sim, "wall_torque", self.n_walls),
             "walls/position": _wall_array(sim, "wall_positions", self.n_walls),
         }
-        energy = sim.energy_terms()
+        energy = sim.energy_terms() if energy is None else energy
         for name in self.energy_names:
             values[f"energy/{name}"] = energy.get(name, np.nan)
         values["time"] = state.time

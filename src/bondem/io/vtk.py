@@ -40,6 +40,8 @@ from xml.sax.saxutils import quoteattr
 import h5py
 import numpy as np
 
+from ..model import bond_separation
+
 VTK_TYPES = {np.dtype(np.float64): "Float64", np.dtype(np.float32): "Float32",
              np.dtype(np.int64): "Int64", np.dtype(np.int32): "Int32",
              np.dtype(np.uint8): "UInt8", np.dtype(np.int8): "Int8"}
@@ -75,7 +77,7 @@ class _PolyData:
         blobs, offset = [], 0
         pieces = []
 
-        def data_array(name, values, attribute=None):
+        def data_array(name, values):
             nonlocal offset
             values = np.ascontiguousarray(values)
             if values.dtype == np.bool_:
@@ -91,7 +93,7 @@ class _PolyData:
             return text
 
         counts = {k: (len(self.cells[k][1]) if k in self.cells else 0)
-                  for k in ("Verts", "Lines", "Strips", "Polys")}
+                  for k in ("Verts", "Lines", "Polys")}
         pieces.append(f'<Piece NumberOfPoints="{self.points.shape[0]}" '
                       f'NumberOfVerts="{counts["Verts"]}" NumberOfLines="{counts["Lines"]}" '
                       f'NumberOfStrips="0" NumberOfPolys="{counts["Polys"]}">')
@@ -139,16 +141,6 @@ def bond_stresses(position, pairs, diameter, force, normal_moment, tangential_mo
     return sigma, tau
 
 
-def bond_separation(position, pairs, box_length=None, periodic=None):
-    """x_j - x_i (B,3) m of each bond, by the minimum image along periodic axes."""
-    separation = position[pairs[:, 1]] - position[pairs[:, 0]]
-    if periodic is not None and np.any(periodic):
-        box = np.where(periodic, box_length, 1.0)
-        separation = separation - np.where(periodic, box * np.floor(separation / box + 0.5),
-                                           0.0)
-    return separation
-
-
 def particles_polydata(position, radius, velocity, angular_velocity, material, fragment=None,
                        force=None):
     """Particles as vertices with their point data (see the module docstring)."""
@@ -179,8 +171,7 @@ def bonds_polydata(position, pairs, active, force, normal_stress, shear_stress,
     intact = np.flatnonzero(active)
     n = position.shape[0]
     if break_point is None:
-        break_point = 0.5 * (position[pairs[:, 0]] + position[pairs[:, 1]]) if b else \
-            np.zeros((0, 3))
+        break_point = 0.5 * (position[pairs[:, 0]] + position[pairs[:, 1]])
     poly = _PolyData(np.concatenate([position, break_point[broken]]))
     poly.set_cells("Verts", n + np.arange(broken.size), np.ones(broken.size))
     poly.set_cells("Lines", pairs[intact], np.full(intact.size, 2))
