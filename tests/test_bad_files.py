@@ -173,3 +173,87 @@ def test_scenes_that_cannot_start_are_input_errors(tmp_path, setting, key):
     _fails_cleanly(["run", str(EXAMPLES / "cantilever.toml"), "--out", str(tmp_path / "o"),
                     "--no-progress", "--set", setting], "cantilever.toml", key)
     assert not (tmp_path / "o" / "results.h5").exists()
+
+
+def _frames(path):
+    import h5py
+    with h5py.File(path, "r") as f:     # plain: no SWMR needed after a run
+        return f["time"].shape[0]
+
+
+def test_overwrite_keeps_the_earlier_run_until_the_new_one_finishes(tmp_path):
+    """--overwrite of a good run by one that blows up at its first steps: the good run's
+    six frames stay (in previous_run/); a run that finishes then removes them."""
+    good = ["run", str(EXAMPLES / "cantilever.toml"), "--out", str(tmp_path / "o"),
+            "--no-progress", "--set", "simulation.end_time=5e-3"]
+    assert CliRunner().invoke(main, good).exit_code == 0
+    assert _frames(tmp_path / "o" / "results.h5") == 6
+    scene = tmp_path / "blow.toml"
+    scene.write_text(BLOW_UP)
+    result = CliRunner().invoke(main, ["run", str(scene), "--out", str(tmp_path / "o"),
+                                       "--no-progress", "--overwrite"])
+    assert result.exit_code == 1 and "previous_run" in result.stderr, result.output
+    assert _frames(tmp_path / "o" / "previous_run" / "results.h5") == 6
+    # a second failure does not push the good run out
+    result = CliRunner().invoke(main, ["run", str(scene), "--out", str(tmp_path / "o"),
+                                       "--no-progress", "--overwrite"])
+    assert result.exit_code == 1
+    assert _frames(tmp_path / "o" / "previous_run" / "results.h5") == 6
+    assert CliRunner().invoke(main, good + ["--overwrite"]).exit_code == 0
+    assert not (tmp_path / "o" / "previous_run").exists()
+    assert _frames(tmp_path / "o" / "results.h5") == 6
+
+
+def test_a_full_disk_is_a_failed_run_with_every_frame_kept(tmp_path, monkeypatch):
+    """The disk fills up at the fourth frame: exit 1, one line saying what is kept (no
+    second error from closing the file), the three frames readable, and --resume goes on
+    once there is room."""
+    import errno
+
+    from bondem.io.results import ResultsWriter
+    append = ResultsWriter.append
+
+    def full_after_three(self, sim, energy=None):
+        if self.n_frames >= 3:
+            raise OSError(errno.ENOSPC, "No space left on device")
+        return append(self, sim, energy)
+    monkeypatch.setattr(ResultsWriter, "append", full_after_three)
+    args = ["run", str(EXAMPLES / "cantilever.toml"), "--out", str(tmp_path / "o"),
+            "--no-progress", "--set", "simulation.end_time=5e-3", "--checkpoint-minutes", "0"]
+    result = CliRunner().invoke(main, args)
+    assert result.exit_code == 1, result.output
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and "No space left on device" in lines[0], result.stderr
+    assert "--resume" in lines[0]
+    assert _frames(tmp_path / "o" / "results.h5") == 3
+    monkeypatch.setattr(ResultsWriter, "append", append)
+    result = CliRunner().invoke(main, args + ["--resume"])
+    assert result.exit_code == 0, result.output
+    assert _frames(tmp_path / "o" / "results.h5") == 6
+
+
+@pytest.mark.parametrize("damage", ["empty", "half", "garbage", "flipped"])
+@pytest.mark.parametrize("target", ["results.h5", "checkpoint.npz"])
+def test_resume_and_readers_refuse_damaged_files(tmp_path, damage, target):
+    """A damaged results file or checkpoint: --resume, analyze, report and export vtk end
+    with exit 2 and one line naming the file, at once (a results file cut in half used to
+    make the SWMR reader wait forever)."""
+    import random
+    args = ["run", str(EXAMPLES / "cantilever.toml"), "--out", str(tmp_path / "o"),
+            "--no-progress", "--set", "simulation.end_time=2e-3"]
+    assert CliRunner().invoke(main, args).exit_code == 0
+    path = tmp_path / "o" / target
+    data = path.read_bytes()
+    rng = random.Random(7)
+    path.write_bytes({"empty": b"", "half": data[:len(data) // 2],
+                      "garbage": bytes(rng.randrange(256) for _ in data),
+                      "flipped": data[:3000] + bytes(b ^ 0x55 for b in data[3000:6000])
+                      + data[6000:]}[damage])
+    _fails_cleanly(args + ["--resume"], target, "--resume")
+    if target == "results.h5":
+        for command in (["analyze"], ["report"], ["export", "vtk"]):
+            result = CliRunner().invoke(main, command + [str(path)])
+            assert result.exit_code in (0, 2), (command, result.output)
+            assert result.exception is None or isinstance(result.exception, SystemExit)
+            if result.exit_code == 2:
+                assert "results.h5" in result.stderr.strip().splitlines()[-1]

@@ -4,6 +4,7 @@
 Exit status 0 on success, 2 on bad input with one line naming file and key (SPEC 5).
 """
 import importlib
+import os
 import sys
 
 import click
@@ -46,11 +47,45 @@ class LazyGroup(click.Group):
         return module.command
 
     def invoke(self, ctx):
+        argv = [*getattr(ctx, "_protected_args", ()), *ctx.args]
         try:
             return super().invoke(ctx)
         except InputError as error:
             click.echo(f"bondem: error: {error}", err=True)
             sys.exit(2)
+        except OSError as error:
+            # a file that opened but cannot be read (damaged HDF5 data), or cannot be
+            # written: named by the error, else the command's first argument that is a file
+            where = error.filename or next((a for a in argv if os.path.isfile(a)), None)
+            reason = error.strerror or str(error)
+            click.echo(f"bondem: error: {where}: {reason}" if where else
+                       f"bondem: error: {reason}", err=True)
+            sys.exit(2)
+
+    def main(self, args=None, prog_name=None, complete_var=None, standalone_mode=True,
+             **extra):
+        """As click's, but a usage error is one line (SPEC 5), like every other input
+        error: 'bondem: error: bondem run: Missing argument 'SCENE' (bondem run --help)'."""
+        if not standalone_mode:
+            return super().main(args, prog_name, complete_var, standalone_mode, **extra)
+        try:
+            result = super().main(args, prog_name, complete_var, standalone_mode=False,
+                                  **extra)
+        except click.UsageError as error:
+            if type(error).__name__ == "NoArgsIsHelpError":   # bare 'bondem': the help
+                click.echo(error.ctx.get_help())
+                sys.exit(2)
+            where = error.ctx.command_path if error.ctx is not None else "bondem"
+            click.echo(f"bondem: error: {where}: {error.format_message()} "
+                       f"(see {where} --help)", err=True)
+            sys.exit(2)
+        except click.ClickException as error:
+            error.show()
+            sys.exit(error.exit_code)
+        except click.exceptions.Abort:
+            click.echo("Aborted!", err=True)
+            sys.exit(1)
+        sys.exit(result if isinstance(result, int) else 0)
 
 
 @click.group(cls=LazyGroup, context_settings={"help_option_names": ["-h", "--help"]})

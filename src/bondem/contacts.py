@@ -41,6 +41,15 @@ WALL_HISTORY = {"wall_spring": (3,), "wall_force_rows": (3,), "wall_moment_rows"
 MODELS = {"hertz_mindlin": kernels.MODEL_HERTZ, "linear": kernels.MODEL_LINEAR, "none": -1}
 
 
+def contact_cutoff(radius, skin=None):
+    """(cut-off 2 r_max + skin, skin) in m of the pair search for particle radii ``radius``
+    (m); skin: the Verlet skin (m), default a fifth of the mean radius."""
+    radius = np.asarray(radius, dtype=np.float64)
+    if skin is None:
+        skin = 0.2 * float(radius.mean()) if radius.size else 0.0
+    return 2.0 * float(radius.max(initial=0.0)) + skin, skin
+
+
 @dataclass(frozen=True)
 class ContactSettings:
     """Contact options.
@@ -117,8 +126,7 @@ class ContactLaw:
                                      for k in ("young_modulus", "poisson_ratio", "restitution",
                                                "friction", "rolling_friction"))
         n = model.n_particles
-        self.skin = (self.settings.skin if self.settings.skin is not None
-                     else 0.2 * float(model.radius.mean()) if n else 0.0)
+        self.skin = contact_cutoff(model.radius, self.settings.skin)[1]
         self._box_length = model.box_length
         self._k_linear = float(self.settings.linear_stiffness or 0.0)  # N/m, 0: default
         # None selects Hertz-Mindlin in the CPU kernels (by type: only the law in use compiles)
@@ -129,7 +137,7 @@ class ContactLaw:
                                 else self._linear_stiffness)
         # True when a wall has triangles, else None (the kernel then has no triangle code)
         self._triangles = True if np.any(self.walls.element_type != PLANE) else None
-        cutoff = 2.0 * float(model.radius.max(initial=0.0)) + self.skin
+        cutoff = contact_cutoff(model.radius, self.settings.skin)[0]
         if np.any(model.periodic & (self._box_length < 2.0 * cutoff)):
             raise ValueError(f"periodic box lengths {self._box_length[model.periodic].tolist()} "
                              f"m must be at least twice the contact cut-off {cutoff:.3g} m")

@@ -8,6 +8,7 @@ class InputError(ValueError):
     def __init__(self, message, *, file=None, key=None):
         self.file = file
         self.key = key
+        self.reason = message
         where = ": ".join(str(p) for p in (file, key) if p)
         super().__init__(f"{where}: {message}" if where else message)
 

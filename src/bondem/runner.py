@@ -10,6 +10,7 @@ end.
 from __future__ import annotations
 
 import math
+import os
 import time
 from pathlib import Path
 
@@ -22,6 +23,7 @@ RESULTS_NAME = "results.h5"
 CHECKPOINT_NAME = "checkpoint.npz"
 LAST_GOOD_NAME = "last_good_state.npz"
 LOCK_NAME = ".bondem.lock"
+PREVIOUS_NAME = "previous_run"   # an overwritten run, kept until the new one finishes
 # What a run and the commands after it (analyze, report, export vtk) write in its folder:
 # a fresh run with overwrite clears them all, so no stale analysis outlives its results.
 STALE_OUTPUTS = (RESULTS_NAME, CHECKPOINT_NAME, LAST_GOOD_NAME, "results.fragments.h5",
@@ -95,10 +97,16 @@ def frame_schedule(scene, time_step):
 
 def clear_outputs(out_dir, overwrite):
     """Refuse (InputError naming --overwrite) a folder that holds an earlier run's results
-    or checkpoint, unless ``overwrite``: then remove the run's files and the analysis,
-    report and ParaView output made from them (``STALE_OUTPUTS``)."""
+    or checkpoint, unless ``overwrite``: then move the run's files and the analysis,
+    report and ParaView output made from them (``STALE_OUTPUTS``) into
+    ``out_dir/previous_run``, where they stay until the new run finishes, so that a new run
+    that fails (or is killed) has not destroyed the old one. If ``previous_run`` is already
+    there, the run that left it never finished: its files are removed instead and the
+    finished run in ``previous_run`` is kept."""
     import shutil
     out_dir = Path(out_dir)
+    for leftover in (RESULTS_NAME + ".new", RESULTS_NAME + ".rewrite"):
+        (out_dir / leftover).unlink(missing_ok=True)   # of a writer killed while making them
     present = [name for name in STALE_OUTPUTS if (out_dir / name).exists()]
     if not present:
         return
@@ -106,12 +114,30 @@ def clear_outputs(out_dir, overwrite):
         raise InputError(f"the folder holds results of an earlier run ({', '.join(present)}); "
                          "give --overwrite to replace them, --resume to continue that run, "
                          "or another --out", file=out_dir, key="--out")
+    previous = out_dir / PREVIOUS_NAME
+    keep = not previous.exists()
+    if keep:
+        previous.mkdir()
     for name in present:
         target = out_dir / name
-        if target.is_dir() and not target.is_symlink():
+        if keep:
+            os.replace(target, previous / name)
+        elif target.is_dir() and not target.is_symlink():
             shutil.rmtree(target)
         else:
             target.unlink()
+
+
+def _finished(out_dir):
+    """The run in ``out_dir`` reached its end: an overwritten run kept for safety goes."""
+    import shutil
+    shutil.rmtree(Path(out_dir) / PREVIOUS_NAME, ignore_errors=True)
+
+
+def _kept_previous(out_dir):
+    previous = Path(out_dir) / PREVIOUS_NAME
+    return (f"; the earlier run's files are kept in {previous} until a run here finishes"
+            if previous.is_dir() else "")
 
 
 def run_scene(scene, out_dir, *, progress=True, resume=False, checkpoint_minutes=None,
@@ -177,26 +203,44 @@ def _run_locked(scene, out_dir, progress, resume, checkpoint_minutes, stop_after
         if not checkpoint_path.is_file() or not results_path.is_file():
             raise InputError("nothing to resume: no checkpoint.npz and results.h5 there",
                              file=out_dir, key="--resume")
-        state, frames, scene_text, _ = read_checkpoint(checkpoint_path)
+        try:
+            state, frames, scene_text, _ = read_checkpoint(checkpoint_path)
+        except Exception as error:  # noqa: BLE001 - any damage: empty, cut, not a zip
+            raise InputError(f"cannot read the checkpoint ({type(error).__name__}: {error}); "
+                             "run afresh with --overwrite", file=checkpoint_path,
+                             key="--resume") from None
         if scene_text != scene.text:
             raise InputError("the scene (with its --set values) differs from the one the "
                              "checkpoint was written with; give the same scene and the same "
                              "--set options to resume, or run afresh with --overwrite",
                              file=scene.path, key="--resume")
+        _check_checkpoint_shapes(scene, state, checkpoint_path)
         sim = _simulation(scene, state)
-        writer = ResultsWriter(results_path, sim, resume_frames=frames)
+        try:
+            writer = ResultsWriter(results_path, sim, resume_frames=frames)
+        except ValueError as error:   # UnreadableResults, or fewer frames than the checkpoint
+            reason = getattr(error, "reason", str(error))
+            raise InputError(f"{reason}; run afresh with --overwrite", file=results_path,
+                             key="--resume") from None
         watch.check(sim)                        # the first frame: the checkpoint's
     else:
         clear_outputs(out_dir, overwrite)
         sim = _simulation(scene)
-        writer = ResultsWriter(results_path, sim, scene_text=scene.text, backend=scene.backend,
-                               scene_name=_scene_name(scene.path),
-                               material_names=list(scene.data.get("materials", {})) or None,
-                               bond_material_names=list(scene.data.get("bond_materials", {}))
-                               or None)
-        writer.append(sim, watch.check(sim))   # the first frame: t = 0
-        write_checkpoint(checkpoint_path, sim.state, frames=writer.n_frames,
-                         scene_text=scene.text)
+        try:
+            writer = ResultsWriter(results_path, sim, scene_text=scene.text,
+                                   backend=scene.backend, scene_name=_scene_name(scene.path),
+                                   material_names=list(scene.data.get("materials", {}))
+                                   or None,
+                                   bond_material_names=list(scene.data.get("bond_materials",
+                                                                           {})) or None)
+            writer.append(sim, watch.check(sim))   # the first frame: t = 0
+            write_checkpoint(checkpoint_path, sim.state, frames=writer.n_frames,
+                             scene_text=scene.text)
+        except SimulationBlowUp as error:
+            raise RunFailed(f"{error}{_kept_previous(out_dir)}") from None
+        except OSError as error:
+            raise RunFailed(f"cannot write into {out_dir} ({error.strerror or error})"
+                            f"{_kept_previous(out_dir)}") from None
     state_steps, stride = frame_schedule(scene, sim.time_step)
     total = state_steps
     bar = _progress_bar(progress, total, sim.state.step)
@@ -225,7 +269,8 @@ def _run_locked(scene, out_dir, progress, resume, checkpoint_minutes, stop_after
                                  scene_text=scene.text)
                 raise RunFailed(f"{error}. The results hold every frame up to "
                                 f"t = {good.time:.6g} s; that state is kept in "
-                                f"{out_dir / LAST_GOOD_NAME}") from None
+                                f"{out_dir / LAST_GOOD_NAME}{_kept_previous(out_dir)}") \
+                    from None
             now = time.monotonic()
             # batches of about BATCH_SECONDS, so that checkpoints and the progress bar
             # keep to the wall clock even when frames are hours apart
@@ -234,7 +279,14 @@ def _run_locked(scene, out_dir, progress, resume, checkpoint_minutes, stop_after
             batch = (max(1, min(2 * batch, int(rate * BATCH_SECONDS))) if rate < float("inf")
                      else 2 * batch)
             if steps == to_frame:
-                writer.append(sim, terms)
+                try:
+                    writer.append(sim, terms)
+                except OSError as error:   # a full disk, a folder gone
+                    raise RunFailed(f"cannot write {results_path} ({error.strerror or error}) "
+                                    f"at t = {sim.state.time:.6g} s; it holds every frame up "
+                                    f"to t = {good.time:.6g} s, and the checkpoint lets "
+                                    f"--resume continue once there is room"
+                                    f"{_kept_previous(out_dir)}") from None
                 frames_here += 1
                 good = sim.state.copy()
             if notice is not None:
@@ -253,14 +305,35 @@ def _run_locked(scene, out_dir, progress, resume, checkpoint_minutes, stop_after
                                     f"{int(sim.state.bond_active.sum())}/"
                                     f"{sim.model.n_bonds}", refresh=False)
             if now - last_checkpoint >= 60.0 * minutes or sim.state.step >= total:
-                write_checkpoint(checkpoint_path, sim.state, frames=writer.n_frames,
-                                 scene_text=scene.text)
+                try:
+                    write_checkpoint(checkpoint_path, sim.state, frames=writer.n_frames,
+                                     scene_text=scene.text)
+                except OSError as error:
+                    raise RunFailed(f"cannot write {checkpoint_path} "
+                                    f"({error.strerror or error}); the results hold every "
+                                    f"frame up to t = {good.time:.6g} s"
+                                    f"{_kept_previous(out_dir)}") from None
                 last_checkpoint = now
     finally:
         writer.close()
         if bar is not None:
             bar.close()
+    _finished(out_dir)
     return results_path
+
+
+def _check_checkpoint_shapes(scene, state, path):
+    """InputError if the checkpoint's particles or bonds are not the scene's (the scene
+    text matches, but a particle or bond file beside it changed)."""
+    model = scene.model if hasattr(scene, "model") else None
+    n = getattr(model, "n_particles", None)
+    b = getattr(model, "n_bonds", None)
+    if (n is not None and state.position.shape != (n, 3)) or \
+            (b is not None and state.bond_active.shape != (b,)):
+        raise InputError(f"holds {state.position.shape[0]} particles and "
+                         f"{state.bond_active.shape[0]} bonds, the scene "
+                         f"{n} and {b} (its particle or bond file changed); run afresh "
+                         "with --overwrite", file=path, key="--resume")
 
 
 def _scene_name(path):

@@ -107,7 +107,8 @@ class Scene:
     overrides; path: the scene file; backend: "cpu" | "gpu"; simulation_options: keyword
     arguments of ``Simulation`` (time_step, safety_factor, contact, walls, ...);
     checkpoint_minutes: wall-clock minutes between checkpoints; data: the parsed table
-    with defaults filled in.
+    with defaults filled in; warnings: messages about input that is legal but likely
+    wrong (the command line prints them).
     """
     model: object
     state: object
@@ -119,6 +120,7 @@ class Scene:
     simulation_options: dict
     checkpoint_minutes: float = 10.0
     data: dict = field(default_factory=dict)
+    warnings: list = field(default_factory=list)   # str: legal but suspicious input
 
     def make_simulation(self, state=None):
         """A Simulation of this scene, from ``state`` (a checkpoint's) or a copy of the
@@ -311,10 +313,11 @@ def _build(data, text, path):
     material_names = list(materials)
     bond_material_names = list(bond_materials)
 
-    position, radius, material_index, velocity, angular_velocity, fixed, particles = \
+    position, radius, material_index, velocity, angular_velocity, fixed, particles, where = \
         _particles(data["particles"], material_names, path)
     bonds, bond_diameter, bond_material_index = _bonds(
         data.get("bonds"), position, radius, bond_material_names, path)
+    particle_key = "particles.file" if particles["file"] is not None else "particles.generator"
     if bonds.shape[0] and not bond_material_objects:
         raise InputError("bonds are given but no [bond_materials] table", file=path,
                          key="bond_materials")
@@ -356,6 +359,18 @@ def _build(data, text, path):
     options = {"time_step": sim["time_step"], "safety_factor": sim["safety_factor"],
                "force_time_step": sim["force_time_step"], "musen_compat": sim["musen_compat"]}
     _contact_and_walls(options, sim, walls, material_objects, material_names, path)
+    if "contact" in options and any(model.periodic):
+        from .contacts import contact_cutoff
+        cutoff = contact_cutoff(model.radius, options["contact"].skin)[0]
+        short = np.flatnonzero(np.asarray(model.periodic) & (model.box_length < 2.0 * cutoff))
+        if short.size:
+            axis = "xyz"[int(short[0])]
+            raise InputError(f"the periodic box is {model.box_length[short[0]]:.4g} m long in "
+                             f"{axis}, less than twice the contact cut-off 2 r_max + skin = "
+                             f"{cutoff:.4g} m; allowed box_high - box_low >= "
+                             f"{2.0 * cutoff:.4g} m", file=path, key="simulation.box_high")
+    warnings = _check_overlaps(position, radius, bonds, where, "contact" in options,
+                               sim["bonded_contacts"], path, particle_key)
     if sim["backend"] != "cpu":
         _require_parameter("backend", path, "simulation.backend", sim["backend"])
         options["backend"] = sim["backend"]
@@ -364,7 +379,7 @@ def _build(data, text, path):
                   simulation_options=options, checkpoint_minutes=sim["checkpoint_minutes"],
                   data={"simulation": sim, "materials": materials,
                         "bond_materials": bond_materials, "particles": particles,
-                        "walls": walls})
+                        "walls": walls}, warnings=warnings)
     _check_time_step(scene, path, save_every_given)
     return scene
 
@@ -388,6 +403,7 @@ def _named_tables(tables, where, schema, path):
 def _check_time_step(scene, path, save_every_given=True):
     from .timestep import stable_time_step, time_scales
     step = scene.simulation_options["time_step"]
+    options_auto = step == "auto"
     if step == "auto":
         with np.errstate(all="ignore"):   # absurd sizes overflow: reported just below
             step, cause = stable_time_step(scene.model,
@@ -397,6 +413,12 @@ def _check_time_step(scene, path, save_every_given=True):
             raise InputError(f"the stable time step is {step!r} s (limited by {cause}): a bond "
                              "diameter, modulus or particle size is out of any physical "
                              "range", file=path, key=key)
+        if step > scene.end_time:
+            key = "bonds" if cause.startswith("bond") else "materials"
+            raise InputError(f"the stable time step {step:.4g} s (limited by {cause}) is "
+                             f"longer than the whole run (simulation.end_time = "
+                             f"{scene.end_time:.4g} s): a density, modulus or particle size "
+                             "is out of range, or end_time too short", file=path, key=key)
     else:
         critical = min(time_scales(scene.model).values())
         if step > critical and not scene.simulation_options["force_time_step"]:
@@ -406,7 +428,9 @@ def _check_time_step(scene, path, save_every_given=True):
     steps = scene.end_time / step
     limit = scene.data["simulation"]["max_steps"]
     if steps > limit:
-        raise InputError(f"value {scene.end_time!r} s is {steps:.3g} steps of {step:.4g} s, "
+        limited = f" (the stable step, limited by {cause})" if options_auto else ""
+        raise InputError(f"value {scene.end_time!r} s is {steps:.3g} steps of {step:.4g} s"
+                         f"{limited}, "
                          f"more than simulation.max_steps = {limit:.3g}; shorten the run or "
                          "raise max_steps", file=path, key="simulation.end_time")
     if scene.save_every < step and not save_every_given:
@@ -520,6 +544,7 @@ def _particles(table, material_names, path):
         angular_velocity = (np.column_stack([columns["wx"], columns["wy"], columns["wz"]])
                             if "wx" in columns else np.zeros_like(position))
         fixed = columns.get("fixed")
+        where = [f"{file.name} line {line}" for line in columns["line"].tolist()]
     else:
         position, radius, names = particles_from_generator(p["generator"], str(path))
         position = np.asarray(position, dtype=np.float64)
@@ -528,17 +553,103 @@ def _particles(table, material_names, path):
         velocity = np.zeros_like(position)
         angular_velocity = np.zeros_like(position)
         fixed = None
+        where = None
     unknown = sorted(set(names.tolist()) - set(material_names))
     if unknown:
-        raise InputError(f"material {unknown[0]!r} is not defined; defined materials: "
+        at = f"{where[names.tolist().index(unknown[0])]}: " if where else ""
+        raise InputError(f"{at}material {unknown[0]!r} is not defined; defined materials: "
                          f"{', '.join(material_names)}", file=path,
                          key="particles.material" if p["file"] is not None
                          else "particles.generator.material")
     index = np.array([material_names.index(m) for m in names.tolist()], dtype=np.int32)
-    position = position + np.array(p["offset"])
+    _check_radius_spread(radius, where, path, "particles.file" if p["file"] is not None
+                         else "particles.generator")
+    with np.errstate(all="ignore"):
+        position = position + np.array(p["offset"])
+    _check_precision(position, radius, path, "particles.offset" if any(p["offset"])
+                     else "particles.file" if p["file"] is not None else "particles.generator")
     velocity = velocity + np.array(p["velocity"])
     angular_velocity = angular_velocity + np.array(p["angular_velocity"])
-    return position, radius, index, velocity, angular_velocity, fixed, p
+    return position, radius, index, velocity, angular_velocity, fixed, p, where
+
+
+FAR_IN_RADII = 1e7   # |x| / r_min beyond which float64 keeps < 2e-9 of a radius
+
+
+def _check_precision(position, radius, path, key):
+    """InputError if particles lie so far from the origin that double precision cannot
+    resolve a small fraction of a radius there (a 1e300 offset makes every bond length 0)."""
+    far = float(np.max(np.abs(position))) if position.size else 0.0
+    r_min = float(np.min(radius)) if radius.size else 0.0
+    if not math.isfinite(far) or (r_min > 0 and far > FAR_IN_RADII * r_min):
+        raise InputError(f"particles lie {far:.3g} m from the origin, more than "
+                         f"{FAR_IN_RADII:.0e} times the smallest radius ({r_min:.3g} m): "
+                         "double precision cannot resolve their contacts and bonds there; "
+                         "move the scene near the origin", file=path, key=key)
+
+
+RADIUS_SPREAD = 1e6   # largest / smallest radius beyond which time steps make no sense
+
+
+def _check_radius_spread(radius, where, path, key):
+    """InputError naming the particle (CSV line) whose radius is less than 1/RADIUS_SPREAD
+    of the median: one such particle would set a time step a million times too small."""
+    if not radius.size:
+        return
+    small = np.flatnonzero(radius < np.median(radius) / RADIUS_SPREAD)
+    if small.size:
+        k = int(small[np.argmin(radius[small])])
+        at = f"{where[k]}: " if where else f"particle {k}: "
+        raise InputError(f"{at}radius {radius[k]!r} m is less than 1/{RADIUS_SPREAD:.0e} of "
+                         f"the median radius {np.median(radius):.4g} m; allowed "
+                         f"[{np.median(radius) / RADIUS_SPREAD:.3g}, ...] m", file=path,
+                         key=key)
+
+
+COINCIDENT = 1e-6      # centres closer than this times the smallest radius: the same place
+DEEP_OVERLAP = 0.25    # overlap / smaller radius above which a contact starts violently
+
+
+def _check_overlaps(position, radius, bonds, where, contacts, bonded_contacts, path, key):
+    """InputError for two particles at the same place (a repeated row); with contacts, the
+    warnings (list of str) for unbonded pairs overlapping by more than DEEP_OVERLAP of the
+    smaller radius, which Hertz contacts push apart at high speed. ``where``: the CSV
+    file and line of each particle, or None (generated)."""
+    from scipy.spatial import cKDTree
+    n = position.shape[0]
+    if n < 2:
+        return []
+    name = (lambda k: where[k]) if where else (lambda k: f"particle {k}")  # noqa: E731
+    tree = cKDTree(position)
+    same = tree.query_pairs(COINCIDENT * float(radius.min()), output_type="ndarray")
+    if same.size:
+        i, j = sorted(int(v) for v in same[0])
+        raise InputError(f"{name(i)} and {name(j)}: particles {i} and {j} are at the same "
+                         f"place {position[i].tolist()} m (a repeated row?); "
+                         f"{same.shape[0]} such pair(s)", file=path, key=key)
+    if not contacts:
+        return []
+    pairs = tree.query_pairs(2.0 * float(radius.max()), output_type="ndarray")
+    if not pairs.size:
+        return []
+    if bonds.shape[0] and not bonded_contacts:
+        bonded = set(map(tuple, np.sort(bonds, axis=1).tolist()))
+        keep = np.array([tuple(pair) not in bonded for pair in np.sort(pairs, 1).tolist()])
+        pairs = pairs[keep] if keep.size else pairs
+    if not pairs.size:
+        return []
+    i, j = pairs[:, 0], pairs[:, 1]
+    overlap = radius[i] + radius[j] - np.linalg.norm(position[j] - position[i], axis=1)
+    depth = overlap / np.minimum(radius[i], radius[j])
+    deep = np.flatnonzero(depth > DEEP_OVERLAP)
+    if not deep.size:
+        return []
+    worst = deep[np.argmax(depth[deep])]
+    a, b = sorted((int(i[worst]), int(j[worst])))
+    return [f"{path}: {key}: {deep.size} unbonded particle pair(s) overlap by more than "
+            f"{DEEP_OVERLAP:.0%} of the smaller radius at t = 0 (the most: {name(a)} and "
+            f"{name(b)}, {depth[worst]:.0%}); their contact forces will throw them apart. "
+            "Check the positions and radii, or bond them"]
 
 
 def _bonds(table, position, radius, bond_material_names, path):
@@ -561,6 +672,8 @@ def _bonds(table, position, radius, bond_material_names, path):
         pairs = np.column_stack([columns["i"], columns["j"]]).astype(np.int64).reshape(-1, 2)
         diameter = columns["diameter"]
         names = list(columns["material"])
+        lines = columns["line"].tolist()
+        at = lambda k: f"{file.name} line {lines[k]}: "   # noqa: E731
     else:
         if b["material"] is None:
             raise InputError("missing required key (with bonds.max_gap)", file=path,
@@ -575,35 +688,57 @@ def _bonds(table, position, radius, bond_material_names, path):
         pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
         diameter = np.asarray(diameter, dtype=np.float64).reshape(-1)
         names = [b["material"]] * pairs.shape[0]
+        at = lambda k: ""   # noqa: E731
     where = "bonds.file" if b["file"] is not None else "bonds"
     if pairs.size:
         bad = np.flatnonzero((pairs < 0).any(1) | (pairs >= n).any(1))
         if bad.size:
-            raise InputError(f"bond {int(bad[0])} joins particles {pairs[bad[0]].tolist()}; "
+            raise InputError(f"{at(bad[0])}bond {int(bad[0])} joins particles "
+                             f"{pairs[bad[0]].tolist()}; "
                              f"indices must lie in [0, {n - 1}]", file=path, key=where)
         same = np.flatnonzero(pairs[:, 0] == pairs[:, 1])
         if same.size:
-            raise InputError(f"bond {int(same[0])} joins particle {pairs[same[0], 0]} to itself",
+            raise InputError(f"{at(same[0])}bond {int(same[0])} joins particle "
+                             f"{pairs[same[0], 0]} to itself",
                              file=path, key=where)
         key = np.sort(pairs, axis=1)
         _, first, counts = np.unique(key, axis=0, return_index=True, return_counts=True)
         if np.any(counts > 1):
             dup = key[first[np.argmax(counts > 1)]]
-            raise InputError(f"particles {dup.tolist()} are bonded more than once (duplicate "
-                             "bond)", file=path, key=where)
+            rows = np.flatnonzero((key == dup).all(axis=1))
+            raise InputError(f"{at(rows[-1])}particles {dup.tolist()} are bonded more than "
+                             f"once (duplicate of bond {int(rows[0])})", file=path, key=where)
         length = np.linalg.norm(position[pairs[:, 1]] - position[pairs[:, 0]], axis=1)
         zero = np.flatnonzero(length <= 0.0)
         if zero.size:
-            raise InputError(f"bond {int(zero[0])} joins particles {pairs[zero[0]].tolist()} at "
+            raise InputError(f"{at(zero[0])}bond {int(zero[0])} joins particles "
+                             f"{pairs[zero[0]].tolist()} at "
                              "the same position (initial length 0, must be > 0)", file=path,
                              key=where)
+        wide = np.flatnonzero(diameter > 2.0 * np.maximum(radius[pairs[:, 0]],
+                                                          radius[pairs[:, 1]]))
+        if wide.size:
+            k = int(wide[0])
+            limit = 2.0 * max(radius[pairs[k, 0]], radius[pairs[k, 1]])
+            raise InputError(f"{at(k)}bond {k} has diameter {diameter[k]!r} m, wider than "
+                             f"both its particles; allowed (0, {limit:.4g}] m", file=path,
+                             key=where)
+        thin = np.flatnonzero((diameter > 0) & (diameter < 2.0 / RADIUS_SPREAD * np.minimum(
+            radius[pairs[:, 0]], radius[pairs[:, 1]])))
+        if thin.size:
+            k = int(thin[0])
+            limit = 2.0 / RADIUS_SPREAD * min(radius[pairs[k, 0]], radius[pairs[k, 1]])
+            raise InputError(f"{at(k)}bond {k} has diameter {diameter[k]!r} m, less than "
+                             f"1/{RADIUS_SPREAD:.0e} of its particles'; allowed "
+                             f"[{limit:.3g}, ...] m", file=path, key=where)
         nonpositive = np.flatnonzero(~(diameter > 0))
         if nonpositive.size:
-            raise InputError(f"bond {int(nonpositive[0])} has diameter "
+            raise InputError(f"{at(nonpositive[0])}bond {int(nonpositive[0])} has diameter "
                              f"{diameter[nonpositive[0]]!r}; must be > 0", file=path, key=where)
     unknown = sorted(set(names) - set(bond_material_names))
     if unknown:
-        raise InputError(f"bond material {unknown[0]!r} is not defined; defined: "
+        raise InputError(f"{at(names.index(unknown[0]))}bond material {unknown[0]!r} is "
+                         "not defined; defined: "
                          f"{', '.join(bond_material_names) or '(none)'}", file=path,
                          key="bonds.material")
     index = np.array([bond_material_names.index(m) for m in names], dtype=np.int32)

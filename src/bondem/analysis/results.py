@@ -1,7 +1,7 @@
 """Read-only access to a results file (SPEC 6), also while the run is still writing it.
 
-The writer appends one frame at a time to every per-frame dataset and flushes, in SWMR
-mode (HDF5 single-writer / multiple-reader). A reader may therefore see a frame that is in
+The writer appends one frame at a time to every per-frame dataset, in SWMR mode (HDF5
+single-writer / multiple-reader); this reads as an SWMR reader. A reader may therefore see a frame that is in
 /time but not yet in /bonds/active, or the other way round. ``Results`` refreshes every
 dataset it reads and counts only the frames present in all of them, so every analysis
 sees complete frames only.
@@ -10,10 +10,10 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import h5py
 import numpy as np
 
 from ..errors import InputError
+from ..io.results import open_results
 
 # Datasets with a leading frame axis; the complete-frame count is the smallest length.
 PER_FRAME = ("time", "particles/position", "particles/velocity",
@@ -26,20 +26,14 @@ ENERGY_WORK = ("work_external", "work_walls")
 ENERGY_LOSSES = ("dissipated_damping", "dissipated_contacts", "released_breakage")
 
 
-def open_h5(path, mode="r"):
-    """Open ``path`` for reading as an SWMR reader, else plainly, else without file locks
-    (a writer that is not in SWMR mode holds a lock that refuses plain readers)."""
+def open_h5(path):
+    """Open a results file for reading (``io.results.open_results``: as an SWMR reader, so
+    frames a running writer appends appear on ``refresh``); InputError naming the file if
+    it is missing or unreadable."""
     path = Path(path)
     if not path.is_file():
         raise InputError("no such results file", file=str(path))
-    attempts = ({"swmr": True}, {}, {"locking": False})
-    error = None
-    for kwargs in attempts:
-        try:
-            return h5py.File(path, mode, **kwargs)
-        except (OSError, ValueError, TypeError) as exc:  # TypeError: old h5py, no locking
-            error = exc
-    raise InputError(f"cannot open as HDF5 ({error})", file=str(path))
+    return open_results(path)
 
 
 class Results:

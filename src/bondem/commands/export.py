@@ -23,17 +23,16 @@ def vtk_command(results, out_dir, every):
     bonds (intact ones as lines, broken ones as points where they broke: active, break
     mode, force, normal and shear stress) and walls (planes as squares, meshes as
     triangles, moving with the wall: force). See docs/scene.md."""
-    import h5py
-
+    from ..io.results import open_results
     from ..io.vtk import export_vtk
 
     if not results.is_file():
         raise InputError("no such file", file=results, key="RESULTS")
     try:
-        with h5py.File(results, "r", swmr=True) as f:
+        with open_results(results) as f:
             missing = [k for k in ("time", "particles/position", "bonds/pairs") if k not in f]
-    except OSError as error:
-        raise InputError(f"not an HDF5 results file ({error})", file=results, key="RESULTS")
+    except InputError as error:
+        raise InputError(error.reason, file=results, key="RESULTS") from None
     if missing:
         raise InputError(f"not a bondem results file (missing {', '.join(missing)})",
                          file=results, key="RESULTS")

@@ -47,6 +47,8 @@ def command(scene, out_dir, backend, resume, overwrite, checkpoint_minutes, over
     if backend is not None:
         changes["simulation.backend"] = backend
     loaded = load_scene(scene, changes or None)
+    for warning in loaded.warnings:
+        click.echo(f"bondem: warning: {warning}", err=True)
     out_dir = out_dir or default_out_dir(scene)
     try:
         path = run_scene(loaded, out_dir, progress=not no_progress, resume=resume,

@@ -57,10 +57,12 @@ def _read(path, required, optional_groups, kinds):
                 raise InputError(f"line 1: columns {','.join(group)} come together; found "
                                  f"only {','.join(present)}", file=str(path))
         columns = {name: [] for name in header}
+        lines = []
         for row in reader:
             line = reader.line_num
             if not row or all(not cell.strip() for cell in row):
                 continue
+            lines.append(line)
             if len(row) != len(header):
                 raise InputError(f"line {line}: {len(row)} values, the header has "
                                  f"{len(header)}", file=str(path))
@@ -76,6 +78,7 @@ def _read(path, required, optional_groups, kinds):
             out[name] = np.array(values, dtype=np.bool_)
         else:
             out[name] = np.array(values, dtype=np.float64)
+    out["line"] = np.array(lines, dtype=np.int64)   # the file's line of each row
     return out
 
 
@@ -131,13 +134,14 @@ def read_bonds(path, n_particles=None):
     data = _read(path, BOND_COLUMNS, (), kinds)
     same = np.flatnonzero(data["i"] == data["j"])
     if same.size:
-        raise InputError(f"bond {same[0]} (line {same[0] + 2}): i = j = {data['i'][same[0]]}",
+        raise InputError(f"line {data['line'][same[0]]}: i = j = {data['i'][same[0]]}",
                          file=str(path), key="j")
     if n_particles is not None:
         for column in ("i", "j"):
             bad = np.flatnonzero(data[column] >= n_particles)
             if bad.size:
-                raise InputError(f"line {bad[0] + 2}: index {data[column][bad[0]]} is outside "
+                raise InputError(f"line {data['line'][bad[0]]}: index {data[column][bad[0]]} "
+                                 f"is outside "
                                  f"[0, {n_particles - 1}] (rows of the particle file)",
                                  file=str(path), key=column)
     return data

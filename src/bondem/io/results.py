@@ -33,7 +33,9 @@ from pathlib import Path
 import h5py
 import numpy as np
 
+from ..errors import InputError
 from ..model import bond_separation
+from ._h5guard import clear_open_flags
 
 FRAME_CHUNK_ROWS = 65536  # rows of (N,3)/(B,3) per chunk: ~1.5 MB, bounded for big runs
 UNITS = {
@@ -126,90 +128,53 @@ class ResultsWriter:
                  scene_name=""):
         self.path = Path(path)
         self.n_walls = count_walls(sim)
-        self._datasets = None
+        self.file = None
+        self._guard = None
         self._break_time_written = -1
-        model = sim.model
         if resume_frames is not None:
             self._reopen(resume_frames, sim.state)
-            return
-        self.energy_names = list(sim.energy_terms())
-        n, b, w = model.n_particles, model.n_bonds, self.n_walls
-        f = h5py.File(self.path, "w", libver="latest")
-        self.file = f
-        f.attrs["scene"] = scene_text
-        f.attrs["scene_name"] = scene_name
-        from .. import __version__
-        f.attrs["bondem_version"] = __version__
-        f.attrs["backend"] = backend
-        f.attrs["time_step"] = float(sim.time_step)
-        f.attrs["time_step_cause"] = str(getattr(sim, "time_step_cause", ""))
-        f.attrs["n_particles"], f.attrs["n_bonds"], f.attrs["n_walls"] = n, b, w
-        f.attrs["periodic"] = np.asarray(model.periodic, dtype=np.bool_)
-        f.attrs["box_length"] = np.asarray(model.box_length, dtype=np.float64)
-        options = dict(compression=compression, shuffle=compression is not None)
-
-        def constant(name, data):
-            data = np.asarray(data)
-            f.create_dataset(name, data=data, **(options if data.size else {}))
-            f[name].attrs["unit"] = UNITS.get(name, "1")
-
-        constant("particles/radius", model.radius)
-        constant("particles/material", model.material.astype(np.int32))
-        constant("particles/mass", model.mass)
-        constant("bonds/pairs", model.bond_pairs)
-        constant("bonds/diameter", model.bond_diameter)
-        constant("bonds/initial_length", model.bond_initial_length)
-        constant("bonds/material", model.bond_material.astype(np.int32))
-        names = material_names or [m.name for m in model.materials]
-        bond_names = bond_material_names or [m.name for m in model.bond_materials]
-        f.create_dataset("materials/names", data=np.array(names, dtype=h5py.string_dtype()))
-        f.create_dataset("bond_materials/names",
-                         data=np.array(bond_names, dtype=h5py.string_dtype()))
-        # break_time/break_mode are rewritten in place at every frame.
-        f.create_dataset("bonds/break_time", data=np.full(b, np.nan))
-        f["bonds/break_time"].attrs["unit"] = "s"
-        f.create_dataset("bonds/break_mode", data=np.zeros(b, dtype=np.int8))
-        f["bonds/break_mode"].attrs["unit"] = "1"
-
-        def frames(name, shape, dtype=np.float64, unit=None):
-            rows = min(max(shape[0], 1), FRAME_CHUNK_ROWS) if shape else None
-            chunks = (1, rows, *shape[1:]) if shape else (1024,)
-            f.create_dataset(name, shape=(0, *shape), maxshape=(None, *[None] * len(shape)),
-                             dtype=dtype, chunks=chunks, **options)
-            f[name].attrs["unit"] = unit or UNITS[name]
-
-        write_wall_geometry(f, getattr(sim, "walls", None) or ())
-        frames("time", ())
-        for name in ("position", "velocity", "angular_velocity", "force"):
-            frames(f"particles/{name}", (n, 3))
-        frames("bonds/active", (b,), dtype=np.bool_)
-        for name in ("force", "normal_moment", "tangential_moment"):
-            frames(f"bonds/{name}", (b, 3))
-        for name in ("force", "torque", "position"):
-            frames(f"walls/{name}", (w, 3))
-        for name in self.energy_names:
-            frames(f"energy/{name}", (), unit="J")
-        f.swmr_mode = True
-        self.n_frames = 0
+        else:
+            # Built whole in a file of its own and renamed into place: a kill at any moment
+            # leaves either no results file or a complete, closed one.
+            temporary = self.path.with_name(self.path.name + ".new")
+            with h5py.File(temporary, "w", libver="latest") as f:
+                self.energy_names = _create_layout(
+                    f, sim, scene_text=scene_text, backend=backend, scene_name=scene_name,
+                    material_names=material_names, bond_material_names=bond_material_names,
+                    compression=compression)
+            os.replace(temporary, self.path)
+            self.n_frames = 0
+        self._guard = _start_guard(self.path)
 
     def _reopen(self, n_frames, state):
         have = rewrite_results(self.path, n_frames)
         if have < n_frames:
-            raise ValueError(f"{self.path}: holds {have} frames, the checkpoint needs {n_frames}")
-        f = h5py.File(self.path, "a", libver="latest")
-        self.energy_names = list(f["energy"].keys()) if "energy" in f else []
-        # breaks after the checkpoint may have been written before the interruption
-        f["bonds/break_time"][...] = state.bond_break_time
-        f["bonds/break_mode"][...] = state.bond_break_mode
-        f.flush()
-        f.swmr_mode = True
-        self.file = f
+            raise UnreadableResults(f"holds {have} frames, the checkpoint needs {n_frames}",
+                                    file=str(self.path))
+        with self._open() as f:
+            self.energy_names = list(f["energy"].keys()) if "energy" in f else []
+            # breaks after the checkpoint may have been written before the interruption
+            f["bonds/break_time"][...] = state.bond_break_time
+            f["bonds/break_mode"][...] = state.bond_break_mode
         self.n_frames = n_frames
+
+    def _open(self):
+        """The file opened for one frame, in SWMR mode: HDF5 then writes metadata in an
+        order that keeps the file consistent at every moment. Closed after the frame, the
+        file opens with plain ``h5py.File(path)`` between frames; a writer killed within a
+        frame leaves the "open for write" mark, which the watchman clears. No file lock:
+        a reader that holds the file open (a notebook, HDFView) must not stop the run."""
+        try:
+            f = h5py.File(self.path, "r+", libver="latest", locking=False)
+        except TypeError:   # h5py without the locking option
+            f = h5py.File(self.path, "r+", libver="latest")
+        f.swmr_mode = True
+        return f
 
     def append(self, sim, energy=None):
         """Append the Simulation's current state as one frame and flush it to disk.
         energy: its ``energy_terms()`` if the caller has them (J), else computed here."""
-        f, state, k = self.file, sim.state, self.n_frames
+        state, k = sim.state, self.n_frames
         # /time is written last: its length is the number of complete frames, even when
         # the process is killed in the middle of an append.
         values = {
@@ -230,31 +195,124 @@ class ResultsWriter:
         for name in self.energy_names:
             values[f"energy/{name}"] = energy.get(name, np.nan)
         values["time"] = state.time
-        if self._datasets is None:  # looking datasets up by name costs more than writing
-            # (files of earlier versions have no /particles/force: resume without it)
-            self._datasets = {name: f[name] for name in values if name in f}
-        values = {name: values[name] for name in self._datasets}
-        for name, value in values.items():
-            dataset = self._datasets[name]
-            dataset.resize(k + 1, axis=0)
-            dataset[k] = value
-        if self._break_time_written < int(np.count_nonzero(~state.bond_active)):
-            f["bonds/break_time"][...] = state.bond_break_time
-            f["bonds/break_mode"][...] = state.bond_break_mode
-            self._break_time_written = int(np.count_nonzero(~state.bond_active))
+        broken = int(np.count_nonzero(~state.bond_active))
+        f = self._open()
+        try:
+            for name, value in values.items():
+                if name in f:   # files of earlier versions have no /particles/force
+                    dataset = f[name]
+                    dataset.resize(k + 1, axis=0)
+                    dataset[k] = value
+            if self._break_time_written < broken:
+                f["bonds/break_time"][...] = state.bond_break_time
+                f["bonds/break_mode"][...] = state.bond_break_mode
+            f.close()
+        except BaseException:
+            _close_quietly(f)   # the first error is the one to report, not close's
+            raise
+        self._break_time_written = max(self._break_time_written, broken)
         self.n_frames = k + 1
-        f.flush()
 
     def close(self):
-        if self.file:
-            self.file.close()
-            self.file = None
+        """Stop the watchman (the file itself is closed after every frame)."""
+        guard, self._guard = self._guard, None
+        if guard is not None:
+            _close_quietly(guard.stdin)
+            try:
+                guard.wait(timeout=10)
+            except Exception:  # noqa: BLE001 - a slow watchman ends on its own
+                pass
 
     def __enter__(self):
         return self
 
     def __exit__(self, *exc):
         self.close()
+
+
+def _close_quietly(handle):
+    try:
+        handle.close()
+    except Exception:  # noqa: BLE001 - after a first error, e.g. a full disk
+        pass
+
+
+def _start_guard(path):
+    """The watchman process of ``_h5guard`` for ``path`` (None if it cannot start): it
+    clears HDF5's "open for write" mark when this process dies within a frame."""
+    import subprocess
+    import sys
+    from . import _h5guard
+    try:
+        return subprocess.Popen(
+            [sys.executable, "-I", "-S", _h5guard.__file__, str(Path(path).resolve())],
+            stdin=subprocess.PIPE, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+            start_new_session=True)   # not killed with the writer's process group
+    except OSError:
+        return None
+
+
+def _create_layout(f, sim, *, scene_text, backend, scene_name, material_names,
+                   bond_material_names, compression):
+    """Every dataset of an empty results file (0 frames); returns the energy terms'
+    names."""
+    model = sim.model
+    energy_names = list(sim.energy_terms())
+    n, b, w = model.n_particles, model.n_bonds, count_walls(sim)
+    f.attrs["scene"] = scene_text
+    f.attrs["scene_name"] = scene_name
+    from .. import __version__
+    f.attrs["bondem_version"] = __version__
+    f.attrs["backend"] = backend
+    f.attrs["time_step"] = float(sim.time_step)
+    f.attrs["time_step_cause"] = str(getattr(sim, "time_step_cause", ""))
+    f.attrs["n_particles"], f.attrs["n_bonds"], f.attrs["n_walls"] = n, b, w
+    f.attrs["periodic"] = np.asarray(model.periodic, dtype=np.bool_)
+    f.attrs["box_length"] = np.asarray(model.box_length, dtype=np.float64)
+    options = dict(compression=compression, shuffle=compression is not None)
+
+    def constant(name, data):
+        data = np.asarray(data)
+        f.create_dataset(name, data=data, **(options if data.size else {}))
+        f[name].attrs["unit"] = UNITS.get(name, "1")
+
+    constant("particles/radius", model.radius)
+    constant("particles/material", model.material.astype(np.int32))
+    constant("particles/mass", model.mass)
+    constant("bonds/pairs", model.bond_pairs)
+    constant("bonds/diameter", model.bond_diameter)
+    constant("bonds/initial_length", model.bond_initial_length)
+    constant("bonds/material", model.bond_material.astype(np.int32))
+    names = material_names or [m.name for m in model.materials]
+    bond_names = bond_material_names or [m.name for m in model.bond_materials]
+    f.create_dataset("materials/names", data=np.array(names, dtype=h5py.string_dtype()))
+    f.create_dataset("bond_materials/names",
+                     data=np.array(bond_names, dtype=h5py.string_dtype()))
+    # break_time/break_mode are rewritten in place at every frame.
+    f.create_dataset("bonds/break_time", data=np.full(b, np.nan))
+    f["bonds/break_time"].attrs["unit"] = "s"
+    f.create_dataset("bonds/break_mode", data=np.zeros(b, dtype=np.int8))
+    f["bonds/break_mode"].attrs["unit"] = "1"
+
+    def frames(name, shape, dtype=np.float64, unit=None):
+        rows = min(max(shape[0], 1), FRAME_CHUNK_ROWS) if shape else None
+        chunks = (1, rows, *shape[1:]) if shape else (1024,)
+        f.create_dataset(name, shape=(0, *shape), maxshape=(None, *[None] * len(shape)),
+                         dtype=dtype, chunks=chunks, **options)
+        f[name].attrs["unit"] = unit or UNITS[name]
+
+    write_wall_geometry(f, getattr(sim, "walls", None) or ())
+    frames("time", ())
+    for name in ("position", "velocity", "angular_velocity", "force"):
+        frames(f"particles/{name}", (n, 3))
+    frames("bonds/active", (b,), dtype=np.bool_)
+    for name in ("force", "normal_moment", "tangential_moment"):
+        frames(f"bonds/{name}", (b, 3))
+    for name in ("force", "torque", "position"):
+        frames(f"walls/{name}", (w, 3))
+    for name in energy_names:
+        frames(f"energy/{name}", (), unit="J")
+    return energy_names
 
 
 def _frame_datasets(f):
@@ -264,37 +322,100 @@ def _frame_datasets(f):
     return names
 
 
+class UnreadableResults(InputError):
+    """A results file that HDF5 cannot read (truncated, not HDF5, missing datasets)."""
+
+
+def open_results(path, *, live=True):
+    """``path`` opened read-only with h5py; ``live``: as an SWMR reader, which sees the
+    frames a running writer appends (``refresh``) and reads while the writer is within a
+    frame. The file is first opened plainly, which HDF5 refuses at once for a truncated or
+    damaged file (an SWMR reader skips that check and then waits on the missing end).
+    Raises UnreadableResults naming the file."""
+    path = Path(path)
+    try:
+        try:
+            plain = h5py.File(path, "r", locking=False)
+        except TypeError:    # h5py without the locking option
+            plain = h5py.File(path, "r")
+    except OSError as error:
+        if "already open for write" not in str(error):
+            raise UnreadableResults(f"cannot open as HDF5 ({_hdf5_reason(error)})",
+                                    file=str(path)) from None
+        plain = None     # a writer is within a frame (or died there): only SWMR reads it
+    if plain is not None and not (live and _writer_running(path)):
+        return plain
+    if plain is not None:
+        plain.close()
+    try:
+        return h5py.File(path, "r", swmr=True)
+    except OSError as error:
+        raise UnreadableResults(f"cannot open as HDF5 ({_hdf5_reason(error)})",
+                                file=str(path)) from None
+
+
+def _writer_running(path):
+    """True if a ``bondem run`` holds the lock of the results file's folder."""
+    lock = Path(path).parent / ".bondem.lock"
+    try:
+        import fcntl
+        handle = open(lock, "rb")
+    except (ImportError, OSError):
+        return False
+    with handle:
+        try:
+            fcntl.flock(handle, fcntl.LOCK_SH | fcntl.LOCK_NB)
+        except OSError:
+            return True
+        fcntl.flock(handle, fcntl.LOCK_UN)
+    return False
+
+
+def _hdf5_reason(error):
+    text = str(error)
+    return text.split("(", 1)[1].rstrip(")") if "(" in text else text
+
+
 def rewrite_results(path, n_frames=None) -> int:
     """Rewrite a results file cleanly, keeping its first ``n_frames`` frames (default: all
-    complete frames, the length of /time); returns the frames kept.
+    complete frames, the length of /time); returns the frames kept. Call it only when no
+    writer is running (``bondem run --resume`` does, holding the folder's lock).
 
-    A writer killed in SWMR mode leaves HDF5's "open for write" flag set: the file still
-    opens with ``h5py.File(path, "r", swmr=True)`` (as ``read_results`` does), but not for
-    writing nor, with plain ``h5py.File(path)``, for reading. This copies it (through
-    SWMR read) into a new file, cut to the frames wanted, and atomically replaces it.
+    First clears an "open for write" mark left by a killed writer (as ``h5clear -s``),
+    then copies the file into a new one, cut to the frames wanted, and atomically
+    replaces it. Raises UnreadableResults for a file that is not a readable results file.
     """
     path = Path(path)
+    clear_open_flags(path)
     temporary = path.with_name(path.name + ".rewrite")
-    with h5py.File(path, "r", swmr=True) as source:
-        complete = min(source[name].shape[0] for name in _frame_datasets(source))
-        keep = complete if n_frames is None else min(n_frames, complete)
-        with h5py.File(temporary, "w", libver="latest") as target:
-            for key, value in source.attrs.items():
-                target.attrs[key] = value
-            for name in source:
-                source.copy(source[name], target, name=name)
-            for name in _frame_datasets(target):
-                target[name].resize(keep, axis=0)
+    try:
+        with open_results(path, live=False) as source:
+            frame_names = _frame_datasets(source)
+            if "time" not in frame_names:
+                raise UnreadableResults("no /time dataset (not a bondem results file)",
+                                        file=str(path))
+            complete = min(source[name].shape[0] for name in frame_names)
+            keep = complete if n_frames is None else min(n_frames, complete)
+            with h5py.File(temporary, "w", libver="latest") as target:
+                for key, value in source.attrs.items():
+                    target.attrs[key] = value
+                for name in source:
+                    source.copy(source[name], target, name=name)
+                for name in _frame_datasets(target):
+                    target[name].resize(keep, axis=0)
+    except (OSError, KeyError, RuntimeError) as error:
+        temporary.unlink(missing_ok=True)
+        raise UnreadableResults(f"cannot read ({_hdf5_reason(error)})",
+                                file=str(path)) from None
     os.replace(temporary, path)
     return keep
 
 
 def read_results(path) -> dict:
     """Every dataset of a results file as NumPy arrays, keyed by path ("particles/position"),
-    plus "attrs" (dict of root attributes). Opens in SWMR read mode, so it also works on a
-    file that is still being written."""
+    plus "attrs" (dict of root attributes). Also works on a file that is being written."""
     out = {}
-    with h5py.File(path, "r", swmr=True) as f:
+    with open_results(path) as f:
         def visit(name, obj):
             if isinstance(obj, h5py.Dataset):
                 data = obj[()]

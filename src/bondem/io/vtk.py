@@ -41,6 +41,7 @@ import h5py
 import numpy as np
 
 from ..model import bond_separation
+from .results import open_results
 
 VTK_TYPES = {np.dtype(np.float64): "Float64", np.dtype(np.float32): "Float32",
              np.dtype(np.int64): "Int64", np.dtype(np.int32): "Int32",
@@ -268,7 +269,7 @@ def export_vtk(results_path, out_dir=None, *, every=1) -> Path:
     with ExitStack() as stack:
         sidecar = (stack.enter_context(h5py.File(sidecar_path, "r"))
                    if sidecar_path.is_file() else None)
-        f = stack.enter_context(h5py.File(results_path, "r", swmr=True))
+        f = stack.enter_context(open_results(results_path))
         times = f["time"][()]
         radius = f["particles/radius"][()]
         material = f["particles/material"][()]
