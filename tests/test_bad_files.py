@@ -166,10 +166,17 @@ def test_demo_replaces_only_its_own_run(tmp_path):
     ("particles.velocity=[1e300,0,0]", "particles.velocity"),
     ("simulation.box_high=[0,0,0]", "simulation.box_high"),
     ("simulation.box_low=[0.01,0,0]", "simulation.box_low"),
+    ("simulation.gravity=[0,0,1e300]", "simulation.gravity"),
+    ("particles.velocity=[0,0,1e150]", "particles.velocity"),
+    ("particles.offset=[1e300,0,0]", "particles.offset"),
+    ("materials.glass.density=1e300", "materials"),
 ])
 def test_scenes_that_cannot_start_are_input_errors(tmp_path, setting, key):
     """Checked at load, not found at run time: infinite energy at t = 0, particles outside
-    the domain at t = 0."""
+    the domain at t = 0, particles that would move more than a radius in the first step
+    (their speed, gravity), coordinates doubles cannot resolve, a stable time step longer
+    than the whole run (each used to crash a kernel, run a garbage run or blame another
+    key)."""
     _fails_cleanly(["run", str(EXAMPLES / "cantilever.toml"), "--out", str(tmp_path / "o"),
                     "--no-progress", "--set", setting], "cantilever.toml", key)
     assert not (tmp_path / "o" / "results.h5").exists()
@@ -257,3 +264,14 @@ def test_resume_and_readers_refuse_damaged_files(tmp_path, damage, target):
             assert result.exception is None or isinstance(result.exception, SystemExit)
             if result.exit_code == 2:
                 assert "results.h5" in result.stderr.strip().splitlines()[-1]
+
+
+def test_a_wall_faster_than_a_radius_per_step_is_refused(tmp_path):
+    _fails_cleanly(["info", str(EXAMPLES / "impact.toml"), "--set",
+                    "walls.0.velocity=[0,0,1e300]"], "impact.toml", "walls.0.velocity")
+
+
+def test_usage_errors_are_one_line():
+    for args in (["run"], ["run", "--bogus", "x.toml"], ["frobnicate"]):
+        line = _fails_cleanly(args, "bondem")
+        assert "--help" in line

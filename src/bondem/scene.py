@@ -425,6 +425,7 @@ def _check_time_step(scene, path, save_every_given=True):
             raise InputError(f"value {step!r} s exceeds the stable limit {critical:.4g} s; allowed "
                              f"(0, {critical:.4g}] or set force_time_step = true", file=path,
                              key="simulation.time_step")
+    _check_step_displacement(scene, step, path)
     steps = scene.end_time / step
     limit = scene.data["simulation"]["max_steps"]
     if steps > limit:
@@ -441,6 +442,38 @@ def _check_time_step(scene, path, save_every_given=True):
         raise InputError(f"value {scene.save_every!r} s is shorter than the time step "
                          f"{step:.4g} s; allowed [{step:.4g}, end_time]", file=path,
                          key="simulation.save_every")
+
+
+def _check_step_displacement(scene, step, path):
+    """InputError if a particle would move more than its smallest radius in one step from
+    its initial velocity, or from gravity within the first step: explicit contacts and
+    bonds cannot follow that (and doubles lose the particles soon after)."""
+    r_min = float(np.min(scene.model.radius))
+    speed = float(np.max(np.abs(scene.state.velocity)))       # the largest component
+    gravity = float(np.max(np.abs(scene.model.gravity)))
+    if speed * step > r_min:
+        raise InputError(f"a particle at {speed:.3g} m/s moves {speed * step / r_min:.3g} "
+                         f"radii per time step ({step:.4g} s); allowed up to "
+                         f"{r_min / step:.4g} m/s", file=path, key="particles.velocity")
+    if gravity * step * step > r_min:
+        raise InputError(f"value {gravity:.3g} m/s^2 moves a particle "
+                         f"{gravity * step * step / r_min:.3g} radii in one time step "
+                         f"({step:.4g} s); allowed up to {r_min / step ** 2:.4g} m/s^2",
+                         file=path, key="simulation.gravity")
+    for k, wall in enumerate(scene.simulation_options.get("walls", ())):
+        reach = 0.0     # the farthest vertex from the rotation centre (m)
+        if getattr(wall, "vertices", None) is not None and len(wall.vertices):
+            with np.errstate(all="ignore"):
+                reach = float(np.max(np.abs(wall.vertices - wall.rotation_center)))
+        with np.errstate(all="ignore"):
+            moved = (float(np.max(np.abs(wall.velocity)))
+                     + float(np.max(np.abs(wall.angular_velocity))) * reach) * step
+        if not moved <= r_min:
+            key = ("velocity" if float(np.max(np.abs(wall.velocity))) * step > r_min
+                   else "angular_velocity")
+            raise InputError(f"the wall moves {moved / r_min:.3g} particle radii per time "
+                             f"step ({step:.4g} s); allowed up to one", file=path,
+                             key=f"walls.{k}.{key}")
 
 
 def _require_parameter(name, path, key, value):
