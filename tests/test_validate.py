@@ -2,6 +2,7 @@
 every quick case, a wrong reference makes rows fail (exit status 1), reference-data
 folders appear as cases, and the report files are written."""
 import csv
+from pathlib import Path
 
 import pytest
 from click.testing import CliRunner
@@ -167,3 +168,54 @@ def test_reference_folder_with_compare_toml_is_run_and_compared(tmp_path, monkey
     assert rows["refdata:good"].passed is True
     assert rows["refdata:bad"].passed is False
     assert abs(rows["refdata:bad"].error) > 5e-3
+
+
+def test_every_compare_item_sees_its_own_times(tmp_path, monkeypatch):
+    """Two [[compare]] items over the same times (x and y of a particle in free flight,
+    x = 0.5 t, y = -2 t): the second item must see the state at each of its times, not the
+    state the first item's run ended in."""
+    import sys
+    import types
+
+    import bondem
+    fake = types.ModuleType("bondem.scene")
+
+    def load_scene(path):
+        material = bondem.Material(density=2500.0, young_modulus=1e8)
+        model, state = bondem.make_system([[0.0, 0.0, 0.0]], 1e-3, material,
+                                          velocity=[[0.5, -2.0, 0.0]])
+        return types.SimpleNamespace(model=model, state=state,
+                                     simulation_options={"time_step": 1e-6})
+    fake.load_scene = load_scene
+    monkeypatch.setitem(sys.modules, "bondem.scene", fake)
+    monkeypatch.setenv("BONDEM_REFDATA", str(tmp_path))
+    folder = tmp_path / "flight"
+    folder.mkdir()
+    (folder / "SCENE.md").write_text("# free flight\n")
+    (folder / "scene.toml").write_text("")
+    (folder / "xy.csv").write_text("time,x,y\n" + "".join(
+        f"{t},{0.5 * t},{-2.0 * t}\n" for t in (1e-4, 2e-4, 3e-4)))
+    items = "".join(f'[[compare]]\nfile = "xy.csv"\ntime_column = "time"\ncolumn = "{c}"\n'
+                    f'quantity = "particles/position"\nindex = [0, {k}]\ntolerance = 1e-9\n'
+                    for k, c in enumerate("xy"))
+    (folder / "compare.toml").write_text('scene = "scene.toml"\n' + items)
+    rows = run_suite(cases=["refdata"])
+    assert len(rows) == 1 and rows[0].passed is True, rows
+    assert "2 columns" in rows[0].quantity
+
+
+MUSEN_RUNS = Path(__file__).resolve().parents[2] / "shared" / "musen-runs"
+
+
+@pytest.mark.skipif(not MUSEN_RUNS.is_dir(), reason="no ../shared/musen-runs")
+def test_real_musen_runs_pass_in_compat_mode_and_are_info_in_spec_mode():
+    """The four runs of the real MUSEN 1.70.0: positions, velocities and spins within
+    their tolerances and every bond breaking in MUSEN's step, with --compat musen."""
+    rows = [r for r in run_suite(cases=["refdata"], compat="musen")
+            if r.case.startswith("refdata:")]
+    names = {r.case for r in rows}
+    assert {"refdata:two_bonded", "refdata:cluster", "refdata:breaking_combined",
+            "refdata:breaking_separate"} <= names
+    assert all(r.passed is True for r in rows), [r for r in rows if not r.passed]
+    spec = [r for r in run_suite(cases=["refdata"]) if r.case in names]
+    assert spec and all(r.passed is None and r.note.startswith("info") for r in spec)
