@@ -126,7 +126,7 @@ class ContactLaw:
                                      for k in ("young_modulus", "poisson_ratio", "restitution",
                                                "friction", "rolling_friction"))
         n = model.n_particles
-        self.skin = contact_cutoff(model.radius, self.settings.skin)[1]
+        cutoff, self.skin = contact_cutoff(model.radius, self.settings.skin)
         self._box_length = model.box_length
         self._k_linear = float(self.settings.linear_stiffness or 0.0)  # N/m, 0: default
         # None selects Hertz-Mindlin in the CPU kernels (by type: only the law in use compiles)
@@ -137,7 +137,6 @@ class ContactLaw:
                                 else self._linear_stiffness)
         # True when a wall has triangles, else None (the kernel then has no triangle code)
         self._triangles = True if np.any(self.walls.element_type != PLANE) else None
-        cutoff = contact_cutoff(model.radius, self.settings.skin)[0]
         if np.any(model.periodic & (self._box_length < 2.0 * cutoff)):
             raise ValueError(f"periodic box lengths {self._box_length[model.periodic].tolist()} "
                              f"m must be at least twice the contact cut-off {cutoff:.3g} m")

@@ -32,6 +32,12 @@ def grid_shape(position, cell_size, periodic, box_low, box_high, max_cells):
         low = np.zeros(3)
         extent = np.zeros(3)
     size = float(cell_size)
+    with np.errstate(all="ignore"):
+        spread = float(np.max(extent)) / size
+    if not spread < 1e15:   # NaN, infinite or absurd: the grid would be garbage
+        raise SimulationBlowUp("simulation blew up: positions became NaN, infinite or "
+                               f"{spread:.3g} cut-offs apart (met by the neighbour grid); "
+                               "reduce the time step or check the loads")
     while True:
         counts = np.maximum(1, np.floor(extent / size).astype(np.int64))
         counts = np.where(periodic, counts, counts + 1)
@@ -162,12 +168,6 @@ def build_pairs(position, radius, skin, periodic, box_low, box_high):
     if n == 0:
         return np.zeros((0, 2), dtype=np.int64)
     cutoff = 2.0 * float(radius.max()) + float(skin)
-    with np.errstate(all="ignore"):
-        spread = float(np.max(position.max(axis=0) - position.min(axis=0))) / cutoff
-    if not spread < 1e15:   # NaN, infinite or absurd: before the grid turns it into garbage
-        raise SimulationBlowUp("simulation blew up: positions became NaN, infinite or "
-                               f"{spread:.3g} contact cut-offs apart (met by the contact "
-                               "search); reduce the time step or check the loads")
     box_length = np.where(periodic, np.asarray(box_high) - np.asarray(box_low), 1.0)
     if np.any(periodic & (box_length < 2.0 * cutoff)):
         raise ValueError(f"periodic box lengths {box_length[periodic].tolist()} m must be at "

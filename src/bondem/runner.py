@@ -17,12 +17,11 @@ from pathlib import Path
 from .errors import BackendUnavailable, InputError
 from .status import SimulationBlowUp
 from .io.checkpoint import read_checkpoint, write_checkpoint
-from .io.results import ResultsWriter
+from .io.results import LOCK_NAME, ResultsWriter
 
 RESULTS_NAME = "results.h5"
 CHECKPOINT_NAME = "checkpoint.npz"
 LAST_GOOD_NAME = "last_good_state.npz"
-LOCK_NAME = ".bondem.lock"
 PREVIOUS_NAME = "previous_run"   # an overwritten run, kept until the new one finishes
 # What a run and the commands after it (analyze, report, export vtk) write in its folder:
 # a fresh run with overwrite clears them all, so no stale analysis outlives its results.
@@ -325,11 +324,8 @@ def _run_locked(scene, out_dir, progress, resume, checkpoint_minutes, stop_after
 def _check_checkpoint_shapes(scene, state, path):
     """InputError if the checkpoint's particles or bonds are not the scene's (the scene
     text matches, but a particle or bond file beside it changed)."""
-    model = scene.model if hasattr(scene, "model") else None
-    n = getattr(model, "n_particles", None)
-    b = getattr(model, "n_bonds", None)
-    if (n is not None and state.position.shape != (n, 3)) or \
-            (b is not None and state.bond_active.shape != (b,)):
+    n, b = scene.model.n_particles, scene.model.n_bonds
+    if state.position.shape != (n, 3) or state.bond_active.shape != (b,):
         raise InputError(f"holds {state.position.shape[0]} particles and "
                          f"{state.bond_active.shape[0]} bonds, the scene "
                          f"{n} and {b} (its particle or bond file changed); run afresh "

@@ -466,11 +466,10 @@ def _check_step_displacement(scene, step, path):
             with np.errstate(all="ignore"):
                 reach = float(np.max(np.abs(wall.vertices - wall.rotation_center)))
         with np.errstate(all="ignore"):
-            moved = (float(np.max(np.abs(wall.velocity)))
-                     + float(np.max(np.abs(wall.angular_velocity))) * reach) * step
+            slide = float(np.max(np.abs(wall.velocity))) * step
+            moved = slide + float(np.max(np.abs(wall.angular_velocity))) * reach * step
         if not moved <= r_min:
-            key = ("velocity" if float(np.max(np.abs(wall.velocity))) * step > r_min
-                   else "angular_velocity")
+            key = "velocity" if slide > r_min else "angular_velocity"
             raise InputError(f"the wall moves {moved / r_min:.3g} particle radii per time "
                              f"step ({step:.4g} s); allowed up to one", file=path,
                              key=f"walls.{k}.{key}")
@@ -595,12 +594,12 @@ def _particles(table, material_names, path):
                          key="particles.material" if p["file"] is not None
                          else "particles.generator.material")
     index = np.array([material_names.index(m) for m in names.tolist()], dtype=np.int32)
-    _check_radius_spread(radius, where, path, "particles.file" if p["file"] is not None
-                         else "particles.generator")
+    source = "particles.file" if p["file"] is not None else "particles.generator"
+    _check_radius_spread(radius, where, path, source)
     with np.errstate(all="ignore"):
         position = position + np.array(p["offset"])
-    _check_precision(position, radius, path, "particles.offset" if any(p["offset"])
-                     else "particles.file" if p["file"] is not None else "particles.generator")
+    _check_precision(position, radius, path,
+                     "particles.offset" if any(p["offset"]) else source)
     velocity = velocity + np.array(p["velocity"])
     angular_velocity = angular_velocity + np.array(p["angular_velocity"])
     return position, radius, index, velocity, angular_velocity, fixed, p, where
@@ -633,7 +632,8 @@ def _check_radius_spread(radius, where, path, key):
     if small.size:
         k = int(small[np.argmin(radius[small])])
         at = f"{where[k]}: " if where else f"particle {k}: "
-        raise InputError(f"{at}radius {radius[k]!r} m is less than 1/{RADIUS_SPREAD:.0e} of "
+        raise InputError(f"{at}radius {float(radius[k])!r} m is less than "
+                         f"1/{RADIUS_SPREAD:.0e} of "
                          f"the median radius {np.median(radius):.4g} m; allowed "
                          f"[{np.median(radius) / RADIUS_SPREAD:.3g}, ...] m", file=path,
                          key=key)
@@ -665,12 +665,13 @@ def _check_overlaps(position, radius, bonds, where, contacts, bonded_contacts, p
     pairs = tree.query_pairs(2.0 * float(radius.max()), output_type="ndarray")
     if not pairs.size:
         return []
-    if bonds.shape[0] and not bonded_contacts:
-        bonded = set(map(tuple, np.sort(bonds, axis=1).tolist()))
-        keep = np.array([tuple(pair) not in bonded for pair in np.sort(pairs, 1).tolist()])
-        pairs = pairs[keep] if keep.size else pairs
-    if not pairs.size:
-        return []
+    if bonds.shape[0] and not bonded_contacts:   # bonded pairs get no contact force
+        def keys(p):
+            p = np.sort(p, axis=1)
+            return p[:, 0] * np.int64(n) + p[:, 1]
+        pairs = pairs[~np.isin(keys(pairs), keys(bonds))]
+        if not pairs.size:
+            return []
     i, j = pairs[:, 0], pairs[:, 1]
     overlap = radius[i] + radius[j] - np.linalg.norm(position[j] - position[i], axis=1)
     depth = overlap / np.minimum(radius[i], radius[j])
@@ -748,26 +749,22 @@ def _bonds(table, position, radius, bond_material_names, path):
                              f"{pairs[zero[0]].tolist()} at "
                              "the same position (initial length 0, must be > 0)", file=path,
                              key=where)
-        wide = np.flatnonzero(diameter > 2.0 * np.maximum(radius[pairs[:, 0]],
-                                                          radius[pairs[:, 1]]))
-        if wide.size:
-            k = int(wide[0])
-            limit = 2.0 * max(radius[pairs[k, 0]], radius[pairs[k, 1]])
-            raise InputError(f"{at(k)}bond {k} has diameter {diameter[k]!r} m, wider than "
-                             f"both its particles; allowed (0, {limit:.4g}] m", file=path,
+        # wider than both particles, or thinner than 1/RADIUS_SPREAD of the smaller
+        ri, rj = radius[pairs[:, 0]], radius[pairs[:, 1]]
+        low, high = 2.0 / RADIUS_SPREAD * np.minimum(ri, rj), 2.0 * np.maximum(ri, rj)
+        odd = np.flatnonzero((diameter > 0) & ((diameter < low) | (diameter > high)))
+        if odd.size:
+            k = int(odd[0])
+            why = ("wider than both its particles" if diameter[k] > high[k] else
+                   f"less than 1/{RADIUS_SPREAD:.0e} of its particles'")
+            raise InputError(f"{at(k)}bond {k} has diameter {float(diameter[k])!r} m, {why}; "
+                             f"allowed [{low[k]:.3g}, {high[k]:.4g}] m", file=path,
                              key=where)
-        thin = np.flatnonzero((diameter > 0) & (diameter < 2.0 / RADIUS_SPREAD * np.minimum(
-            radius[pairs[:, 0]], radius[pairs[:, 1]])))
-        if thin.size:
-            k = int(thin[0])
-            limit = 2.0 / RADIUS_SPREAD * min(radius[pairs[k, 0]], radius[pairs[k, 1]])
-            raise InputError(f"{at(k)}bond {k} has diameter {diameter[k]!r} m, less than "
-                             f"1/{RADIUS_SPREAD:.0e} of its particles'; allowed "
-                             f"[{limit:.3g}, ...] m", file=path, key=where)
         nonpositive = np.flatnonzero(~(diameter > 0))
         if nonpositive.size:
             raise InputError(f"{at(nonpositive[0])}bond {int(nonpositive[0])} has diameter "
-                             f"{diameter[nonpositive[0]]!r}; must be > 0", file=path, key=where)
+                             f"{float(diameter[nonpositive[0]])!r}; must be > 0", file=path,
+                             key=where)
     unknown = sorted(set(names) - set(bond_material_names))
     if unknown:
         raise InputError(f"{at(names.index(unknown[0]))}bond material {unknown[0]!r} is "

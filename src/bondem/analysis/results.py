@@ -1,8 +1,9 @@
 """Read-only access to a results file (SPEC 6), also while the run is still writing it.
 
 The writer appends one frame at a time to every per-frame dataset, in SWMR mode (HDF5
-single-writer / multiple-reader); this reads as an SWMR reader. A reader may therefore see a frame that is in
-/time but not yet in /bonds/active, or the other way round. ``Results`` refreshes every
+single-writer / multiple-reader), and this reads as an SWMR reader while a run writes.
+A reader may therefore see a frame that is in /time but not yet in /bonds/active, or the
+other way round. ``Results`` refreshes every
 dataset it reads and counts only the frames present in all of them, so every analysis
 sees complete frames only.
 """

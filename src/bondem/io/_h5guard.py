@@ -61,9 +61,9 @@ def clear_open_flags(path) -> bool:
     """Clear the "open for write" marks of an HDF5 file whose writer is gone (what
     ``h5clear -s`` does) and, if the writer died before the end of the space it had
     allocated was written, extend the file to that end (zeros) so that readers do not
-    call it truncated. A file without the marks is left alone. Returns True if the file was changed. Only a version 2/3 superblock
-    at offset 0 with 8-byte addresses and a valid checksum is touched; anything else is
-    left as it is."""
+    call it truncated. A file without the marks is left alone. Returns True if the file
+    was changed. Only a version 2/3 superblock at offset 0 with 8-byte addresses and a
+    valid checksum is touched; anything else is left as it is."""
     try:
         fd = os.open(path, os.O_RDWR)
     except OSError:

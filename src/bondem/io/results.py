@@ -20,10 +20,11 @@ Layout (F frames, N particles, B bonds, W walls; every dataset has a ``unit`` at
 attrs on /: scene (the scene text), scene_name, bondem_version, backend, time_step (s),
 periodic (3,) bool, box_length (3,) m (periodic cell; 1 along other axes), ...
 ```
-The file is opened with ``libver="latest"``, all datasets are created first and then SWMR
-mode is switched on, so readers can follow a running simulation with
-``h5py.File(path, "r", swmr=True)``. Each frame is appended and flushed; a killed run
-leaves a file that opens and holds every frame flushed so far.
+The file is built whole (every dataset, no frames) under a temporary name and renamed into
+place; each frame then opens it in SWMR mode (``libver="latest"``), appends and closes it.
+So plain ``h5py.File(path)`` opens it between frames, after the run and after a kill (a
+watchman process clears the "open for write" mark of a writer killed within a frame:
+``_h5guard``), and ``h5py.File(path, "r", swmr=True)`` follows a running simulation.
 """
 from __future__ import annotations
 
@@ -37,6 +38,7 @@ from ..errors import InputError
 from ..model import bond_separation
 from ._h5guard import clear_open_flags
 
+LOCK_NAME = ".bondem.lock"   # held by a run in the results file's folder (runner.py)
 FRAME_CHUNK_ROWS = 65536  # rows of (N,3)/(B,3) per chunk: ~1.5 MB, bounded for big runs
 UNITS = {
     "time": "s", "particles/radius": "m", "particles/material": "1", "particles/mass": "kg",
@@ -128,7 +130,6 @@ class ResultsWriter:
                  scene_name=""):
         self.path = Path(path)
         self.n_walls = count_walls(sim)
-        self.file = None
         self._guard = None
         self._break_time_written = -1
         if resume_frames is not None:
@@ -340,8 +341,7 @@ def open_results(path, *, live=True):
             plain = h5py.File(path, "r")
     except OSError as error:
         if "already open for write" not in str(error):
-            raise UnreadableResults(f"cannot open as HDF5 ({_hdf5_reason(error)})",
-                                    file=str(path)) from None
+            raise _unreadable(path, error) from None
         plain = None     # a writer is within a frame (or died there): only SWMR reads it
     if plain is not None and not (live and _writer_running(path)):
         return plain
@@ -350,13 +350,12 @@ def open_results(path, *, live=True):
     try:
         return h5py.File(path, "r", swmr=True)
     except OSError as error:
-        raise UnreadableResults(f"cannot open as HDF5 ({_hdf5_reason(error)})",
-                                file=str(path)) from None
+        raise _unreadable(path, error) from None
 
 
 def _writer_running(path):
     """True if a ``bondem run`` holds the lock of the results file's folder."""
-    lock = Path(path).parent / ".bondem.lock"
+    lock = Path(path).parent / LOCK_NAME
     try:
         import fcntl
         handle = open(lock, "rb")
@@ -374,6 +373,10 @@ def _writer_running(path):
 def _hdf5_reason(error):
     text = str(error)
     return text.split("(", 1)[1].rstrip(")") if "(" in text else text
+
+
+def _unreadable(path, error, what="cannot open as HDF5"):
+    return UnreadableResults(f"{what} ({_hdf5_reason(error)})", file=str(path))
 
 
 def rewrite_results(path, n_frames=None) -> int:
@@ -405,8 +408,7 @@ def rewrite_results(path, n_frames=None) -> int:
                     target[name].resize(keep, axis=0)
     except (OSError, KeyError, RuntimeError) as error:
         temporary.unlink(missing_ok=True)
-        raise UnreadableResults(f"cannot read ({_hdf5_reason(error)})",
-                                file=str(path)) from None
+        raise _unreadable(path, error, "cannot read") from None
     os.replace(temporary, path)
     return keep
 
