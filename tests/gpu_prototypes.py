@@ -12,6 +12,7 @@ from numba import cuda
 
 from bondem.backends.cpu import particle_bond_index
 from bondem.backends.cuda import THREADS, _blocks, gather_bond_loads_kernel, minimum_image
+from bondem.backends.loops import BondIndex, BondLoads
 
 # ---------------------------------------------------------------------------------------
 # Neighbour search: cell index, sort by cell, cell starts by search, count/scan/write pairs
@@ -542,5 +543,5 @@ class ParticleContactsGpu:
             d.angular_velocity, self.radius, self.mass, self.material, self.d_table,
             g.box_length, g.periodic, self.spring, increment_dt, *self.out)
         gather_bond_loads_kernel[_blocks(n), THREADS](
-            self.offsets, self.ends, self.out[0], self.out[1], self.out[2], force, moment,
+            BondIndex(self.offsets, self.ends), BondLoads(*self.out[:3]), force, moment,
             False)

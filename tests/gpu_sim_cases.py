@@ -270,6 +270,7 @@ def case_contact_kernel():
     from numba import cuda
     from bondem.backends.cpu import particle_bond_index
     from bondem.backends.cuda import THREADS, gather_bond_loads_kernel
+    from bondem.backends.loops import BondIndex, BondLoads
     from gpu_prototypes import make_contact_kernel, neighbour_pairs
     rng = np.random.default_rng(11)
     n = 40
@@ -299,7 +300,7 @@ def case_contact_kernel():
     offsets, ends = particle_bond_index(pairs, n)
     force, moment = cuda.device_array((n, 3)), cuda.device_array((n, 3))
     gather_bond_loads_kernel[(n + THREADS - 1) // THREADS, THREADS](
-        put(offsets), put(ends), out[0], out[1], out[2], force, moment, True)
+        BondIndex(put(offsets), put(ends)), BondLoads(*out[:3]), force, moment, True)
     # NumPy reference, written from the SPEC's contact geometry.
     ref_force, ref_moment, ref_spring = np.zeros((n, 3)), np.zeros((n, 3)), np.zeros_like(spring)
     touching = 0
@@ -333,33 +334,104 @@ def case_contact_kernel():
     np.testing.assert_allclose(d_spring.copy_to_host(), ref_spring, rtol=1e-12, atol=1e-20)
 
 
+class _HostArray(np.ndarray):
+    """A NumPy array standing in for a device array (case_ptx records launches only)."""
+
+    def copy_to_host(self, out=None):
+        if out is None:
+            return np.array(self)
+        out[...] = self
+        return out
+
+    def copy_to_device(self, array):
+        self[...] = array
+
+
+def _argument_type(value):
+    """The Numba type a CUDA launch gives ``value`` (arrays of a launch are C-contiguous)."""
+    import numba
+    from numba import types
+    if isinstance(value, np.ndarray):
+        return types.Array(numba.from_dtype(value.dtype), value.ndim, "C")
+    if isinstance(value, tuple) and hasattr(value, "_fields"):
+        return types.NamedTuple([_argument_type(v) for v in value], type(value))
+    if isinstance(value, tuple):
+        return types.Tuple([_argument_type(v) for v in value])
+    return numba.typeof(value)
+
+
+def record_backend_launches():
+    """{kernel name: (kernel, arguments)} of every kernel the GPU backend launches in a
+    few steps of bonds, breakage, Hertz-Mindlin and linear contacts, a plane and a moving
+    mesh wall, MUSEN-compatible bonds and bond energies, with host arrays for device
+    arrays and the launches recorded, not run."""
+    from numba import cuda
+    from numba.cuda.dispatcher import CUDADispatcher
+    from bondem.backends import cuda as gb, cuda_contacts as gc
+    from bondem.contacts import ContactSettings
+    launches = {}
+
+    class Recorder:
+        def __init__(self, name, kernel):
+            self.name, self.kernel = name, kernel
+
+        def __getitem__(self, configuration):
+            return lambda *args: launches.setdefault(self.name, (self.kernel, args))
+
+    saved = {}
+    fake = {"to_device": lambda a, *rest, **kw: np.array(a).view(_HostArray),
+            "device_array": lambda shape, dtype=np.float64, **kw:
+                np.zeros(shape, dtype).view(_HostArray)}
+    for name, value in fake.items():
+        saved[(cuda, name)] = getattr(cuda, name)
+        setattr(cuda, name, value)
+    saved[(gb, "require_device")] = gb.require_device
+    gb.require_device = lambda name="gpu": None
+    for module in (gb, gc):
+        for name, value in vars(module).copy().items():
+            if isinstance(value, CUDADispatcher):
+                saved[(module, name)] = value
+                setattr(module, name, Recorder(name, value))
+    try:
+        for settings, musen in ((ContactSettings(model="hertz_mindlin"), False),
+                                (ContactSettings(model="linear"), True)):
+            model, state, walls = falling_clusters()
+            sim = bondem.Simulation(model, state, backend="gpu", contact=settings,
+                                    walls=walls, musen_compat=musen)
+            sim.step(3)
+            sim.energy_terms()
+        model, state = bonded_cluster()
+        sim = bondem.Simulation(model, state, backend="gpu")
+        sim.step(2)
+        sim.bonds.accumulate(model, sim.state, sim.force, sim.moment, 1e-9)
+    finally:
+        for (module, name), value in saved.items():
+            setattr(module, name, value)
+    return launches
+
+
 def case_ptx():
     """Every kernel compiles to PTX for an H100 (sm_90) with the real NVVM, no GPU needed.
 
     The simulator runs kernels as Python and accepts code that the CUDA target rejects
-    (builtin min/max on mixed ints did); this compiles each kernel with explicit
-    argument types. Device functions ask for the current device's compute capability,
-    which a machine without a driver has not: it is stubbed for this check only.
+    (builtin min/max on mixed ints did); this compiles each kernel the backend launches
+    with the argument types of its real launch (``record_backend_launches``), and the
+    test-only prototypes with explicit types. Device functions ask for the current
+    device's compute capability, which a machine without a driver has not: it is stubbed
+    for this check only.
     """
     import numba.cuda.dispatcher as dispatcher
     from types import SimpleNamespace
-    from numba import types
-    from bondem.backends import cuda as gb
+    from numba import cuda, types
+    import gpu_prototypes as gp
     dispatcher.get_current_device = lambda: SimpleNamespace(compute_capability=(9, 0))
 
     def array(dtype, ndim):
         return types.Array(dtype, ndim, "C")
-    f64, i64, boolean = types.float64, types.int64, types.boolean
+    f64, i64 = types.float64, types.int64
     A1, A2, I1, I2 = array(f64, 1), array(f64, 2), array(i64, 1), array(i64, 2)
-    B1, I8, I32 = array(boolean, 1), array(types.int8, 1), array(types.int32, 1)
+    B1, I32 = array(types.boolean, 1), array(types.int32, 1)
     signatures = {
-        "elastic_bonds_kernel": (I2, A1, A1, I32, A1, A1, A1, A1, I8, B1, A2, A2, A2, A1, B1,
-                                 B1, A2, A1, A2, A2, A2, A1, I8, A1, f64, f64, boolean, A2,
-                                 A2, A2),
-        "integrate_kernel": (I1, I1, A2, A2, A2, boolean, A2, A2, A2, A2, A2, A1, A1, B1, A1,
-                             A2, A2, f64, f64, f64, A1, A1, B1, I1, A1, A1),
-        "gather_bond_loads_kernel": (I1, I1, A2, A2, A2, A2, A2, boolean),
-        "bond_energies_kernel": (I2, A1, A1, I32, A1, A1, A2, A1, B1, B1, A2, A2, A2, A1),
         "cell_keys_kernel": (A2, A1, f64, I1, i64, I1),
         "bitonic_stage_kernel": (I1, i64, i64),
         "cell_start_kernel": (I1, i64, i64, I1),
@@ -367,34 +439,25 @@ def case_ptx():
         "write_pairs_kernel": (A2, A1, f64, A1, f64, I1, I1, I1, I1, I2),
         "_block_scan_kernel": (I1, I1, I1),
         "_add_block_offsets_kernel": (I1, I1),
-        "_zero_kernel": (A2, A2),
         "remap_history_kernel": (I2, A2, I2, A2),
         "_displacement_flag_kernel": (A2, A2, f64, I1),
         "_bounds_kernel": (A2, A1, A1),
         "_pair_bond_kernel": (I2, I1, I1, I1),
+        "contact_kernel": (I2, I1, B1, A2, A2, A2, A1, A1, I32, array(f64, 3), A1, B1, A2,
+                           f64, A2, A2, A2, A1, A1),
     }
-    import gpu_prototypes as gp
-    kernels = {name: getattr(gb if hasattr(gb, name) else gp, name).py_func
-               for name in signatures}
+    kernels = {name: getattr(gp, name).py_func for name in signatures if hasattr(gp, name)}
     kernels["contact_kernel"] = gp.make_contact_kernel(
         cuda.jit(device=True)(linear_law)).py_func
-    signatures["contact_kernel"] = (I2, I1, B1, A2, A2, A2, A1, A1, I32,
-                                    array(f64, 3), A1, B1, A2, f64, A2, A2, A2, A1, A1)
-    from bondem.backends import cuda_contacts as gc
-    A3 = array(f64, 3)
-    contact_signatures = {
-        "displacement_flag_kernel": (A2, A2, A1, B1, f64, I1),
-        "particle_contacts_kernel": (i64, I2, I1, B1, A2, A2, A2, A1, A1, A1, I32, A1, A1, A1,
-                                     A1, A1, boolean, f64, A1, B1, A2, f64, f64, A2, A2, A2,
-                                     A1, A1),
-        "gather_pairs_kernel": (I1, I1, I1, A2, A2, A2, A1, A2, A2, A1),
-        "wall_contacts_kernel": (i64, I1, I2, A3, I8, I1, A2, A2, A2, A1, A1, A1, A1, A1, A2,
-                                 A2, A2, A1, A1, A1, I32, A1, A1, A1, A1, A1, boolean, f64, A2,
-                                 f64, f64, A1, A2, I1, A2, A2, A1, A2, A2, A1, A1, A2),
-    }
-    for name, signature in contact_signatures.items():
-        kernels[name] = getattr(gc, name).py_func
-        signatures[name] = signature
+    launched = record_backend_launches()
+    for name, (kernel, args) in launched.items():
+        kernels[name] = kernel.py_func
+        signatures[name] = tuple(_argument_type(a) for a in args)
+    expected = {"elastic_bonds_kernel", "integrate_kernel", "bond_energies_kernel",
+                "gather_bond_loads_kernel",
+                "particle_contacts_kernel", "gather_pairs_kernel", "wall_contacts_kernel",
+                "displacement_flag_kernel", "_zero_kernel"}
+    assert expected <= set(launched), sorted(expected - set(launched))
     for name, function in kernels.items():
         ptx, _ = cuda.compile_ptx(function, signatures[name], cc=(9, 0))
         assert ".visible .entry" in ptx

@@ -12,7 +12,12 @@ def test_physics_edit_changes_the_stamp_of_bondem_kernels(tmp_path):
     first = physics_digest(tmp_path)
     assert physics_digest(tmp_path) == first
     law.write_text("def f(): return 2\n")
-    assert physics_digest(tmp_path) != first
+    second = physics_digest(tmp_path)
+    assert second != first
+    # the loop bodies are inlined too
+    (tmp_path / "backends").mkdir()
+    (tmp_path / "backends" / "loops.py").write_text("def g(): return 1\n")
+    assert physics_digest(tmp_path) != second
 
 
 def test_bondem_kernels_use_the_physics_aware_stamp():

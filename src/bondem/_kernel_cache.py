@@ -1,8 +1,9 @@
 """Numba's cache and the physics that bondem's cached kernels inline.
 
 Numba keys a cached kernel on its own source file only (its mtime and size, or from
-0.68 a hash of it), but bondem's kernels inline the functions of ``bondem/physics``:
-after a physics edit a cached kernel would keep the old physics. ``install`` puts a cache
+0.68 a hash of it), but bondem's kernels inline the functions of ``bondem/physics`` and
+the loop bodies of ``backends/loops.py``: after an edit of those a cached kernel would
+keep the old code. ``install`` puts a cache
 locator in front of Numba's own for the files of this package; it finds the cache folder
 as Numba's locators do (NUMBA_CACHE_DIR included) and adds a digest of the physics
 sources to the stamp, so that a physics edit makes every cached bondem kernel stale,
@@ -17,9 +18,13 @@ from numba.core import caching
 PACKAGE = Path(__file__).resolve().parent
 
 
+# What the cached kernels inline besides their own file: the physics and the loop bodies.
+INLINED = ("physics/*.py", "backends/loops.py")
+
+
 def physics_digest(package=PACKAGE):
-    """SHA-256 (hex) of the sources of ``package/physics``."""
-    sources = sorted((Path(package) / "physics").glob("*.py"))
+    """SHA-256 (hex) of the sources every cached kernel inlines (``INLINED``)."""
+    sources = sorted(path for pattern in INLINED for path in Path(package).glob(pattern))
     return hashlib.sha256(b"".join(path.read_bytes() for path in sources)).hexdigest()
 
 

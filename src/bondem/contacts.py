@@ -30,6 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .backends import cpu, loops
 from .backends import cpu_contacts as kernels
 from .neighbors import build_pairs, carry_history, max_displacement
 from .walls import PLANE, WallSet, build_wall_pairs
@@ -95,6 +96,14 @@ def contact_time_scales(model, settings):
     return {"contact_linear": float(np.sqrt(0.5 * model.mass / stiffness).min())}
 
 
+def pair_rows(extra, dissipated):
+    """The contact history rows of ``state.extra`` and ``dissipated`` (J per row) as a
+    ``loops.PairRows``."""
+    return loops.PairRows(extra["contact_spring"], extra["contact_force"],
+                          extra["contact_moment_i"], extra["contact_moment_j"],
+                          extra["contact_energy"], dissipated)
+
+
 def _csr_by(index, n):
     """(start (n+1,), order) grouping rows by ``index`` (stable)."""
     order = np.argsort(index, kind="stable").astype(np.int64)
@@ -119,8 +128,9 @@ class ContactLaw:
         self.wall_law = self.pair_law if self.pair_law >= 0 else kernels.MODEL_HERTZ
         self.walls = WallSet(walls)
         table = model.material_table()
-        self._materials = (table["young_modulus"], table["poisson_ratio"],
-                           table["restitution"], table["friction"], table["rolling_friction"])
+        self._materials = loops.ContactMaterials(
+            table["young_modulus"], table["poisson_ratio"], table["restitution"],
+            table["friction"], table["rolling_friction"])
         wm = [w.material for w in self.walls.walls]
         self._wall_materials = tuple(np.array([getattr(m, k) for m in wm], dtype=np.float64)
                                      for k in ("young_modulus", "poisson_ratio", "restitution",
@@ -245,45 +255,50 @@ class ContactLaw:
         moved_dt = state.time - counters[3]  # 0 after the start-up kick: nothing moved
         counters[3] = state.time
         use_rolling = bool(self.settings.rolling_resistance)
+        particles = cpu.particles(state)
+        grains = self.grains(model)
         if extra["contact_pairs"].shape[0]:
+            rows = pair_rows(extra, self._dissipated)
             kernels.particle_contacts(
-                extra["contact_pairs"], self._live, self._pair_bond,
-                state.bond_active,
-                state.position, state.velocity, state.angular_velocity, model.radius,
-                model.mass, model.inertia, model.material, *self._materials, use_rolling,
-                self._linear_stiffness, self._box_length, model.periodic,
-                extra["contact_spring"], increment_dt, moved_dt, extra["contact_force"],
-                extra["contact_moment_i"], extra["contact_moment_j"], extra["contact_energy"],
-                self._dissipated)
-            kernels.gather_pair_loads(self._i_start, self._i_order, self._j_start,
-                                      self._j_order,
-                                      extra["contact_force"], extra["contact_moment_i"],
-                                      extra["contact_moment_j"], force, moment)
+                self._live, extra["contact_pairs"], self._pair_bond, state.bond_active,
+                particles, grains, self._materials, self.pair_law, self._linear_stiffness,
+                use_rolling, cpu.box(model), rows, increment_dt, moved_dt)
+            kernels.gather_pair_loads(
+                loops.PairIndex(self._i_start, self._i_order, self._j_start, self._j_order),
+                rows, force, moment)
             counters[0] += float(self._dissipated.sum())
         if self.walls.n_walls:
-            rows = self.walls.elements(state.time)
             wall_pairs = extra["wall_pairs"]
             if wall_pairs.shape[0]:
                 kernels.wall_contacts(
-                    self._wall_start, wall_pairs, rows,
-                    self.walls.element_type, self.walls.element_wall, self.walls.velocity,
-                    self.walls.angular_velocity, self.walls.centers(state.time),
-                    *self._wall_materials, state.position, state.velocity,
-                    state.angular_velocity, model.radius, model.mass, model.inertia, model.material,
-                    *self._materials, use_rolling, self._wall_stiffness,
-                    self._triangles,
-                    extra["wall_spring"], increment_dt, moved_dt, self._w_distance,
-                    self._w_point, self._w_feature, extra["wall_force_rows"],
-                    extra["wall_moment_rows"], extra["wall_energy_rows"], self._w_dissipated,
-                    self._w_work)
-                kernels.gather_wall_loads(self._wall_start, extra["wall_force_rows"],
-                                          extra["wall_moment_rows"], force, moment)
+                    self._wall_start, wall_pairs, self.wall_tuple(state.time), particles,
+                    grains, self._materials, self.wall_law, self._wall_stiffness,
+                    use_rolling, self._triangles,
+                    loops.WallRows(extra["wall_spring"], extra["wall_force_rows"],
+                                   extra["wall_moment_rows"], extra["wall_energy_rows"],
+                                   self._w_dissipated, self._w_work, self._w_distance,
+                                   self._w_point, self._w_feature),
+                    increment_dt, moved_dt, force, moment)
                 counters[0] += float(self._w_dissipated.sum())
                 counters[1] += float(self._w_work.sum())
             kernels.wall_totals(wall_pairs, self.walls.element_wall, self._w_point,
                                 extra["wall_force_rows"], extra["wall_moment_rows"],
                                 state.position, model.radius, self.walls.positions(state.time),
                                 self.wall_force, self.wall_torque)
+
+    def grains(self, model, put=lambda a: a):
+        """The particle constants the contact bodies read, as a ``loops.Grains``."""
+        return loops.Grains(put(model.radius), put(model.mass), put(model.inertia),
+                            put(model.material))
+
+    def wall_tuple(self, time, put=lambda a: a, rows=None):
+        """The walls at ``time`` (s) as a ``loops.Walls``; rows: their element rows if
+        already placed."""
+        w = self.walls
+        return loops.Walls(put(w.elements(time)) if rows is None else rows,
+                           put(w.element_type), put(w.element_wall), put(w.velocity),
+                           put(w.angular_velocity), put(w.centers(time)),
+                           *(put(a) for a in self._wall_materials))
 
     def touching(self):
         """(particle pairs, particle-wall contacts) that carried a load in the last step."""

@@ -11,24 +11,28 @@ import numpy as np
 from numba import prange
 
 from ..physics import compile_physics
-from ..status import STATUS_NOT_FINITE, STATUS_OK, STATUS_OUT_OF_DOMAIN  # noqa: F401
-from ..physics.bond_elastic import CRITERION_NONE, INTACT
+from ..status import STATUS_OK
+from ..physics.bond_elastic import CRITERION_NONE
 from ..physics.rotation import SMALL_ANGLE
+from . import loops
 
 # No fastmath, not even FMA contraction ({"contract"}: 10 % faster bond kernel): it moves
 # the rounding of L = |r|, and L - L0 amplifies that to 3e-12 relative in F_n, above the
 # 1e-12 of the MUSEN transcription check (validation/rotation.py).
-# Numba's cache keys a kernel on this file only; backends/__init__.py drops the cached
-# kernels when a physics source changes (with NUMBA_CACHE_DIR set, delete them by hand).
-P = compile_physics(numba.njit(cache=False))
-elastic_bond = P.elastic_bond
-elastic_bond_musen = P.elastic_bond_musen
-bond_break_mode_musen = P.bond_break_mode_musen
-bond_stiffnesses = P.bond_stiffnesses
-bond_loads_on_particles = P.bond_loads_on_particles
-bond_break_mode = P.bond_break_mode
-bond_elastic_energy = P.bond_elastic_energy
-minimum_image = P.minimum_image
+# The loop bodies (backends/loops.py) are inlined into serial loops over chunks of items,
+# which the kernels run in parallel (``chunks``; see loops.py why); the cache stamp of
+# these kernels covers the physics and loops.py (_kernel_cache).
+L = loops.compile_loops(numba.njit(cache=False, inline="always"), numba.njit(cache=False))
+advance_bond = L.advance_bond
+bond_ends_sum = L.bond_ends_sum
+integrate_particle = L.integrate_particle
+bond_energy = L.bond_energy
+separation = L.separation
+row3 = L.row3
+# The compiled physics, for callers that use one law directly (validation/rotation.py).
+elastic_bond = L.elastic_bond
+bond_stiffnesses = L.bond_stiffnesses
+bond_loads_on_particles = L.bond_loads_on_particles
 
 # The same physics for the vectorised bond loop (``advance_bond_block``): inlined into the
 # loop, without the twist's libm branch (bonds with a large twist are redone by the scalar
@@ -43,6 +47,20 @@ bond_surely_intact_inline = V.bond_surely_intact
 
 
 _jit = dict(parallel=True, cache=True, fastmath=False, nogil=True)
+_serial = dict(cache=True, fastmath=False, nogil=True, error_model="numpy")
+
+# Items per chunk of a parallel loop. Each chunk is one call of a serial loop with the
+# body inlined: a body inlined into the prange itself would read its arrays from named
+# tuples inside the parallel region, where this Numba (0.68) drops their stores, and a
+# body called per item pays a reference count round trip per array per item (integrate:
+# 2.5x slower). 256 particles or bonds: the call is ~1 % of the chunk's time.
+CHUNK = 256
+
+
+@numba.njit(cache=True)
+def chunks(n):
+    """Number of CHUNKs covering n items."""
+    return (n + CHUNK - 1) // CHUNK
 
 # Below this many particles + bonds a step costs less than waking and joining the
 # worker threads of three parallel loops (tens of microseconds), so it runs on one.
@@ -111,31 +129,51 @@ def advance_bond_block(s, count, dt):
          s[(_MOMENT_J + 2) * B + q]) = moment_j
 
 
-@numba.njit(**_jit)
-def elastic_bonds(pairs, diameter, initial_length, bond_material, bm_young, bm_poisson,
-                  bm_normal_strength, bm_tangential_strength, bm_criterion, bm_compressive,
-                  position, velocity, angular_velocity, box_length, periodic, active, axis,
-                  previous_length, tangential_force, normal_moment, tangential_moment,
-                  break_time, break_mode, break_energy, time, dt, musen, vectorised,
-                  scratch, out_force_i, out_moment_i, out_moment_j):
-    """Advance every intact bond by one increment dt (s) and store its loads per bond.
+@numba.njit(**_serial)
+def advance_bonds(first, last, bonds, materials, state, particles, box, time, dt, musen,
+                  loads):
+    """``loops.advance_bond`` for bonds first to last - 1."""
+    for b in range(first, last):
+        advance_bond(b, bonds, materials, state, particles, box, time, dt, musen, loads)
 
-    Bonds go in blocks of BOND_BLOCK: gathered into the thread's scratch, advanced by the
-    vectorised ``advance_bond_block`` (if ``vectorised`` is True), scattered back. A bond
-    that it marks slow (large twist, possible break), or every bond when ``vectorised`` is
-    None (pruned by type: small systems never compile the vectorised code), is
-    advanced one at a time by the scalar physics and tested for breakage exactly; both
-    paths give the same bits (tests/test_bond_blocked.py), the vectorised one 1.3-1.9x
-    faster (docs/performance.md).
-    musen: True for MUSEN's numerics (``elastic_bond_musen``, ``bond_break_mode_musen``,
-    scalar only) instead of the SPEC's, None for the SPEC's (None, not False: Numba
-    prunes the branch by type, so a SPEC run never compiles MUSEN's law, ~1.2 s);
-    previous_length (B,) m: |r| of the last step, which
-    MUSEN's rotation needs. scratch: (NUMBA_NUM_THREADS, SCRATCH_ROWS * BOND_BLOCK)
+
+@numba.njit(**_jit)
+def elastic_bonds(bonds, materials, state, particles, box, time, dt, musen, vectorised,
+                  scratch, loads):
+    """Advance every intact bond by one increment dt (s) at ``time`` (s) and store its
+    loads in its own row of ``loads`` (``loops.advance_bond``, the named tuples of
+    ``loops``).
+
+    With ``vectorised`` True, bonds go in blocks of BOND_BLOCK: gathered into the thread's
+    scratch, advanced by the branch-free ``advance_bond_block``, scattered back; a bond it
+    marks slow (large twist, possible break) is redone by ``advance_bond``. Both paths give
+    the same bits (tests/test_bond_blocked.py), the vectorised one 1.3-1.9x faster
+    (docs/performance.md). vectorised None: every bond by ``advance_bond`` (None, not
+    False: Numba prunes the block code by type, so small systems never compile it).
+    musen: True for MUSEN's numerics, None for the SPEC's (None: a SPEC run never
+    compiles MUSEN's law, ~1.2 s). scratch: (NUMBA_NUM_THREADS, SCRATCH_ROWS * BOND_BLOCK)
     float64, one row set per thread, owned by one simulation.
     """
+    n_bonds = bonds.pairs.shape[0]
+    if vectorised is None:
+        for c in prange(chunks(n_bonds)):
+            advance_bonds(c * CHUNK, min(n_bonds, (c + 1) * CHUNK), bonds, materials, state,
+                          particles, box, time, dt, musen, loads)
+        return
+    # The arrays are taken out of the named tuples before the prange: this Numba (0.68)
+    # drops a store into ``t.a[i]`` written inside a parallel loop body.
+    pairs, material, initial_length, diameter = (bonds.pairs, bonds.material,
+                                                 bonds.initial_length, bonds.diameter)
+    position, velocity, angular_velocity = particles
+    active, axis, previous_length = state.active, state.axis, state.previous_length
+    tangential_force, normal_moment = state.tangential_force, state.normal_moment
+    tangential_moment = state.tangential_moment
+    force_i, moment_i, moment_j = loads
+    young, poisson = materials.young, materials.poisson
+    normal_strength = materials.normal_strength
+    tangential_strength = materials.tangential_strength
+    criterion = materials.criterion
     B = BOND_BLOCK
-    n_bonds = pairs.shape[0]
     for block in prange((n_bonds + B - 1) // B):
         s = scratch[numba.get_thread_id()]
         start = block * B
@@ -144,12 +182,8 @@ def elastic_bonds(pairs, diameter, initial_length, bond_material, bm_young, bm_p
             b = start + q
             i = pairs[b, 0]
             j = pairs[b, 1]
-            m = bond_material[b]
-            r = minimum_image((position[j, 0] - position[i, 0],
-                               position[j, 1] - position[i, 1],
-                               position[j, 2] - position[i, 2]),
-                              (box_length[0], box_length[1], box_length[2]),
-                              periodic[0], periodic[1], periodic[2])
+            m = material[b]
+            r = separation(position, i, j, box)
             for k in range(3):
                 s[(_R + k) * B + q] = r[k]
                 s[(_VI + k) * B + q] = velocity[i, k]
@@ -162,191 +196,91 @@ def elastic_bonds(pairs, diameter, initial_length, bond_material, bm_young, bm_p
                 s[(_MT0 + k) * B + q] = tangential_moment[b, k]
             s[_L0 * B + q] = initial_length[b]
             s[_DIAMETER * B + q] = diameter[b]
-            s[_YOUNG * B + q] = bm_young[m]
-            s[_POISSON * B + q] = bm_poisson[m]
-            s[_NORMAL_STRENGTH * B + q] = bm_normal_strength[m]
-            s[_TANGENTIAL_STRENGTH * B + q] = bm_tangential_strength[m]
-            s[_CRITERION * B + q] = bm_criterion[m]
-        if vectorised is not None:
-            advance_bond_block(s, count, dt)
+            s[_YOUNG * B + q] = young[m]
+            s[_POISSON * B + q] = poisson[m]
+            s[_NORMAL_STRENGTH * B + q] = normal_strength[m]
+            s[_TANGENTIAL_STRENGTH * B + q] = tangential_strength[m]
+            s[_CRITERION * B + q] = criterion[m]
+        advance_bond_block(s, count, dt)
         for q in range(count):
             b = start + q
-            if not active[b]:
-                for k in range(3):
-                    out_force_i[b, k] = 0.0
-                    out_moment_i[b, k] = 0.0
-                    out_moment_j[b, k] = 0.0
+            if not active[b] or s[_SLOW * B + q] != 0.0:
+                advance_bonds(b, b + 1, bonds, materials, state, particles, box, time, dt,
+                              musen, loads)
                 continue
-            if vectorised is not None and s[_SLOW * B + q] == 0.0:
-                previous_length[b] = s[_LENGTH * B + q]
-                for k in range(3):
-                    axis[b, k] = s[(_N + k) * B + q]
-                    tangential_force[b, k] = s[(_FT + k) * B + q]
-                    normal_moment[b, k] = s[(_MN + k) * B + q]
-                    tangential_moment[b, k] = s[(_MT + k) * B + q]
-                    out_force_i[b, k] = s[(_FORCE_I + k) * B + q]
-                    out_moment_i[b, k] = s[(_MOMENT_I + k) * B + q]
-                    out_moment_j[b, k] = s[(_MOMENT_J + k) * B + q]
-                continue
-            m = bond_material[b]
-            l0 = initial_length[b]
-            r = (s[_R * B + q], s[(_R + 1) * B + q], s[(_R + 2) * B + q])
-            vi = (s[_VI * B + q], s[(_VI + 1) * B + q], s[(_VI + 2) * B + q])
-            vj = (s[_VJ * B + q], s[(_VJ + 1) * B + q], s[(_VJ + 2) * B + q])
-            wi = (s[_WI * B + q], s[(_WI + 1) * B + q], s[(_WI + 2) * B + q])
-            wj = (s[_WJ * B + q], s[(_WJ + 1) * B + q], s[(_WJ + 2) * B + q])
-            n_prev = (s[_AXIS * B + q], s[(_AXIS + 1) * B + q], s[(_AXIS + 2) * B + q])
-            f_t0 = (s[_FT0 * B + q], s[(_FT0 + 1) * B + q], s[(_FT0 + 2) * B + q])
-            m_n0 = (s[_MN0 * B + q], s[(_MN0 + 1) * B + q], s[(_MN0 + 2) * B + q])
-            m_t0 = (s[_MT0 * B + q], s[(_MT0 + 1) * B + q], s[(_MT0 + 2) * B + q])
-            kn, kt, ktw, kb = bond_stiffnesses(bm_young[m], bm_poisson[m], diameter[b], l0)
-            if musen is not None:
-                # MUSEN's numerics (physics/bond_elastic_musen.py): previous bond with length.
-                lp = previous_length[b]
-                length, n, f_n, f_t, m_n, m_t = elastic_bond_musen(
-                    r, vi, vj, wi, wj, (n_prev[0] * lp, n_prev[1] * lp, n_prev[2] * lp),
-                    f_t0, m_n0, m_t0, l0, bm_young[m], bm_poisson[m], diameter[b], dt)
-                mode = bond_break_mode_musen(length, l0, f_n, f_t, m_n, m_t, diameter[b],
-                                             bm_normal_strength[m],
-                                             bm_tangential_strength[m], bm_criterion[m])
-            else:
-                length, n, f_n, f_t, m_n, m_t = elastic_bond(
-                    r, vi, vj, wi, wj, n_prev, f_t0, m_n0, m_t0, l0, kn, kt, ktw, kb, dt)
-                mode = bond_break_mode(length, l0, f_n, f_t, m_n, m_t, diameter[b],
-                                       bm_normal_strength[m], bm_tangential_strength[m],
-                                       bm_criterion[m], bm_compressive[m])
-            if mode != INTACT:
-                active[b] = False
-                break_time[b] = time
-                break_mode[b] = mode
-                break_energy[b] = bond_elastic_energy(length, l0, f_t, m_n, m_t, kn, kt,
-                                                      ktw, kb)
-                for k in range(3):
-                    out_force_i[b, k] = 0.0
-                    out_moment_i[b, k] = 0.0
-                    out_moment_j[b, k] = 0.0
-                continue
-            force_i, moment_i, moment_j = bond_loads_on_particles(r, f_n, f_t, m_n, m_t)
-            previous_length[b] = length
+            previous_length[b] = s[_LENGTH * B + q]
             for k in range(3):
-                axis[b, k] = n[k]
-                tangential_force[b, k] = f_t[k]
-                normal_moment[b, k] = m_n[k]
-                tangential_moment[b, k] = m_t[k]
-                out_force_i[b, k] = force_i[k]
-                out_moment_i[b, k] = moment_i[k]
-                out_moment_j[b, k] = moment_j[k]
+                axis[b, k] = s[(_N + k) * B + q]
+                tangential_force[b, k] = s[(_FT + k) * B + q]
+                normal_moment[b, k] = s[(_MN + k) * B + q]
+                tangential_moment[b, k] = s[(_MT + k) * B + q]
+                force_i[b, k] = s[(_FORCE_I + k) * B + q]
+                moment_i[b, k] = s[(_MOMENT_I + k) * B + q]
+                moment_j[b, k] = s[(_MOMENT_J + k) * B + q]
+
+
+@numba.njit(**_serial)
+def gather_bond_range(first, last, index, loads, force, moment):
+    """Add the bond loads of particles first to last - 1 (``loops.bond_ends_sum``)."""
+    for p in range(first, last):
+        f, m = bond_ends_sum(p, index, loads)
+        for k in range(3):
+            force[p, k] += f[k]
+            moment[p, k] += m[k]
 
 
 @numba.njit(**_jit)
-def gather_bond_loads(offsets, ends, force_i, moment_i, moment_j, force, moment):
-    """Add each particle's bond loads (CSR ``ends`` = 2*bond + side, side 1 for j)."""
-    for p in prange(offsets.shape[0] - 1):
-        fx = fy = fz = mx = my = mz = 0.0
-        for k in range(offsets[p], offsets[p + 1]):
-            b = ends[k] >> 1
-            if ends[k] & 1:
-                fx -= force_i[b, 0]
-                fy -= force_i[b, 1]
-                fz -= force_i[b, 2]
-                mx += moment_j[b, 0]
-                my += moment_j[b, 1]
-                mz += moment_j[b, 2]
-            else:
-                fx += force_i[b, 0]
-                fy += force_i[b, 1]
-                fz += force_i[b, 2]
-                mx += moment_i[b, 0]
-                my += moment_i[b, 1]
-                mz += moment_i[b, 2]
-        force[p, 0] += fx
-        force[p, 1] += fy
-        force[p, 2] += fz
-        moment[p, 0] += mx
-        moment[p, 1] += my
-        moment[p, 2] += mz
+def gather_bond_loads(index, loads, force, moment):
+    """Add each particle's bond loads to force (N), moment (N m)."""
+    n = index.offsets.shape[0] - 1
+    for c in prange(chunks(n)):
+        gather_bond_range(c * CHUNK, min(n, (c + 1) * CHUNK), index, loads, force, moment)
+
+
+@numba.njit(**_serial)
+def integrate_range(first, last, particles, bodies, force, moment, gravity, damping,
+                    kick_dt, drift_dt, box, track_energy, energy):
+    """``loops.integrate_particle`` for particles first to last - 1; returns the status
+    of the last one that blew up (STATUS_OK if none)."""
+    status = STATUS_OK
+    for p in range(first, last):
+        work, lost, code = integrate_particle(p, row3(force, p), row3(moment, p), particles,
+                                              bodies, gravity, damping, kick_dt, drift_dt,
+                                              box, track_energy)
+        if track_energy:
+            energy[p, 0] = work
+            energy[p, 1] = lost
+        if code != STATUS_OK:
+            status = code
+    return status
 
 
 @numba.njit(**_jit)
-def integrate(position, velocity, angular_velocity, force, moment, mass, inertia, fixed,
-              gravity, external_force, external_moment, damping, kick_dt, drift_dt,
-              box_low, box_high, periodic, status, track_energy, energy):
-    """Semi-implicit Euler: v += F/m kick_dt; x += v drift_dt; w += M/I kick_dt.
-
-    Fixed particles keep their velocity (they move with it). Local damping (Cundall)
-    removes damping * |F_k| against the sign of v_k per component. Sets status[0] to
-    STATUS_NOT_FINITE or STATUS_OUT_OF_DOMAIN when a particle blows up.
-    If track_energy, energy (N,2) receives each particle's (work of gravity and external
-    loads, energy removed by damping) in J over this kick, each load times the mean of
-    the old and new velocity, which is exactly the leapfrog's change of kinetic energy.
-    """
+def integrate(particles, bodies, force, moment, gravity, damping, kick_dt, drift_dt, box,
+              status, track_energy, energy):
+    """``loops.integrate_particle`` for every particle with its loads force (N), moment
+    (N m). Sets status[0] when a particle blows up. If track_energy, energy (N,2) receives
+    each particle's (work of gravity and external loads, energy removed by damping) in J
+    over this kick."""
     # Energies go to per-particle slots, summed by the caller in a fixed order: a scalar
     # "+=" here would be a prange reduction, whose sum depends on the thread count (and
     # which numba 0.68 silently dropped, returning 0, inside this nested loop).
-    for p in prange(position.shape[0]):
-        if track_energy:
-            energy[p, 0] = 0.0
-            energy[p, 1] = 0.0
-        if not fixed[p]:
-            for k in range(3):
-                applied = mass[p] * gravity[k] + external_force[p, k]
-                f = force[p, k] + applied
-                mk = moment[p, k] + external_moment[p, k]
-                damp_f = 0.0
-                damp_m = 0.0
-                if damping > 0.0:
-                    damp_f = -damping * abs(f) * np.sign(velocity[p, k])
-                    damp_m = -damping * abs(mk) * np.sign(angular_velocity[p, k])
-                v_old = velocity[p, k]
-                w_old = angular_velocity[p, k]
-                velocity[p, k] = v_old + (f + damp_f) / mass[p] * kick_dt
-                angular_velocity[p, k] = w_old + (mk + damp_m) / inertia[p] * kick_dt
-                if track_energy:
-                    v_mean = 0.5 * (v_old + velocity[p, k])
-                    w_mean = 0.5 * (w_old + angular_velocity[p, k])
-                    energy[p, 0] += (applied * v_mean + external_moment[p, k] * w_mean) \
-                        * kick_dt
-                    energy[p, 1] -= (damp_f * v_mean + damp_m * w_mean) * kick_dt
-        for k in range(3):
-            x = position[p, k] + velocity[p, k] * drift_dt
-            if periodic[k]:
-                length = box_high[k] - box_low[k]
-                x -= length * np.floor((x - box_low[k]) / length)
-            elif x < box_low[k] or x > box_high[k]:
-                status[0] = STATUS_OUT_OF_DOMAIN
-            if not np.isfinite(x) or not np.isfinite(velocity[p, k]) \
-                    or not np.isfinite(angular_velocity[p, k]):
-                status[0] = STATUS_NOT_FINITE
-            position[p, k] = x
+    n = particles.position.shape[0]
+    for c in prange(chunks(n)):
+        code = integrate_range(c * CHUNK, min(n, (c + 1) * CHUNK), particles, bodies, force,
+                               moment, gravity, damping, kick_dt, drift_dt, box,
+                               track_energy, energy)
+        if code != STATUS_OK:
+            status[0] = code
 
 
 # Serial: called once per frame, not per step; a parallel loop would cost ~0.7 s more
 # compilation on a first run for no measurable gain.
 @numba.njit(cache=True, fastmath=False, nogil=True)
-def bond_energies(pairs, diameter, initial_length, bond_material, bm_young, bm_poisson,
-                  position, box_length, periodic, active, tangential_force, normal_moment,
-                  tangential_moment, out):
-    """Elastic energy (J) stored in each bond; 0 for broken bonds."""
-    for b in range(pairs.shape[0]):
-        if not active[b]:
-            out[b] = 0.0
-            continue
-        i = pairs[b, 0]
-        j = pairs[b, 1]
-        m = bond_material[b]
-        r = minimum_image((position[j, 0] - position[i, 0], position[j, 1] - position[i, 1],
-                           position[j, 2] - position[i, 2]),
-                          (box_length[0], box_length[1], box_length[2]),
-                          periodic[0], periodic[1], periodic[2])
-        kn, kt, ktw, kb = bond_stiffnesses(bm_young[m], bm_poisson[m], diameter[b],
-                                           initial_length[b])
-        length = np.sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2])
-        out[b] = bond_elastic_energy(
-            length, initial_length[b],
-            (tangential_force[b, 0], tangential_force[b, 1], tangential_force[b, 2]),
-            (normal_moment[b, 0], normal_moment[b, 1], normal_moment[b, 2]),
-            (tangential_moment[b, 0], tangential_moment[b, 1], tangential_moment[b, 2]),
-            kn, kt, ktw, kb)
+def bond_energies(bonds, materials, state, position, box, out):
+    """Elastic energy (J) stored in each bond (``loops.bond_energy``); 0 for broken bonds."""
+    for b in range(bonds.pairs.shape[0]):
+        out[b] = bond_energy(b, bonds, materials, state, position, box)
 
 
 def particle_bond_index(pairs, n_particles):
@@ -359,6 +293,44 @@ def particle_bond_index(pairs, n_particles):
     np.cumsum(counts, out=offsets[1:])
     assert order.shape[0] == 2 * n_bonds
     return offsets, order.astype(np.int64)
+
+
+def bond_tuples(model, put=lambda a: a):
+    """(Bonds, BondMaterials, BondIndex) of ``model`` (``loops``); ``put`` places each
+    array (the CUDA backend passes cuda.to_device)."""
+    table = model.bond_material_table()
+    bonds = loops.Bonds(put(model.bond_pairs), put(model.bond_diameter),
+                        put(model.bond_initial_length), put(model.bond_material))
+    materials = loops.BondMaterials(*(put(table[k]) for k in (
+        "young_modulus", "poisson_ratio", "normal_strength", "tangential_strength",
+        "criterion", "compressive_breakage")))
+    offsets, ends = particle_bond_index(model.bond_pairs, model.n_particles)
+    return bonds, materials, loops.BondIndex(put(offsets), put(ends))
+
+
+def bond_state(state):
+    """The bond arrays of ``state`` (a State or a DeviceState) as a ``loops.BondState``."""
+    return loops.BondState(state.bond_active, state.bond_axis, state.bond_previous_length,
+                           state.bond_tangential_force, state.bond_normal_moment,
+                           state.bond_tangential_moment, state.bond_break_time,
+                           state.bond_break_mode, state.bond_break_energy)
+
+
+def particles(state):
+    """Position, velocity, angular velocity of ``state`` as a ``loops.Particles``."""
+    return loops.Particles(state.position, state.velocity, state.angular_velocity)
+
+
+def box(model, put=lambda a: a):
+    """The model's domain as a ``loops.Box`` (low, high, length in m; periodic flags)."""
+    return loops.Box(put(model.box_low), put(model.box_high), put(model.box_length),
+                     put(model.periodic))
+
+
+def bodies(model, put=lambda a: a):
+    """The model's per-particle constants as a ``loops.Bodies`` (kg, kg m^2, N, N m)."""
+    return loops.Bodies(put(model.mass), put(model.inertia), put(model.fixed),
+                        put(model.external_force), put(model.external_moment))
 
 
 class ElasticBonds:
@@ -380,16 +352,12 @@ class ElasticBonds:
     vectorise_from = 4096
 
     def __init__(self, model):
-        table = model.bond_material_table()
-        self._table = (table["young_modulus"], table["poisson_ratio"],
-                       table["normal_strength"], table["tangential_strength"],
-                       table["criterion"], table["compressive_breakage"])
-        self._box_length = model.box_length
-        self._offsets, self._ends = particle_bond_index(model.bond_pairs, model.n_particles)
+        self._bonds, self._materials, self._index = bond_tuples(model)
+        self._box = box(model)
         n_bonds = model.n_bonds
-        self.force_i = np.zeros((n_bonds, 3))
-        self.moment_i = np.zeros((n_bonds, 3))
-        self.moment_j = np.zeros((n_bonds, 3))
+        self.loads = loops.BondLoads(np.zeros((n_bonds, 3)), np.zeros((n_bonds, 3)),
+                                     np.zeros((n_bonds, 3)))
+        self.force_i, self.moment_i, self.moment_j = self.loads
         # One scratch row per Numba thread (get_thread_id < NUMBA_NUM_THREADS).
         self._scratch = np.zeros((numba.config.NUMBA_NUM_THREADS,
                                   SCRATCH_ROWS * BOND_BLOCK))
@@ -403,16 +371,10 @@ class ElasticBonds:
 
     def compute(self, model, state, increment_dt):
         """Advance every intact bond by ``increment_dt`` (s); loads kept per bond."""
-        elastic_bonds(model.bond_pairs, model.bond_diameter, model.bond_initial_length,
-                      model.bond_material, *self._table, state.position, state.velocity,
-                      state.angular_velocity, self._box_length, model.periodic,
-                      state.bond_active, state.bond_axis, state.bond_previous_length,
-                      state.bond_tangential_force, state.bond_normal_moment,
-                      state.bond_tangential_moment, state.bond_break_time,
-                      state.bond_break_mode, state.bond_break_energy, state.time,
-                      increment_dt, True if self.musen_compat else None,
-                      self._vectorised(model), self._scratch, self.force_i,
-                      self.moment_i, self.moment_j)
+        elastic_bonds(self._bonds, self._materials, bond_state(state), particles(state),
+                      self._box, state.time, increment_dt,
+                      True if self.musen_compat else None, self._vectorised(model),
+                      self._scratch, self.loads)
 
     def _vectorised(self, model):
         """True for the vectorised path, None for the scalar one (None, not False: Numba
@@ -423,18 +385,14 @@ class ElasticBonds:
 
     def gather(self, force, moment):
         """Add the per-bond loads of the last ``compute`` to force (N), moment (N m)."""
-        gather_bond_loads(self._offsets, self._ends, self.force_i, self.moment_i,
-                          self.moment_j, force, moment)
+        gather_bond_loads(self._index, self.loads, force, moment)
 
     def energy(self, model, state):
         """Elastic energy stored in each bond (J), shape (B,)."""
         out = np.zeros(model.n_bonds)
         if model.n_bonds:
-            bond_energies(model.bond_pairs, model.bond_diameter, model.bond_initial_length,
-                          model.bond_material, self._table[0], self._table[1],
-                          state.position, self._box_length, model.periodic,
-                          state.bond_active, state.bond_tangential_force,
-                          state.bond_normal_moment, state.bond_tangential_moment, out)
+            bond_energies(self._bonds, self._materials, bond_state(state), state.position,
+                          self._box, out)
         return out
 
 
@@ -468,11 +426,9 @@ class Integrator:
         self.status[0] = STATUS_OK
         # Energy bookkeeping only where gravity, external loads or damping act.
         track = self._external or model.damping > 0.0 or bool(np.any(model.gravity))
-        integrate(state.position, state.velocity, state.angular_velocity, force, moment,
-                  model.mass, model.inertia, model.fixed, model.gravity,
-                  model.external_force, model.external_moment, model.damping, kick_dt,
-                  drift_dt, model.box_low, model.box_high, model.periodic, self.status,
-                  track, self.energy)
+        integrate(particles(state), bodies(model), force, moment, model.gravity,
+                  model.damping, kick_dt, drift_dt, box(model), self.status, track,
+                  self.energy)
         if track:
             # numpy's sum in a fixed order: the same bits whatever the thread count.
             work, dissipated = self.energy.sum(axis=0)

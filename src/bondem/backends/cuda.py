@@ -1,10 +1,11 @@
-"""CUDA backend: the CPU backend's loops as numba-cuda kernels, calling the same physics.
+"""CUDA backend: the CPU backend's loop bodies as numba-cuda kernels.
 
-The physics functions of ``bondem.physics`` are compiled once more, with
-``numba.cuda.jit(device=True)``; the kernels here only index arrays and call them, exactly
-as ``backends/cpu.py`` does with ``numba.njit``. So the two backends differ only in the
-order of floating-point sums where a sum has no fixed order (energy totals), and in what
-the compilers do with round-off (fused multiply-add on the GPU).
+The loop bodies of ``backends/loops.py`` and the physics they call are compiled once
+more, with ``numba.cuda.jit(device=True)``; each kernel here is a grid-stride loop over
+its items calling a body, as ``backends/cpu.py`` runs the same bodies in ``prange``. So
+the two backends differ only in the order of floating-point sums where a sum has no fixed
+order (energy totals), and in what the compilers do with round-off (fused multiply-add on
+the GPU).
 
 Design (the same as the CPU backend's, see its docstring):
 - one thread per bond computes the bond law and writes its loads to the bond's own slot;
@@ -18,34 +19,26 @@ Design (the same as the CPU backend's, see its docstring):
 - work and damping energies are accumulated per particle on the device and summed on the
   host only when the state is copied back (a fixed order, so no atomics there either).
 
-The neighbour search (``neighbour_pairs``) sorts particles by cell (bitonic sort of
-(cell, particle) keys), finds each cell's start by binary search in the sorted keys, then
-counts, scans and writes each particle's pairs: deterministic, no atomics.
-
 Importing this module does not need a GPU; ``GpuBackend`` raises ``BackendUnavailable``
 when neither a CUDA device nor the simulator (NUMBA_ENABLE_CUDASIM=1) is there.
 """
-import math
-
 import numpy as np
 from numba import cuda
 
 from ..errors import BackendUnavailable, InputError  # noqa: F401
-from ..physics import compile_physics
-from ..physics.bond_elastic import INTACT
 from ..integrate import step_plan
-from ..status import STATUS_NOT_FINITE, STATUS_OK, STATUS_OUT_OF_DOMAIN, blow_up
-from .cpu import particle_bond_index
+from ..status import STATUS_OK, blow_up
+from . import loops
+from .cpu import bodies, bond_state, bond_tuples, box, particles
 
-D = compile_physics(cuda.jit(device=True))
-elastic_bond = D.elastic_bond
-elastic_bond_musen = D.elastic_bond_musen
-bond_break_mode_musen = D.bond_break_mode_musen
-bond_stiffnesses = D.bond_stiffnesses
-bond_loads_on_particles = D.bond_loads_on_particles
-bond_break_mode = D.bond_break_mode
-bond_elastic_energy = D.bond_elastic_energy
-minimum_image = D.minimum_image
+K = loops.compile_loops(cuda.jit(device=True), cuda.jit(device=True))
+add = K.add
+row3 = K.row3
+advance_bond = K.advance_bond
+bond_ends_sum = K.bond_ends_sum
+bond_energy = K.bond_energy
+integrate_particle = K.integrate_particle
+minimum_image = K.minimum_image
 
 THREADS = 128  # threads per block: a multiple of the warp, small enough for any register use
 
@@ -55,220 +48,60 @@ def _blocks(n):
 
 
 # ---------------------------------------------------------------------------------------
-# Kernels: bond law, gather, integration, energies
+# Kernels: the loop bodies of backends/loops.py, one thread per item (grid-stride)
 # ---------------------------------------------------------------------------------------
 
 @cuda.jit
-def elastic_bonds_kernel(pairs, diameter, initial_length, bond_material, bm_young,
-                         bm_poisson, bm_normal_strength, bm_tangential_strength, bm_criterion,
-                         bm_compressive, position, velocity, angular_velocity, box_length,
-                         periodic, active, axis, previous_length, tangential_force,
-                         normal_moment, tangential_moment, break_time, break_mode,
-                         break_energy, time, dt, musen, out_force_i, out_moment_i,
-                         out_moment_j):
-    """One thread per bond: advance it by dt (s) and store its loads in its own slot.
-
-    musen: MUSEN's numerics (``elastic_bond_musen``, ``bond_break_mode_musen``) instead of
-    the SPEC's; previous_length (B,) m: |r| of the last step, which MUSEN's rotation needs.
-    """
-    b = cuda.grid(1)
-    if b >= pairs.shape[0]:
-        return
-    if not active[b]:
-        for k in range(3):
-            out_force_i[b, k] = 0.0
-            out_moment_i[b, k] = 0.0
-            out_moment_j[b, k] = 0.0
-        return
-    i = pairs[b, 0]
-    j = pairs[b, 1]
-    m = bond_material[b]
-    r = minimum_image((position[j, 0] - position[i, 0], position[j, 1] - position[i, 1],
-                       position[j, 2] - position[i, 2]),
-                      (box_length[0], box_length[1], box_length[2]),
-                      periodic[0], periodic[1], periodic[2])
-    kn, kt, ktw, kb = bond_stiffnesses(bm_young[m], bm_poisson[m], diameter[b],
-                                       initial_length[b])
-    vi = (velocity[i, 0], velocity[i, 1], velocity[i, 2])
-    vj = (velocity[j, 0], velocity[j, 1], velocity[j, 2])
-    wi = (angular_velocity[i, 0], angular_velocity[i, 1], angular_velocity[i, 2])
-    wj = (angular_velocity[j, 0], angular_velocity[j, 1], angular_velocity[j, 2])
-    f_t0 = (tangential_force[b, 0], tangential_force[b, 1], tangential_force[b, 2])
-    m_n0 = (normal_moment[b, 0], normal_moment[b, 1], normal_moment[b, 2])
-    m_t0 = (tangential_moment[b, 0], tangential_moment[b, 1], tangential_moment[b, 2])
-    if musen:
-        # MUSEN's numerics (physics/bond_elastic_musen.py): previous bond with length.
-        lp = previous_length[b]
-        length, n, f_n, f_t, m_n, m_t = elastic_bond_musen(
-            r, vi, vj, wi, wj, (axis[b, 0] * lp, axis[b, 1] * lp, axis[b, 2] * lp),
-            f_t0, m_n0, m_t0, initial_length[b], bm_young[m], bm_poisson[m],
-            diameter[b], dt)
-        mode = bond_break_mode_musen(length, initial_length[b], f_n, f_t, m_n, m_t,
-                                     diameter[b], bm_normal_strength[m],
-                                     bm_tangential_strength[m], bm_criterion[m])
-    else:
-        length, n, f_n, f_t, m_n, m_t = elastic_bond(
-            r, vi, vj, wi, wj, (axis[b, 0], axis[b, 1], axis[b, 2]), f_t0, m_n0, m_t0,
-            initial_length[b], kn, kt, ktw, kb, dt)
-        mode = bond_break_mode(length, initial_length[b], f_n, f_t, m_n, m_t, diameter[b],
-                               bm_normal_strength[m], bm_tangential_strength[m],
-                               bm_criterion[m], bm_compressive[m])
-    if mode != INTACT:
-        active[b] = False
-        break_time[b] = time
-        break_mode[b] = mode
-        break_energy[b] = bond_elastic_energy(length, initial_length[b], f_t, m_n, m_t,
-                                              kn, kt, ktw, kb)
-        for k in range(3):
-            out_force_i[b, k] = 0.0
-            out_moment_i[b, k] = 0.0
-            out_moment_j[b, k] = 0.0
-        return
-    force_i, moment_i, moment_j = bond_loads_on_particles(r, f_n, f_t, m_n, m_t)
-    previous_length[b] = length
-    for k in range(3):
-        axis[b, k] = n[k]
-        tangential_force[b, k] = f_t[k]
-        normal_moment[b, k] = m_n[k]
-        tangential_moment[b, k] = m_t[k]
-        out_force_i[b, k] = force_i[k]
-        out_moment_i[b, k] = moment_i[k]
-        out_moment_j[b, k] = moment_j[k]
-
-
-@cuda.jit(device=True)
-def _bond_sum(p, offsets, ends, force_i, moment_i, moment_j):
-    """Force (N) and moment (N m) of particle p's bonds: the CSR ends of p in a fixed
-    order (end = 2*bond + side, side 1 = j, which gets -F and its own moment)."""
-    fx = fy = fz = mx = my = mz = 0.0
-    for k in range(offsets[p], offsets[p + 1]):
-        b = ends[k] >> 1
-        if ends[k] & 1:
-            fx -= force_i[b, 0]
-            fy -= force_i[b, 1]
-            fz -= force_i[b, 2]
-            mx += moment_j[b, 0]
-            my += moment_j[b, 1]
-            mz += moment_j[b, 2]
-        else:
-            fx += force_i[b, 0]
-            fy += force_i[b, 1]
-            fz += force_i[b, 2]
-            mx += moment_i[b, 0]
-            my += moment_i[b, 1]
-            mz += moment_i[b, 2]
-    return (fx, fy, fz), (mx, my, mz)
+def elastic_bonds_kernel(bonds, materials, state, particles, box, time, dt, musen, loads):
+    """``loops.advance_bond`` for every bond: one increment dt (s) at ``time`` (s), loads
+    in the bond's own row. musen: True for MUSEN's numerics, False for the SPEC's."""
+    for b in range(cuda.grid(1), bonds.pairs.shape[0], cuda.gridsize(1)):
+        advance_bond(b, bonds, materials, state, particles, box, time, dt, musen, loads)
 
 
 @cuda.jit
-def gather_bond_loads_kernel(offsets, ends, force_i, moment_i, moment_j, force, moment,
-                             assign):
-    """One thread per particle: sum its bond (or contact) ends through the CSR index and
-    store (``assign``) or add the sums to force (N) and moment (N m)."""
-    p = cuda.grid(1)
-    if p >= offsets.shape[0] - 1:
-        return
-    f, m = _bond_sum(p, offsets, ends, force_i, moment_i, moment_j)
-    for k in range(3):
-        if assign:
-            force[p, k] = f[k]
-            moment[p, k] = m[k]
-        else:
-            force[p, k] += f[k]
-            moment[p, k] += m[k]
-
-
-@cuda.jit(device=True)
-def _sign(x):
-    """np.sign for a float: -1, 0 or +1."""
-    if x > 0.0:
-        return 1.0
-    if x < 0.0:
-        return -1.0
-    return 0.0
-
-
-@cuda.jit
-def integrate_kernel(offsets, ends, bond_force_i, bond_moment_i, bond_moment_j, use_loads,
-                     position, velocity, angular_velocity, force, moment, mass, inertia,
-                     fixed, gravity, external_force, external_moment, damping, kick_dt,
-                     drift_dt, box_low, box_high, periodic, status, work, dissipated):
-    """One thread per particle: gather its bond loads (CSR, as the gather kernel), add
-    the other laws' loads in force/moment when ``use_loads``, then the CPU ``integrate``
-    step for step (see there). Fusing the gather saves a launch and the force arrays'
-    write and read (96 B per particle) when the bonds are the only law.
-
-    Instead of returning energy totals, adds each particle's work of gravity and external
-    loads and its damping loss (J) to ``work[p]`` and ``dissipated[p]``, summed on the host
-    when the state is copied back. Sets status[0] on a NaN or a particle out of the domain.
-    """
-    p = cuda.grid(1)
-    if p >= position.shape[0]:
-        return
-    bond_f, bond_m = _bond_sum(p, offsets, ends, bond_force_i, bond_moment_i, bond_moment_j)
-    if not fixed[p]:
+def gather_bond_loads_kernel(index, loads, force, moment, assign):
+    """``loops.bond_ends_sum`` for every particle, stored (``assign``) or added to force
+    (N) and moment (N m)."""
+    for p in range(cuda.grid(1), index.offsets.shape[0] - 1, cuda.gridsize(1)):
+        f, m = bond_ends_sum(p, index, loads)
         for k in range(3):
-            load_f = bond_f[k]
-            load_m = bond_m[k]
-            if use_loads:
-                load_f += force[p, k]
-                load_m += moment[p, k]
-            applied = mass[p] * gravity[k] + external_force[p, k]
-            f = load_f + applied
-            mk = load_m + external_moment[p, k]
-            damp_f = 0.0
-            damp_m = 0.0
-            if damping > 0.0:
-                damp_f = -damping * abs(f) * _sign(velocity[p, k])
-                damp_m = -damping * abs(mk) * _sign(angular_velocity[p, k])
-            v_old = velocity[p, k]
-            w_old = angular_velocity[p, k]
-            velocity[p, k] = v_old + (f + damp_f) / mass[p] * kick_dt
-            angular_velocity[p, k] = w_old + (mk + damp_m) / inertia[p] * kick_dt
-            v_mean = 0.5 * (v_old + velocity[p, k])
-            w_mean = 0.5 * (w_old + angular_velocity[p, k])
-            work[p] += (applied * v_mean + external_moment[p, k] * w_mean) * kick_dt
-            dissipated[p] -= (damp_f * v_mean + damp_m * w_mean) * kick_dt
-    for k in range(3):
-        x = position[p, k] + velocity[p, k] * drift_dt
-        if periodic[k]:
-            length = box_high[k] - box_low[k]
-            x -= length * math.floor((x - box_low[k]) / length)
-        elif x < box_low[k] or x > box_high[k]:
-            status[0] = STATUS_OUT_OF_DOMAIN
-        if not (math.isfinite(x) and math.isfinite(velocity[p, k])
-                and math.isfinite(angular_velocity[p, k])):
-            status[0] = STATUS_NOT_FINITE
-        position[p, k] = x
+            if assign:
+                force[p, k] = f[k]
+                moment[p, k] = m[k]
+            else:
+                force[p, k] += f[k]
+                moment[p, k] += m[k]
 
 
 @cuda.jit
-def bond_energies_kernel(pairs, diameter, initial_length, bond_material, bm_young,
-                         bm_poisson, position, box_length, periodic, active,
-                         tangential_force, normal_moment, tangential_moment, out):
-    """One thread per bond: elastic energy it stores (J); 0 for broken bonds."""
-    b = cuda.grid(1)
-    if b >= pairs.shape[0]:
-        return
-    if not active[b]:
-        out[b] = 0.0
-        return
-    i = pairs[b, 0]
-    j = pairs[b, 1]
-    m = bond_material[b]
-    r = minimum_image((position[j, 0] - position[i, 0], position[j, 1] - position[i, 1],
-                       position[j, 2] - position[i, 2]),
-                      (box_length[0], box_length[1], box_length[2]),
-                      periodic[0], periodic[1], periodic[2])
-    kn, kt, ktw, kb = bond_stiffnesses(bm_young[m], bm_poisson[m], diameter[b],
-                                       initial_length[b])
-    length = math.sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2])
-    out[b] = bond_elastic_energy(
-        length, initial_length[b],
-        (tangential_force[b, 0], tangential_force[b, 1], tangential_force[b, 2]),
-        (normal_moment[b, 0], normal_moment[b, 1], normal_moment[b, 2]),
-        (tangential_moment[b, 0], tangential_moment[b, 1], tangential_moment[b, 2]),
-        kn, kt, ktw, kb)
+def integrate_kernel(index, loads, use_loads, particles, bodies, force, moment, gravity,
+                     damping, kick_dt, drift_dt, box, status, work, dissipated):
+    """``loops.integrate_particle`` for every particle, with its bond loads gathered here
+    (``loops.bond_ends_sum``) plus, when ``use_loads``, the other laws' loads in force (N)
+    and moment (N m). Fusing the gather saves a launch and the force arrays' write and
+    read (96 B per particle) when the bonds are the only law. Adds each particle's work
+    of gravity and external loads and its damping loss (J) to ``work[p]`` and
+    ``dissipated[p]``, summed on the host when the state is copied back; sets status[0]
+    on a NaN or a particle out of the domain."""
+    for p in range(cuda.grid(1), particles.position.shape[0], cuda.gridsize(1)):
+        f, m = bond_ends_sum(p, index, loads)
+        if use_loads:
+            f = add(f, row3(force, p))
+            m = add(m, row3(moment, p))
+        gained, lost, code = integrate_particle(p, f, m, particles, bodies, gravity, damping,
+                                                kick_dt, drift_dt, box, True)
+        work[p] += gained
+        dissipated[p] += lost
+        if code != STATUS_OK:
+            status[0] = code
+
+
+@cuda.jit
+def bond_energies_kernel(bonds, materials, state, position, box, out):
+    """``loops.bond_energy`` for every bond: the elastic energy it stores (J)."""
+    for b in range(cuda.grid(1), bonds.pairs.shape[0], cuda.gridsize(1)):
+        out[b] = bond_energy(b, bonds, materials, state, position, box)
 
 
 # ---------------------------------------------------------------------------------------
@@ -323,16 +156,11 @@ class GpuBackend:
         self.model = model
         n = model.n_particles
         put = cuda.to_device
-        self.mass = put(model.mass)
-        self.inertia = put(model.inertia)
-        self.fixed = put(model.fixed)
+        self.bodies = bodies(model, put)
+        self.box = box(model, put)
         self.gravity = put(model.gravity)
-        self.external_force = put(model.external_force)
-        self.external_moment = put(model.external_moment)
-        self.box_low = put(model.box_low)
-        self.box_high = put(model.box_high)
-        self.periodic = put(model.periodic)
-        self.box_length = put(model.box_length)
+        self.mass, self.periodic, self.box_length = (self.bodies.mass, self.box.periodic,
+                                                     self.box.length)
         self.status = put(np.zeros(1, dtype=np.int64))
         self.force = cuda.device_array((n, 3))
         self.moment = cuda.device_array((n, 3))
@@ -471,59 +299,39 @@ class ElasticBondsGpu:
 
     def __init__(self, backend, model):
         self.backend_object = backend
-        table = model.bond_material_table()
-        put = cuda.to_device
-        self._table = tuple(put(table[k]) for k in (
-            "young_modulus", "poisson_ratio", "normal_strength", "tangential_strength",
-            "criterion", "compressive_breakage"))
-        offsets, ends = particle_bond_index(model.bond_pairs, model.n_particles)
 
-        def at_least_one(array):
+        def put(array):
             # A model without bonds still passes these arrays to the kernels; keep them
             # non-empty (never read then: the offsets are all 0 and no bond thread runs).
-            return array if array.shape[0] else np.zeros((1,) + array.shape[1:], array.dtype)
-        self._offsets, self._ends = put(offsets), put(at_least_one(ends))
-        self._pairs = put(at_least_one(model.bond_pairs))
-        self._diameter = put(at_least_one(model.bond_diameter))
-        self._initial_length = put(at_least_one(model.bond_initial_length))
-        self._material = put(at_least_one(model.bond_material))
+            return cuda.to_device(array if array.shape[0] else
+                                  np.zeros((1,) + array.shape[1:], array.dtype))
+        self._bonds, self._materials, self.index = bond_tuples(model, put)
         n_bonds = max(model.n_bonds, 1)
-        self.force_i = cuda.device_array((n_bonds, 3))
-        self.moment_i = cuda.device_array((n_bonds, 3))
-        self.moment_j = cuda.device_array((n_bonds, 3))
+        self.loads = loops.BondLoads(*(cuda.device_array((n_bonds, 3)) for _ in range(3)))
 
     def accumulate(self, model, state, force, moment, increment_dt):
         """Advance the bonds by ``increment_dt`` (s); set the device force (N), moment (N m)."""
         self.compute(model, state, increment_dt)
         gather_bond_loads_kernel[_blocks(model.n_particles), THREADS](
-            self._offsets, self._ends, self.force_i, self.moment_i, self.moment_j, force,
-            moment, True)
+            self.index, self.loads, force, moment, True)
 
     def compute(self, model, state, increment_dt):
         """Advance every intact bond by ``increment_dt`` (s); loads kept per bond."""
         g = self.backend_object
-        d = g.device
         if model.n_bonds:
             elastic_bonds_kernel[_blocks(model.n_bonds), THREADS](
-                self._pairs, self._diameter, self._initial_length, self._material,
-                *self._table, d.position, d.velocity, d.angular_velocity, g.box_length,
-                g.periodic, d.bond_active, d.bond_axis, d.bond_previous_length,
-                d.bond_tangential_force, d.bond_normal_moment, d.bond_tangential_moment,
-                d.bond_break_time, d.bond_break_mode, d.bond_break_energy, state.time,
-                increment_dt, self.musen_compat, self.force_i, self.moment_i, self.moment_j)
+                self._bonds, self._materials, bond_state(g.device), particles(g.device),
+                g.box, state.time, increment_dt, bool(self.musen_compat), self.loads)
 
     def energy(self, model, state):
         """Elastic energy stored in each bond (J), shape (B,), copied to the host."""
         if model.n_bonds == 0:
             return np.zeros(0)
         g = self.backend_object
-        d = g.device
         out = cuda.device_array(model.n_bonds)
         bond_energies_kernel[_blocks(model.n_bonds), THREADS](
-            self._pairs, self._diameter, self._initial_length, self._material,
-            self._table[0], self._table[1], d.position, g.box_length, g.periodic,
-            d.bond_active, d.bond_tangential_force, d.bond_normal_moment,
-            d.bond_tangential_moment, out)
+            self._bonds, self._materials, bond_state(g.device), g.device.position, g.box,
+            out)
         return out.copy_to_host()
 
 
@@ -536,9 +344,10 @@ class IntegratorGpu:
         self.backend_object = backend
         n = backend.model.n_particles
         # An empty bond index, for steps without a fused bond law.
-        self._no_bonds = (cuda.to_device(np.zeros(n + 1, dtype=np.int64)),
-                          cuda.to_device(np.zeros(1, dtype=np.int64)),
-                          *(cuda.to_device(np.zeros((1, 3))) for _ in range(3)))
+        self._no_bonds = (loops.BondIndex(cuda.to_device(np.zeros(n + 1, dtype=np.int64)),
+                                          cuda.to_device(np.zeros(1, dtype=np.int64))),
+                          loops.BondLoads(*(cuda.to_device(np.zeros((1, 3)))
+                                            for _ in range(3))))
 
     def advance(self, model, state, force, moment, kick_dt, drift_dt, bonds=None,
                 use_loads=True):
@@ -548,12 +357,9 @@ class IntegratorGpu:
         use_loads: also add the force (N) and moment (N m) arrays.
         """
         g = self.backend_object
-        d = g.device
-        csr = self._no_bonds if bonds is None else (
-            bonds._offsets, bonds._ends, bonds.force_i, bonds.moment_i, bonds.moment_j)
+        index, loads = self._no_bonds if bonds is None else (bonds.index, bonds.loads)
         integrate_kernel[_blocks(model.n_particles), THREADS](
-            *csr, use_loads, d.position, d.velocity, d.angular_velocity, force, moment,
-            g.mass, g.inertia, g.fixed, g.gravity, g.external_force, g.external_moment,
-            model.damping, kick_dt,
-            drift_dt, g.box_low, g.box_high, g.periodic, g.status, d.work, d.dissipated)
+            index, loads, use_loads, particles(g.device), g.bodies, force, moment, g.gravity,
+            model.damping, kick_dt, drift_dt, g.box, g.status, g.device.work,
+            g.device.dissipated)
         return STATUS_OK

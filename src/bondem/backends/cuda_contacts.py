@@ -1,9 +1,8 @@
 """Particle contacts and walls on the CUDA backend: the CPU ContactLaw's loops as kernels.
 
 ``ContactLawGpu`` is ``contacts.ContactLaw`` with its per-step loops moved to the device;
-the kernels are line-for-line ports of ``backends/cpu_contacts.py`` and call the same
-``@physics`` functions (hertz_mindlin, linear_spring_dashpot, friction_and_rolling,
-contact_moments, closest_point_on_triangle), compiled with ``cuda.jit(device=True)``.
+the kernels run the CPU's loop bodies (``backends/loops.py``: pair_contact,
+pair_rows_sum, wall_contacts_of, add_wall_rows), compiled with ``cuda.jit(device=True)``.
 
 What runs where:
 - every step, on the device: the rebuild test (largest displacement since the list was
@@ -32,43 +31,16 @@ import math
 import numpy as np
 from numba import cuda
 
-from ..contacts import PAIR_HISTORY, WALL_HISTORY, ContactLaw, _csr_by
-from ..physics import compile_physics
-from ..physics.triangle import FACE
-from ..walls import PLANE
-from . import cpu_contacts
-from .cuda import THREADS, _blocks
+from ..contacts import PAIR_HISTORY, WALL_HISTORY, ContactLaw, _csr_by, pair_rows
+from . import cpu_contacts, loops
+from .cpu import particles
+from .cuda import THREADS, K, _blocks
 
-D = compile_physics(cuda.jit(device=True))
-hertz_mindlin = D.hertz_mindlin
-linear_spring_dashpot = D.linear_spring_dashpot
-contact_moments = D.contact_moments
-contact_relative_velocity = D.contact_relative_velocity
-effective_young_modulus = D.effective_young_modulus
-effective_shear_modulus = D.effective_shear_modulus
-restitution_beta = D.restitution_beta
-closest_point_on_triangle = D.closest_point_on_triangle
-
-MODEL_HERTZ = cpu_contacts.MODEL_HERTZ
-LINEAR_REFERENCE_OVERLAP = cpu_contacts.LINEAR_REFERENCE_OVERLAP
-
-
-@cuda.jit(device=True)
-def _pair_law(law, n, overlap, v_rel, w_rel, spring, young_i, poisson_i, young_j, poisson_j,
-              restitution, friction, rolling, r_star, m_star, i_star, linear_stiffness, dt):
-    """cpu_contacts._pair_law on the device: material means -> the chosen physics law."""
-    e_star = effective_young_modulus(young_i, poisson_i, young_j, poisson_j)
-    g_star = effective_shear_modulus(young_i, poisson_i, young_j, poisson_j)
-    beta = restitution_beta(restitution)
-    if law == MODEL_HERTZ:
-        return hertz_mindlin(n, overlap, v_rel, w_rel, spring, e_star, g_star, r_star, m_star,
-                             i_star, beta, friction, rolling, dt)
-    k_n = linear_stiffness
-    if k_n <= 0.0:
-        k_n = 2.0 * e_star * math.sqrt(LINEAR_REFERENCE_OVERLAP) * r_star
-    return linear_spring_dashpot(n, overlap, v_rel, w_rel, spring, k_n,
-                                 4.0 * k_n * g_star / e_star, r_star, m_star, i_star, beta,
-                                 friction, rolling, dt)
+pair_contact = K.pair_contact
+pair_rows_sum = K.pair_rows_sum
+wall_contacts_of = K.wall_contacts_of
+add_wall_rows = K.add_wall_rows
+row3 = K.row3
 
 
 @cuda.jit(device=True)
@@ -94,255 +66,52 @@ def displacement_flag_kernel(position, reference, box_length, periodic, limit_sq
 
 
 @cuda.jit
-def particle_contacts_kernel(law, pairs, pair_bond, bond_active, position, velocity,
-                             angular_velocity, radius, mass, inertia, material, young, poisson,
-                             restitution, friction, rolling, use_rolling, linear_stiffness,
-                             box_length, periodic, spring, dt, moved_dt, force_c, moment_i_c,
-                             moment_j_c, energy_c, out_dissipated):
-    """One thread per listed pair: cpu_contacts.particle_contacts for that row (see
-    there). A pair held by an intact bond keeps its zero rows and dissipates nothing."""
-    c = cuda.grid(1)
-    if c >= pairs.shape[0]:
-        return
-    if pair_bond[c] >= 0 and bond_active[pair_bond[c]]:
-        out_dissipated[c] = 0.0
-        return
-    i = pairs[c, 0]
-    j = pairs[c, 1]
-    vi = (velocity[i, 0], velocity[i, 1], velocity[i, 2])
-    vj = (velocity[j, 0], velocity[j, 1], velocity[j, 2])
-    wi = (angular_velocity[i, 0], angular_velocity[i, 1], angular_velocity[i, 2])
-    wj = (angular_velocity[j, 0], angular_velocity[j, 1], angular_velocity[j, 2])
-    # Work of the previous loads over the step just made (their half of the trapezoid).
-    work = 0.0
-    for k in range(3):
-        work += (force_c[c, k] * (vi[k] - vj[k]) + moment_i_c[c, k] * wi[k]
-                 + moment_j_c[c, k] * wj[k])
-    previous_energy = energy_c[c]
-    r = (_image(position[j, 0] - position[i, 0], box_length[0], periodic[0]),
-         _image(position[j, 1] - position[i, 1], box_length[1], periodic[1]),
-         _image(position[j, 2] - position[i, 2], box_length[2], periodic[2]))
-    distance = math.sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2])
-    overlap = radius[i] + radius[j] - distance
-    if overlap <= 0.0 or distance == 0.0:
+def particle_contacts_kernel(pairs, pair_bond, bond_active, particles, grains, materials,
+                             law, linear_stiffness, use_rolling, box, rows, dt, moved_dt):
+    """``loops.pair_contact`` for every listed pair (the CPU visits only the rows no
+    intact bond holds; a held row stays zero either way)."""
+    for c in range(cuda.grid(1), pairs.shape[0], cuda.gridsize(1)):
+        pair_contact(c, pairs, pair_bond, bond_active, particles, grains, materials, law,
+                     linear_stiffness, use_rolling, box, rows, dt, moved_dt)
+
+
+@cuda.jit
+def gather_pairs_kernel(index, rows, force, moment, dissipated):
+    """``loops.pair_rows_sum`` for every particle, added to force (N) and moment (N m);
+    the J dissipated by the rows where it is i added to dissipated[p] (summed on the host
+    at the end of the batch)."""
+    for p in range(cuda.grid(1), index.i_start.shape[0] - 1, cuda.gridsize(1)):
+        f, m = pair_rows_sum(p, index, rows)
+        lost = 0.0
+        for s in range(index.i_start[p], index.i_start[p + 1]):
+            lost += rows.dissipated[index.i_order[s]]
         for k in range(3):
-            spring[c, k] = 0.0
-            force_c[c, k] = 0.0
-            moment_i_c[c, k] = 0.0
-            moment_j_c[c, k] = 0.0
-        energy_c[c] = 0.0
-        out_dissipated[c] = -0.5 * moved_dt * work + previous_energy
-        return
-    n = (r[0] / distance, r[1] / distance, r[2] / distance)
-    arm_i = radius[i] - 0.5 * overlap
-    arm_j = radius[j] - 0.5 * overlap
-    v_rel = contact_relative_velocity(n, vi, vj, wi, wj, arm_i, arm_j)
-    w_rel = (wi[0] - wj[0], wi[1] - wj[1], wi[2] - wj[2])
-    a = material[i]
-    b = material[j]
-    mu_r = 0.5 * (rolling[a] + rolling[b]) if use_rolling else 0.0
-    force_i, torque, f_t, xi, energy = _pair_law(
-        law, n, overlap, v_rel, w_rel, (spring[c, 0], spring[c, 1], spring[c, 2]),
-        young[a], poisson[a], young[b], poisson[b],
-        0.5 * (restitution[a] + restitution[b]), 0.5 * (friction[a] + friction[b]), mu_r,
-        radius[i] * radius[j] / (radius[i] + radius[j]),
-        mass[i] * mass[j] / (mass[i] + mass[j]),
-        inertia[i] * inertia[j] / (inertia[i] + inertia[j]), linear_stiffness, dt)
-    moment_i, moment_j = contact_moments(n, f_t, torque, arm_i, arm_j)
-    for k in range(3):
-        spring[c, k] = xi[k]
-        force_c[c, k] = force_i[k]
-        moment_i_c[c, k] = moment_i[k]
-        moment_j_c[c, k] = moment_j[k]
-        work += force_i[k] * (vi[k] - vj[k]) + moment_i[k] * wi[k] + moment_j[k] * wj[k]
-    energy_c[c] = energy
-    out_dissipated[c] = -0.5 * moved_dt * work - (energy - previous_energy)
+            force[p, k] += f[k]
+            moment[p, k] += m[k]
+        dissipated[p] += lost
 
 
 @cuda.jit
-def gather_pairs_kernel(i_start, j_start, j_order, force_c, moment_i_c, moment_j_c,
-                        dissipated_rows, force, moment, dissipated):
-    """One thread per particle: add its pair rows (as i: rows i_start[p]..i_start[p+1],
-    the list being sorted by i; as j: through j_order), in cpu_contacts.gather_pair_loads'
-    order, to force (N) and moment (N m); add the rows' dissipated energy where it is i
-    to dissipated[p] (J, summed on the host at the end of the batch)."""
-    p = cuda.grid(1)
-    if p >= i_start.shape[0] - 1:
-        return
-    fx = fy = fz = mx = my = mz = 0.0
-    lost = 0.0
-    for c in range(i_start[p], i_start[p + 1]):
-        fx += force_c[c, 0]
-        fy += force_c[c, 1]
-        fz += force_c[c, 2]
-        mx += moment_i_c[c, 0]
-        my += moment_i_c[c, 1]
-        mz += moment_i_c[c, 2]
-        lost += dissipated_rows[c]
-    for s in range(j_start[p], j_start[p + 1]):
-        c = j_order[s]
-        fx -= force_c[c, 0]
-        fy -= force_c[c, 1]
-        fz -= force_c[c, 2]
-        mx += moment_j_c[c, 0]
-        my += moment_j_c[c, 1]
-        mz += moment_j_c[c, 2]
-    force[p, 0] += fx
-    force[p, 1] += fy
-    force[p, 2] += fz
-    moment[p, 0] += mx
-    moment[p, 1] += my
-    moment[p, 2] += mz
-    dissipated[p] += lost
-
-
-@cuda.jit(device=True)
-def _element_contact(x, rows, e, etype):
-    """(distance from x to element e's closest point (m), that point, feature);
-    cpu_contacts._element_contact with the element given by its index."""
-    if etype == PLANE:
-        d = ((x[0] - rows[e, 0, 0]) * rows[e, 1, 0] + (x[1] - rows[e, 0, 1]) * rows[e, 1, 1]
-             + (x[2] - rows[e, 0, 2]) * rows[e, 1, 2])
-        q = (x[0] - d * rows[e, 1, 0], x[1] - d * rows[e, 1, 1], x[2] - d * rows[e, 1, 2])
-        return d, q, FACE
-    q, feature = closest_point_on_triangle(
-        x, (rows[e, 0, 0], rows[e, 0, 1], rows[e, 0, 2]),
-        (rows[e, 1, 0], rows[e, 1, 1], rows[e, 1, 2]),
-        (rows[e, 2, 0], rows[e, 2, 1], rows[e, 2, 2]))
-    d = math.sqrt((x[0] - q[0]) ** 2 + (x[1] - q[1]) ** 2 + (x[2] - q[2]) ** 2)
-    return d, q, feature
-
-
-@cuda.jit
-def wall_contacts_kernel(law, wall_start, wall_pairs, rows, types, element_wall,
-                         wall_velocity, wall_omega, wall_center, wall_young, wall_poisson,
-                         wall_restitution, wall_friction, wall_rolling, position, velocity,
-                         angular_velocity, radius, mass, inertia, material, young, poisson,
-                         restitution, friction, rolling, use_rolling, linear_stiffness,
-                         spring, dt, moved_dt, scratch_distance, scratch_point,
-                         scratch_feature, force_c, moment_c, energy_c, force, moment,
+def wall_contacts_kernel(wall_start, wall_pairs, walls, particles, grains, materials, law,
+                         linear_stiffness, use_rolling, rows, dt, moved_dt, force, moment,
                          dissipated, work_walls, evaluated_position):
-    """One thread per particle: cpu_contacts.wall_contacts for its candidates (see there),
-    then gather_wall_loads for it (its rows added to force, moment in list order). Adds
-    the J dissipated and the work of the walls to dissipated[p] and work_walls[p], and
-    stores the position it used (m) for the wall totals summed on the host."""
-    p = cuda.grid(1)
-    if p >= wall_start.shape[0] - 1:
-        return
-    x = (position[p, 0], position[p, 1], position[p, 2])
-    for k in range(3):
-        evaluated_position[p, k] = x[k]
-    first = wall_start[p]
-    last = wall_start[p + 1]
-    if first == last:
-        return
-    tol = 1e-9 * radius[p]
-    for c in range(first, last):
-        e = wall_pairs[c, 1]
-        d, q, feature = _element_contact(x, rows, e, types[e])
-        scratch_distance[c] = d
-        scratch_feature[c] = feature
+    """``loops.wall_contacts_of`` for every particle, its wall loads added to force (N)
+    and moment (N m) after the pair loads, in list order; the J its rows dissipated and
+    the walls' work on it added to dissipated[p] and work_walls[p]; the position it used
+    (m) stored for the wall totals summed on the host."""
+    for p in range(cuda.grid(1), wall_start.shape[0] - 1, cuda.gridsize(1)):
         for k in range(3):
-            scratch_point[c, k] = q[k]
-    # Which hits count (scratch_feature becomes 1 for kept, 0 for dropped).
-    for c in range(first, last):
-        e = wall_pairs[c, 1]
-        q = (scratch_point[c, 0], scratch_point[c, 1], scratch_point[c, 2])
-        d = scratch_distance[c]
-        keep = d < radius[p] and d > -radius[p] and (types[e] == PLANE or d > 0.0)
-        if keep and types[e] != PLANE:
-            for c2 in range(first, last):
-                e2 = wall_pairs[c2, 1]
-                if c2 == c or element_wall[e2] != element_wall[e] or types[e2] == PLANE:
-                    continue
-                if scratch_distance[c2] >= radius[p]:
-                    continue
-                inside, _, _ = _element_contact(q, rows, e2, types[e2])
-                if inside >= tol:
-                    continue
-                gap = 0.0
-                for k in range(3):
-                    gap += (scratch_point[c, k] - scratch_point[c2, k]) ** 2
-                if gap > tol * tol or c2 < c:
-                    keep = False
-                    break
-        scratch_feature[c] = 1 if keep else 0
-    # A new hit takes over the spring of a hit of the same wall that ended now.
-    for c in range(first, last):
-        if scratch_feature[c] != 1 or spring[c, 0] != 0.0 or spring[c, 1] != 0.0 \
-                or spring[c, 2] != 0.0:
-            continue
-        for c2 in range(first, last):
-            if scratch_feature[c2] == 0 and element_wall[wall_pairs[c2, 1]] == \
-                    element_wall[wall_pairs[c, 1]] and (spring[c2, 0] != 0.0 or
-                                                        spring[c2, 1] != 0.0 or
-                                                        spring[c2, 2] != 0.0):
-                for k in range(3):
-                    spring[c, k] = spring[c2, k]
-                    spring[c2, k] = 0.0
-                break
-    vi = (velocity[p, 0], velocity[p, 1], velocity[p, 2])
-    wi = (angular_velocity[p, 0], angular_velocity[p, 1], angular_velocity[p, 2])
-    lost = 0.0
-    done = 0.0
-    for c in range(first, last):
-        e = wall_pairs[c, 1]
-        w = element_wall[e]
-        om = (wall_omega[w, 0], wall_omega[w, 1], wall_omega[w, 2])
-        q = (scratch_point[c, 0], scratch_point[c, 1], scratch_point[c, 2])
-        lever = (q[0] - wall_center[w, 0], q[1] - wall_center[w, 1], q[2] - wall_center[w, 2])
-        v_wall = (wall_velocity[w, 0] + om[1] * lever[2] - om[2] * lever[1],
-                  wall_velocity[w, 1] + om[2] * lever[0] - om[0] * lever[2],
-                  wall_velocity[w, 2] + om[0] * lever[1] - om[1] * lever[0])
-        on_particle = 0.0
-        by_wall = 0.0
-        for k in range(3):
-            on_particle += force_c[c, k] * vi[k] + moment_c[c, k] * wi[k]
-            by_wall += force_c[c, k] * v_wall[k]
-        previous_energy = energy_c[c]
-        d = scratch_distance[c]
-        if scratch_feature[c] != 1:
-            for k in range(3):
-                spring[c, k] = 0.0
-                force_c[c, k] = 0.0
-                moment_c[c, k] = 0.0
-            energy_c[c] = 0.0
-            done += 0.5 * moved_dt * by_wall
-            lost += 0.5 * moved_dt * (by_wall - on_particle) + previous_energy
-            continue
-        if types[e] == PLANE:
-            n = (-rows[e, 1, 0], -rows[e, 1, 1], -rows[e, 1, 2])
-        else:
-            n = ((q[0] - x[0]) / d, (q[1] - x[1]) / d, (q[2] - x[2]) / d)
-        overlap = radius[p] - d
-        v_rel = contact_relative_velocity(n, vi, v_wall, wi, (0.0, 0.0, 0.0), d, 0.0)
-        w_rel = (wi[0] - om[0], wi[1] - om[1], wi[2] - om[2])
-        a = material[p]
-        mu_r = 0.5 * (rolling[a] + wall_rolling[w]) if use_rolling else 0.0
-        force_i, torque, f_t, xi, energy = _pair_law(
-            law, n, overlap, v_rel, w_rel, (spring[c, 0], spring[c, 1], spring[c, 2]),
-            young[a], poisson[a], wall_young[w], wall_poisson[w],
-            0.5 * (restitution[a] + wall_restitution[w]),
-            0.5 * (friction[a] + wall_friction[w]), mu_r, radius[p], mass[p], inertia[p],
-            linear_stiffness, dt)
-        moment_i, _ = contact_moments(n, f_t, torque, d, 0.0)
-        for k in range(3):
-            spring[c, k] = xi[k]
-            force_c[c, k] = force_i[k]
-            moment_c[c, k] = moment_i[k]
-            on_particle += force_i[k] * vi[k] + moment_i[k] * wi[k]
-            # The rolling torque turns with the wall (see cpu_contacts.wall_contacts).
-            by_wall += force_i[k] * v_wall[k] + 2.0 * torque[k] * om[k]
-        energy_c[c] = energy
-        done += 0.5 * moved_dt * by_wall
-        lost += 0.5 * moved_dt * (by_wall - on_particle) - (energy - previous_energy)
-    # gather_wall_loads for this particle: its rows in list order, after the pair loads.
-    for c in range(first, last):
-        for k in range(3):
-            force[p, k] += force_c[c, k]
-            moment[p, k] += moment_c[c, k]
-    dissipated[p] += lost
-    work_walls[p] += done
+            evaluated_position[p, k] = particles.position[p, k]
+        wall_contacts_of(p, wall_start, wall_pairs, walls, particles, grains, materials, law,
+                         linear_stiffness, use_rolling, True, rows, dt, moved_dt)
+        add_wall_rows(p, wall_start, rows, force, moment)
+        lost = 0.0
+        done = 0.0
+        for c in range(wall_start[p], wall_start[p + 1]):
+            lost += rows.dissipated[c]
+            done += rows.work[c]
+        dissipated[p] += lost
+        work_walls[p] += done
 
 
 def _at_least_one(array):
@@ -368,15 +137,9 @@ class ContactLawGpu(ContactLaw):
         self.g = backend
         model = backend.model
         put = cuda.to_device
-        self._d_radius = put(model.radius)
-        self._d_inertia = put(model.inertia)
-        self._d_material = put(model.material)
-        self._d_materials = tuple(put(a) for a in self._materials)
-        self._d_wall_materials = tuple(put(_at_least_one(a)) for a in self._wall_materials)
-        self._d_types = put(_at_least_one(self.walls.element_type))
-        self._d_element_wall = put(_at_least_one(self.walls.element_wall))
-        self._d_wall_velocity = put(_at_least_one(self.walls.velocity))
-        self._d_wall_omega = put(_at_least_one(self.walls.angular_velocity))
+        self._d_grains = self.grains(model, put)
+        self._d_materials = loops.ContactMaterials(*(put(a) for a in self._materials))
+        self._put_walls = lambda a: put(_at_least_one(a))
         self._moving = bool(np.any(self.walls.velocity) or np.any(self.walls.angular_velocity))
         self._flag = put(np.zeros(1, dtype=np.int64))
         self._d_rows = None
@@ -418,7 +181,7 @@ class ContactLawGpu(ContactLaw):
         self._d_work.copy_to_device(zeros)
         if self.walls.n_walls and self._evaluated_time is not None:
             wall_pairs = state.extra["wall_pairs"]
-            point = self._dev["scratch_point"].copy_to_host()[:wall_pairs.shape[0]]
+            point = self._dev["wall_rows"].point.copy_to_host()[:wall_pairs.shape[0]]
             cpu_contacts.wall_totals(
                 wall_pairs, self.walls.element_wall, point, state.extra["wall_force_rows"],
                 state.extra["wall_moment_rows"], self._evaluated_position.copy_to_host(),
@@ -440,17 +203,21 @@ class ContactLawGpu(ContactLaw):
         k = wall_pairs.shape[0]
         dev = {"pairs": put(_at_least_one(pairs)),
                "pair_bond": put(_at_least_one(self._pair_bond)),
-               "i_start": put(i_start), "j_start": put(j_start),
-               "j_order": put(_at_least_one(j_order)),
-               "dissipated_rows": cuda.device_array(max(pairs.shape[0], 1)),
+               "index": loops.PairIndex(put(i_start),
+                                        put(np.arange(max(pairs.shape[0], 1))),
+                                        put(j_start), put(_at_least_one(j_order))),
                "wall_pairs": put(_at_least_one(wall_pairs)),
                "wall_start": put(self._wall_start),
-               "scratch_distance": cuda.device_array(max(k, 1)),
-               "scratch_point": cuda.to_device(np.zeros((max(k, 1), 3))),
-               "scratch_feature": cuda.device_array(max(k, 1), dtype=np.int64),
                "reference": put(extra["contact_reference_position"])}
         for name in (*PAIR_HISTORY, *WALL_HISTORY):
             dev[name] = put(_at_least_one(np.ascontiguousarray(extra[name])))
+        dev["pair_rows"] = pair_rows(dev, cuda.device_array(max(pairs.shape[0], 1)))
+        dev["wall_rows"] = loops.WallRows(
+            dev["wall_spring"], dev["wall_force_rows"], dev["wall_moment_rows"],
+            dev["wall_energy_rows"], cuda.device_array(max(k, 1)),
+            cuda.device_array(max(k, 1)), cuda.device_array(max(k, 1)),
+            cuda.to_device(np.zeros((max(k, 1), 3))),
+            cuda.device_array(max(k, 1), dtype=np.int64))
         self._counts = (pairs.shape[0], k)
         self._dev = dev
 
@@ -498,30 +265,20 @@ class ContactLawGpu(ContactLaw):
         use_rolling = bool(self.settings.rolling_resistance)
         if self._counts[0]:
             particle_contacts_kernel[_blocks(self._counts[0]), THREADS](
-                self.pair_law, dev["pairs"], dev["pair_bond"], d.bond_active, d.position,
-                d.velocity, d.angular_velocity, self._d_radius, g.mass, self._d_inertia,
-                self._d_material, *self._d_materials, use_rolling, self._k_linear,
-                g.box_length, g.periodic, dev["contact_spring"], increment_dt, moved_dt,
-                dev["contact_force"], dev["contact_moment_i"], dev["contact_moment_j"],
-                dev["contact_energy"], dev["dissipated_rows"])
-            gather_pairs_kernel[_blocks(n), THREADS](
-                dev["i_start"], dev["j_start"], dev["j_order"], dev["contact_force"],
-                dev["contact_moment_i"], dev["contact_moment_j"], dev["dissipated_rows"],
-                force, moment, self._d_lost)
+                dev["pairs"], dev["pair_bond"], d.bond_active, particles(d), self._d_grains,
+                self._d_materials, self.pair_law, self._k_linear, use_rolling, g.box,
+                dev["pair_rows"], increment_dt, moved_dt)
+            gather_pairs_kernel[_blocks(n), THREADS](dev["index"], dev["pair_rows"], force,
+                                                     moment, self._d_lost)
         if self.walls.n_walls:
             rows = self.walls.elements(state.time)
             if rows is not self._rows_host:   # static walls: the same rows object
                 self._d_rows = cuda.to_device(rows)
                 self._rows_host = rows
-            centers = cuda.to_device(self.walls.centers(state.time))
             wall_contacts_kernel[_blocks(n), THREADS](
-                self.wall_law, dev["wall_start"], dev["wall_pairs"], self._d_rows,
-                self._d_types, self._d_element_wall, self._d_wall_velocity,
-                self._d_wall_omega, centers, *self._d_wall_materials, d.position,
-                d.velocity, d.angular_velocity, self._d_radius, g.mass, self._d_inertia,
-                self._d_material, *self._d_materials, use_rolling, self._k_linear,
-                dev["wall_spring"], increment_dt, moved_dt, dev["scratch_distance"],
-                dev["scratch_point"], dev["scratch_feature"], dev["wall_force_rows"],
-                dev["wall_moment_rows"], dev["wall_energy_rows"], force, moment,
+                dev["wall_start"], dev["wall_pairs"],
+                self.wall_tuple(state.time, self._put_walls, self._d_rows), particles(d),
+                self._d_grains, self._d_materials, self.wall_law, self._k_linear,
+                use_rolling, dev["wall_rows"], increment_dt, moved_dt, force, moment,
                 self._d_lost, self._d_work, self._evaluated_position)
             self._evaluated_time = state.time

@@ -10,6 +10,9 @@ from types import SimpleNamespace
 
 _REGISTERED = []
 
+# Marks a parameter without a default in a bond model's PARAMETERS schema.
+REQUIRED = object()
+
 
 def physics(function):
     """Register a pure physics function (scalars and 3-tuples in, tuples out)."""
@@ -25,9 +28,16 @@ def compile_physics(jit, substitute=None):
     ``substitute`` maps a callee's name to another registered function's name that its
     callers see instead (the CPU's vectorised bond loop swaps in a branch-free twist).
     """
-    compiled = {}
+    return compile_functions(_REGISTERED, jit, substitute=substitute)
+
+
+def compile_functions(functions, jit, base=None, substitute=None):
+    """``compile_physics`` for any list of plain functions: each is rebuilt with the
+    compiled functions of ``base`` (a namespace, e.g. compiled physics) and of the
+    functions before it as its callees, then compiled by ``jit``."""
+    compiled = dict(vars(base)) if base is not None else {}
     substitute = substitute or {}
-    for function in _REGISTERED:
+    for function in functions:
         namespace = dict(function.__globals__)
         namespace.update(compiled)
         namespace.update({name: compiled[other] for name, other in substitute.items()

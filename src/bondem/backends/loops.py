@@ -1,0 +1,550 @@
+"""The loop bodies of both backends, written once: what one bond, particle or contact does.
+
+Each body below is a plain function of an index (a bond, a particle, a contact row) and
+named tuples of arrays (``Bonds``, ``Particles``, ...); it reads its inputs, calls the
+``bondem.physics`` laws and writes its own outputs. ``compile_loops(jit, physics_jit)``
+compiles them for a target exactly as ``compile_physics`` compiles the laws: the CPU
+backend with ``numba.njit(inline="always")`` and drives them from ``prange`` loops
+(``backends/cpu.py``, ``cpu_contacts.py``), the CUDA backend with
+``cuda.jit(device=True)`` and drives them from one-thread-per-item kernels (``cuda.py``,
+``cuda_contacts.py``). So the two backends share every line of a step but the loop.
+
+Why inlined on the CPU: a call of a compiled function that takes arrays increments and
+decrements each array's reference count, an atomic on a cache line that both threads
+write; inlined into the ``prange`` body, Numba removes those pairs.
+
+Choices made at compile time, not per item: ``musen`` and ``linear_stiffness`` are None
+on the CPU for the SPEC's bond law and for Hertz-Mindlin, so Numba prunes the other law
+from the kernel it compiles (``x is None`` on an argument is decided by its type); the
+CUDA kernels cannot take None, so they pass a flag and compile both branches.
+"""
+import math
+from collections import namedtuple
+
+from ..physics import compile_physics
+from ..physics._registry import compile_functions
+from ..physics.bond_elastic import INTACT
+from ..physics.triangle import FACE
+from ..status import STATUS_NOT_FINITE, STATUS_OK, STATUS_OUT_OF_DOMAIN
+from ..walls import PLANE
+
+MODEL_HERTZ, MODEL_LINEAR = 0, 1
+LINEAR_REFERENCE_OVERLAP = 0.01  # delta_ref / R* of the default linear stiffness
+
+# What the bodies take, by name (a swapped pair of same-shaped arrays would otherwise
+# run silently). Units: SI throughout (m, m/s, rad/s, kg, kg m^2, N, N m, J, Pa).
+Particles = namedtuple("Particles", "position velocity angular_velocity")
+Bodies = namedtuple("Bodies", "mass inertia fixed external_force external_moment")
+Box = namedtuple("Box", "low high length periodic")
+Bonds = namedtuple("Bonds", "pairs diameter initial_length material")
+BondMaterials = namedtuple("BondMaterials", "young poisson normal_strength "
+                           "tangential_strength criterion compressive")
+BondState = namedtuple("BondState", "active axis previous_length tangential_force "
+                       "normal_moment tangential_moment break_time break_mode break_energy")
+BondLoads = namedtuple("BondLoads", "force_i moment_i moment_j")
+BondIndex = namedtuple("BondIndex", "offsets ends")
+Grains = namedtuple("Grains", "radius mass inertia material")
+ContactMaterials = namedtuple("ContactMaterials",
+                              "young poisson restitution friction rolling")
+PairRows = namedtuple("PairRows", "spring force moment_i moment_j energy dissipated")
+PairIndex = namedtuple("PairIndex", "i_start i_order j_start j_order")
+Walls = namedtuple("Walls", "rows types element_wall velocity omega center young poisson "
+                   "restitution friction rolling")
+WallRows = namedtuple("WallRows", "spring force moment energy dissipated work distance "
+                      "point feature")
+
+_BODIES = []
+
+
+def body(function):
+    """Register a loop body (compiled for every backend by ``compile_loops``)."""
+    _BODIES.append(function)
+    return function
+
+
+def compile_loops(jit, physics_jit, substitute=None):
+    """Namespace of every loop body compiled by ``jit``, calling the physics compiled by
+    ``physics_jit`` (and the physics functions themselves, by name)."""
+    return compile_functions(_BODIES, jit, base=compile_physics(physics_jit, substitute))
+
+
+# -- small helpers ------------------------------------------------------------------------
+
+@body
+def row3(a, i):
+    """Row i of an (n, 3) array as a 3-tuple."""
+    return (a[i, 0], a[i, 1], a[i, 2])
+
+
+@body
+def store3(a, i, v):
+    """a[i] = v for an (n, 3) array and a 3-tuple."""
+    a[i, 0] = v[0]
+    a[i, 1] = v[1]
+    a[i, 2] = v[2]
+
+
+@body
+def sign(x):
+    """-1, 0 or +1 (np.sign of a float; 0 for NaN)."""
+    if x > 0.0:
+        return 1.0
+    if x < 0.0:
+        return -1.0
+    return 0.0
+
+
+@body
+def separation(position, i, j, box):
+    """x_j - x_i (m), the shortest periodic image."""
+    return minimum_image((position[j, 0] - position[i, 0], position[j, 1] - position[i, 1],
+                          position[j, 2] - position[i, 2]),
+                         (box.length[0], box.length[1], box.length[2]),
+                         box.periodic[0], box.periodic[1], box.periodic[2])
+
+
+# -- bonds --------------------------------------------------------------------------------
+
+@body
+def bond_update(musen, r, vi, vj, wi, wj, axis, previous_length, f_t0, m_n0, m_t0, l0,
+                young, poisson, diameter, normal_strength, tangential_strength, criterion,
+                compressive, dt):
+    """One increment dt (s) of a bond and its break test: (length, n, F_n, F_t, M_n, M_t,
+    break mode, k_n, k_t, k_tw, k_b). musen: None or False for the SPEC's law, True for
+    MUSEN's numerics (physics/bond_elastic_musen.py), which need the previous bond with
+    its length."""
+    kn, kt, ktw, kb = bond_stiffnesses(young, poisson, diameter, l0)
+    if musen is not None:
+        if musen:
+            lp = previous_length
+            length, n, f_n, f_t, m_n, m_t = elastic_bond_musen(
+                r, vi, vj, wi, wj, (axis[0] * lp, axis[1] * lp, axis[2] * lp), f_t0, m_n0,
+                m_t0, l0, young, poisson, diameter, dt)
+            mode = bond_break_mode_musen(length, l0, f_n, f_t, m_n, m_t, diameter,
+                                         normal_strength, tangential_strength, criterion)
+            return length, n, f_n, f_t, m_n, m_t, mode, kn, kt, ktw, kb
+    length, n, f_n, f_t, m_n, m_t = elastic_bond(r, vi, vj, wi, wj, axis, f_t0, m_n0, m_t0,
+                                                 l0, kn, kt, ktw, kb, dt)
+    mode = bond_break_mode(length, l0, f_n, f_t, m_n, m_t, diameter, normal_strength,
+                           tangential_strength, criterion, compressive)
+    return length, n, f_n, f_t, m_n, m_t, mode, kn, kt, ktw, kb
+
+
+@body
+def zero_bond_loads(b, loads):
+    """Bond b puts no load on its particles."""
+    for k in range(3):
+        loads.force_i[b, k] = 0.0
+        loads.moment_i[b, k] = 0.0
+        loads.moment_j[b, k] = 0.0
+
+
+@body
+def advance_bond(b, bonds, materials, state, particles, box, time, dt, musen, loads):
+    """Advance bond b by one increment dt (s) at ``time`` (s): its state, its break test,
+    its loads on i (force, moment) and j (moment) in its own row of ``loads``."""
+    if not state.active[b]:
+        zero_bond_loads(b, loads)
+        return
+    i = bonds.pairs[b, 0]
+    j = bonds.pairs[b, 1]
+    m = bonds.material[b]
+    l0 = bonds.initial_length[b]
+    diameter = bonds.diameter[b]
+    r = separation(particles.position, i, j, box)
+    length, n, f_n, f_t, m_n, m_t, mode, kn, kt, ktw, kb = bond_update(
+        musen, r, row3(particles.velocity, i), row3(particles.velocity, j),
+        row3(particles.angular_velocity, i), row3(particles.angular_velocity, j),
+        row3(state.axis, b), state.previous_length[b], row3(state.tangential_force, b),
+        row3(state.normal_moment, b), row3(state.tangential_moment, b), l0,
+        materials.young[m], materials.poisson[m], diameter, materials.normal_strength[m],
+        materials.tangential_strength[m], materials.criterion[m], materials.compressive[m],
+        dt)
+    if mode != INTACT:
+        state.active[b] = False
+        state.break_time[b] = time
+        state.break_mode[b] = mode
+        state.break_energy[b] = bond_elastic_energy(length, l0, f_t, m_n, m_t, kn, kt, ktw,
+                                                    kb)
+        zero_bond_loads(b, loads)
+        return
+    force_i, moment_i, moment_j = bond_loads_on_particles(r, f_n, f_t, m_n, m_t)
+    state.previous_length[b] = length
+    store3(state.axis, b, n)
+    store3(state.tangential_force, b, f_t)
+    store3(state.normal_moment, b, m_n)
+    store3(state.tangential_moment, b, m_t)
+    store3(loads.force_i, b, force_i)
+    store3(loads.moment_i, b, moment_i)
+    store3(loads.moment_j, b, moment_j)
+
+
+@body
+def bond_ends_sum(p, index, loads):
+    """Force (N) and moment (N m) of particle p's bonds, summed over its CSR bond ends in
+    a fixed order (end = 2 bond + side; side 1 is j, which gets -F and its own moment)."""
+    fx = fy = fz = mx = my = mz = 0.0
+    for k in range(index.offsets[p], index.offsets[p + 1]):
+        b = index.ends[k] >> 1
+        if index.ends[k] & 1:
+            fx -= loads.force_i[b, 0]
+            fy -= loads.force_i[b, 1]
+            fz -= loads.force_i[b, 2]
+            mx += loads.moment_j[b, 0]
+            my += loads.moment_j[b, 1]
+            mz += loads.moment_j[b, 2]
+        else:
+            fx += loads.force_i[b, 0]
+            fy += loads.force_i[b, 1]
+            fz += loads.force_i[b, 2]
+            mx += loads.moment_i[b, 0]
+            my += loads.moment_i[b, 1]
+            mz += loads.moment_i[b, 2]
+    return (fx, fy, fz), (mx, my, mz)
+
+
+@body
+def bond_energy(b, bonds, materials, state, position, box):
+    """Elastic energy (J) stored in bond b; 0 if broken."""
+    if not state.active[b]:
+        return 0.0
+    m = bonds.material[b]
+    l0 = bonds.initial_length[b]
+    r = separation(position, bonds.pairs[b, 0], bonds.pairs[b, 1], box)
+    kn, kt, ktw, kb = bond_stiffnesses(materials.young[m], materials.poisson[m],
+                                       bonds.diameter[b], l0)
+    return bond_elastic_energy(math.sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]), l0,
+                               row3(state.tangential_force, b),
+                               row3(state.normal_moment, b),
+                               row3(state.tangential_moment, b), kn, kt, ktw, kb)
+
+
+# -- particles ----------------------------------------------------------------------------
+
+@body
+def integrate_particle(p, load_f, load_m, particles, bodies, gravity, damping, kick_dt,
+                       drift_dt, box, track_energy):
+    """Semi-implicit Euler for particle p: v += F/m kick_dt; x += v drift_dt;
+    w += M/I kick_dt, with its loads load_f (N), load_m (N m) and gravity, external
+    loads and local damping (Cundall: damping |F_k| against the sign of v_k, |M_k|
+    against w_k, per component). Fixed particles keep their velocity. Returns (work of
+    gravity and external loads, energy removed by damping) in J over this kick, each
+    load times the mean of the old and new velocity (the leapfrog's exact change of
+    kinetic energy; 0 unless track_energy: it costs a third of the step), and a status:
+    STATUS_NOT_FINITE or STATUS_OUT_OF_DOMAIN if it blew up, else STATUS_OK; a periodic
+    axis wraps the position into the box."""
+    work = 0.0
+    lost = 0.0
+    v = particles.velocity
+    w = particles.angular_velocity
+    if not bodies.fixed[p]:
+        mass = bodies.mass[p]
+        inertia = bodies.inertia[p]
+        for k in range(3):
+            applied = mass * gravity[k] + bodies.external_force[p, k]
+            f = load_f[k] + applied
+            mk = load_m[k] + bodies.external_moment[p, k]
+            damp_f = 0.0
+            damp_m = 0.0
+            if damping > 0.0:
+                damp_f = -damping * abs(f) * sign(v[p, k])
+                damp_m = -damping * abs(mk) * sign(w[p, k])
+            v_old = v[p, k]
+            w_old = w[p, k]
+            v[p, k] = v_old + (f + damp_f) / mass * kick_dt
+            w[p, k] = w_old + (mk + damp_m) / inertia * kick_dt
+            if track_energy:
+                v_mean = 0.5 * (v_old + v[p, k])
+                w_mean = 0.5 * (w_old + w[p, k])
+                work += (applied * v_mean + bodies.external_moment[p, k] * w_mean) * kick_dt
+                lost -= (damp_f * v_mean + damp_m * w_mean) * kick_dt
+    status = STATUS_OK
+    for k in range(3):
+        x = particles.position[p, k] + v[p, k] * drift_dt
+        if box.periodic[k]:
+            length = box.high[k] - box.low[k]
+            x -= length * math.floor((x - box.low[k]) / length)
+        elif x < box.low[k] or x > box.high[k]:
+            status = STATUS_OUT_OF_DOMAIN
+        if not (math.isfinite(x) and math.isfinite(v[p, k]) and math.isfinite(w[p, k])):
+            status = STATUS_NOT_FINITE
+        particles.position[p, k] = x
+    return work, lost, status
+
+
+# -- contacts -----------------------------------------------------------------------------
+
+@body
+def pair_law(law, linear_stiffness, n, overlap, v_rel, w_rel, spring, young_i, poisson_i,
+             young_j, poisson_j, restitution, friction, rolling, r_star, m_star, i_star, dt):
+    """Loads of one contact by the law ``law`` (MODEL_HERTZ or MODEL_LINEAR) from the two
+    materials' E (Pa), nu and the pair's restitution, friction and rolling friction;
+    linear_stiffness: k_n (N/m; <= 0 for the default) of the linear law, or None (CPU,
+    Hertz-Mindlin: the linear law is then not compiled)."""
+    e_star = effective_young_modulus(young_i, poisson_i, young_j, poisson_j)
+    g_star = effective_shear_modulus(young_i, poisson_i, young_j, poisson_j)
+    beta = restitution_beta(restitution)
+    if linear_stiffness is None:
+        return hertz_mindlin(n, overlap, v_rel, w_rel, spring, e_star, g_star, r_star,
+                             m_star, i_star, beta, friction, rolling, dt)
+    if law == MODEL_HERTZ:
+        return hertz_mindlin(n, overlap, v_rel, w_rel, spring, e_star, g_star, r_star,
+                             m_star, i_star, beta, friction, rolling, dt)
+    k_n = linear_stiffness
+    if k_n <= 0.0:
+        k_n = 2.0 * e_star * math.sqrt(LINEAR_REFERENCE_OVERLAP) * r_star
+    return linear_spring_dashpot(n, overlap, v_rel, w_rel, spring, k_n,
+                                 4.0 * k_n * g_star / e_star, r_star, m_star, i_star, beta,
+                                 friction, rolling, dt)
+
+
+@body
+def pair_contact(c, pairs, pair_bond, bond_active, particles, grains, materials, law,
+                 linear_stiffness, use_rolling, box, rows, dt, moved_dt):
+    """Contact row c (pair pairs[c]): its loads (force on i, moments on i and j), stored
+    energy and tangential spring, written over the previous step's row, which is read
+    first for the work balance. A pair not touching or joined by an intact bond
+    (pair_bond[c] >= 0) gets zero loads and its spring is reset. rows.dissipated[c]: J
+    removed by the contact since the previous evaluation, moved_dt (s) ago: minus the work
+    of its loads on the particles (trapezoidal in the loads, with the velocities that
+    moved the particles) minus the change of its stored energy."""
+    i = pairs[c, 0]
+    j = pairs[c, 1]
+    vi = row3(particles.velocity, i)
+    vj = row3(particles.velocity, j)
+    wi = row3(particles.angular_velocity, i)
+    wj = row3(particles.angular_velocity, j)
+    # Work of the previous loads over the step just made (their half of the trapezoid).
+    work = 0.0
+    for k in range(3):
+        work += (rows.force[c, k] * (vi[k] - vj[k]) + rows.moment_i[c, k] * wi[k]
+                 + rows.moment_j[c, k] * wj[k])
+    previous_energy = rows.energy[c]
+    r = separation(particles.position, i, j, box)
+    distance = math.sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2])
+    radius = grains.radius
+    overlap = radius[i] + radius[j] - distance
+    bonded = pair_bond[c] >= 0 and bond_active[pair_bond[c]]
+    if overlap <= 0.0 or bonded or distance == 0.0:
+        for k in range(3):
+            rows.spring[c, k] = 0.0
+            rows.force[c, k] = 0.0
+            rows.moment_i[c, k] = 0.0
+            rows.moment_j[c, k] = 0.0
+        rows.energy[c] = 0.0
+        rows.dissipated[c] = -0.5 * moved_dt * work + previous_energy
+        return
+    n = (r[0] / distance, r[1] / distance, r[2] / distance)
+    arm_i = radius[i] - 0.5 * overlap
+    arm_j = radius[j] - 0.5 * overlap
+    v_rel = contact_relative_velocity(n, vi, vj, wi, wj, arm_i, arm_j)
+    w_rel = (wi[0] - wj[0], wi[1] - wj[1], wi[2] - wj[2])
+    a = grains.material[i]
+    b = grains.material[j]
+    mu_r = 0.5 * (materials.rolling[a] + materials.rolling[b]) if use_rolling else 0.0
+    mass = grains.mass
+    inertia = grains.inertia
+    force_i, torque, f_t, xi, energy = pair_law(
+        law, linear_stiffness, n, overlap, v_rel, w_rel, row3(rows.spring, c),
+        materials.young[a], materials.poisson[a], materials.young[b], materials.poisson[b],
+        0.5 * (materials.restitution[a] + materials.restitution[b]),
+        0.5 * (materials.friction[a] + materials.friction[b]), mu_r,
+        radius[i] * radius[j] / (radius[i] + radius[j]), mass[i] * mass[j] / (mass[i] + mass[j]),
+        inertia[i] * inertia[j] / (inertia[i] + inertia[j]), dt)
+    moment_i, moment_j = contact_moments(n, f_t, torque, arm_i, arm_j)
+    for k in range(3):
+        rows.spring[c, k] = xi[k]
+        rows.force[c, k] = force_i[k]
+        rows.moment_i[c, k] = moment_i[k]
+        rows.moment_j[c, k] = moment_j[k]
+        work += force_i[k] * (vi[k] - vj[k]) + moment_i[k] * wi[k] + moment_j[k] * wj[k]
+    rows.energy[c] = energy
+    rows.dissipated[c] = -0.5 * moved_dt * work - (energy - previous_energy)
+
+
+@body
+def pair_rows_sum(p, index, rows):
+    """Force (N) and moment (N m) of particle p's contact rows: those where it is i
+    (index.i_order[i_start[p]:i_start[p+1]]), then those where it is j, each in a fixed
+    order."""
+    fx = fy = fz = mx = my = mz = 0.0
+    for s in range(index.i_start[p], index.i_start[p + 1]):
+        c = index.i_order[s]
+        fx += rows.force[c, 0]
+        fy += rows.force[c, 1]
+        fz += rows.force[c, 2]
+        mx += rows.moment_i[c, 0]
+        my += rows.moment_i[c, 1]
+        mz += rows.moment_i[c, 2]
+    for s in range(index.j_start[p], index.j_start[p + 1]):
+        c = index.j_order[s]
+        fx -= rows.force[c, 0]
+        fy -= rows.force[c, 1]
+        fz -= rows.force[c, 2]
+        mx += rows.moment_j[c, 0]
+        my += rows.moment_j[c, 1]
+        mz += rows.moment_j[c, 2]
+    return (fx, fy, fz), (mx, my, mz)
+
+
+@body
+def plane_contact(x, rows, e):
+    """(signed distance (m) of x from plane element e (rows: point, unit normal), its
+    closest point, FACE)."""
+    d = ((x[0] - rows[e, 0, 0]) * rows[e, 1, 0] + (x[1] - rows[e, 0, 1]) * rows[e, 1, 1]
+         + (x[2] - rows[e, 0, 2]) * rows[e, 1, 2])
+    return d, (x[0] - d * rows[e, 1, 0], x[1] - d * rows[e, 1, 1], x[2] - d * rows[e, 1, 2]), FACE
+
+
+@body
+def element_contact(x, rows, e, etype, triangles):
+    """(distance (m) from x to wall element e's closest point, signed for a plane; that
+    point; its feature). triangles: None when every element is a plane (CPU: the
+    triangle code is then not compiled)."""
+    if triangles is None:
+        return plane_contact(x, rows, e)
+    if etype == PLANE:
+        return plane_contact(x, rows, e)
+    q, feature = closest_point_on_triangle(
+        x, (rows[e, 0, 0], rows[e, 0, 1], rows[e, 0, 2]),
+        (rows[e, 1, 0], rows[e, 1, 1], rows[e, 1, 2]),
+        (rows[e, 2, 0], rows[e, 2, 1], rows[e, 2, 2]))
+    d = math.sqrt((x[0] - q[0]) ** 2 + (x[1] - q[1]) ** 2 + (x[2] - q[2]) ** 2)
+    return d, q, feature
+
+
+@body
+def wall_contacts_of(p, wall_start, wall_pairs, walls, particles, grains, materials, law,
+                     linear_stiffness, use_rolling, triangles, rows, dt, moved_dt):
+    """Loads on particle p of each of its wall candidates (rows wall_start[p] to
+    wall_start[p+1] of ``rows``: force and moment on the particle, stored energy, spring),
+    written over the previous step's rows (read first); rows.work[c]: J done by the moving
+    wall since the previous evaluation, rows.dissipated[c]: J removed (work of the wall -
+    work on the particle - change of stored energy, trapezoidal as for pairs).
+
+    A triangle hit at point q is dropped when another touching triangle of the same wall
+    contains q (within 1e-9 r) and has its own closest point elsewhere (then strictly
+    closer: q is no local minimum of the distance to the mesh), or at q too and comes
+    earlier in the list (a shared edge or vertex counted once). No distance comparison,
+    so a centre just beside an edge is not counted twice.
+    """
+    first = wall_start[p]
+    last = wall_start[p + 1]
+    x = row3(particles.position, p)
+    radius = grains.radius[p]
+    tol = 1e-9 * radius
+    types = walls.types
+    element_wall = walls.element_wall
+    spring = rows.spring
+    for c in range(first, last):
+        e = wall_pairs[c, 1]
+        d, q, feature = element_contact(x, walls.rows, e, types[e], triangles)
+        rows.distance[c] = d
+        rows.feature[c] = feature
+        store3(rows.point, c, q)
+    # Which hits count (rows.feature becomes 1 for kept, 0 for dropped).
+    for c in range(first, last):
+        e = wall_pairs[c, 1]
+        q = row3(rows.point, c)
+        d = rows.distance[c]
+        keep = d < radius and d > -radius and (types[e] == PLANE or d > 0.0)
+        if triangles is not None and keep and types[e] != PLANE:
+            for c2 in range(first, last):
+                e2 = wall_pairs[c2, 1]
+                if c2 == c or element_wall[e2] != element_wall[e] or types[e2] == PLANE:
+                    continue
+                if rows.distance[c2] >= radius:
+                    continue
+                inside, _, _ = element_contact(q, walls.rows, e2, types[e2], triangles)
+                if inside >= tol:
+                    continue
+                gap = 0.0
+                for k in range(3):
+                    gap += (rows.point[c, k] - rows.point[c2, k]) ** 2
+                # Triangle e2 holds q: its own closest point is then either elsewhere and
+                # strictly closer (q is no local minimum) or q itself (a shared edge or
+                # vertex, counted once, by the first hit).
+                if gap > tol * tol or c2 < c:
+                    keep = False
+                    break
+        rows.feature[c] = 1 if keep else 0
+    # A sphere moving across a mesh changes triangles: a new hit takes over the spring of
+    # a hit of the same wall that ended now, so the tangential force carries on.
+    for c in range(first, last):
+        if rows.feature[c] != 1 or spring[c, 0] != 0.0 or spring[c, 1] != 0.0 \
+                or spring[c, 2] != 0.0:
+            continue
+        for c2 in range(first, last):
+            if rows.feature[c2] == 0 and element_wall[wall_pairs[c2, 1]] == \
+                    element_wall[wall_pairs[c, 1]] and (spring[c2, 0] != 0.0 or
+                                                        spring[c2, 1] != 0.0 or
+                                                        spring[c2, 2] != 0.0):
+                for k in range(3):
+                    spring[c, k] = spring[c2, k]
+                    spring[c2, k] = 0.0
+                break
+    vi = row3(particles.velocity, p)
+    wi = row3(particles.angular_velocity, p)
+    a = grains.material[p]
+    for c in range(first, last):
+        e = wall_pairs[c, 1]
+        w = element_wall[e]
+        om = row3(walls.omega, w)
+        q = row3(rows.point, c)
+        lever = (q[0] - walls.center[w, 0], q[1] - walls.center[w, 1],
+                 q[2] - walls.center[w, 2])
+        v_wall = (walls.velocity[w, 0] + om[1] * lever[2] - om[2] * lever[1],
+                  walls.velocity[w, 1] + om[2] * lever[0] - om[0] * lever[2],
+                  walls.velocity[w, 2] + om[0] * lever[1] - om[1] * lever[0])
+        on_particle = 0.0
+        by_wall = 0.0
+        for k in range(3):
+            on_particle += rows.force[c, k] * vi[k] + rows.moment[c, k] * wi[k]
+            by_wall += rows.force[c, k] * v_wall[k]
+        previous_energy = rows.energy[c]
+        d = rows.distance[c]
+        if rows.feature[c] != 1:
+            for k in range(3):
+                spring[c, k] = 0.0
+                rows.force[c, k] = 0.0
+                rows.moment[c, k] = 0.0
+            rows.energy[c] = 0.0
+            rows.work[c] = 0.5 * moved_dt * by_wall
+            rows.dissipated[c] = 0.5 * moved_dt * (by_wall - on_particle) + previous_energy
+            continue
+        if types[e] == PLANE:
+            n = (-walls.rows[e, 1, 0], -walls.rows[e, 1, 1], -walls.rows[e, 1, 2])
+        else:
+            n = ((q[0] - x[0]) / d, (q[1] - x[1]) / d, (q[2] - x[2]) / d)
+        overlap = radius - d
+        v_rel = contact_relative_velocity(n, vi, v_wall, wi, (0.0, 0.0, 0.0), d, 0.0)
+        w_rel = (wi[0] - om[0], wi[1] - om[1], wi[2] - om[2])
+        mu_r = 0.5 * (materials.rolling[a] + walls.rolling[w]) if use_rolling else 0.0
+        force_i, torque, f_t, xi, energy = pair_law(
+            law, linear_stiffness, n, overlap, v_rel, w_rel, row3(spring, c),
+            materials.young[a], materials.poisson[a], walls.young[w], walls.poisson[w],
+            0.5 * (materials.restitution[a] + walls.restitution[w]),
+            0.5 * (materials.friction[a] + walls.friction[w]), mu_r, radius,
+            grains.mass[p], grains.inertia[p], dt)
+        moment_i, _ = contact_moments(n, f_t, torque, d, 0.0)
+        for k in range(3):
+            spring[c, k] = xi[k]
+            rows.force[c, k] = force_i[k]
+            rows.moment[c, k] = moment_i[k]
+            on_particle += force_i[k] * vi[k] + moment_i[k] * wi[k]
+            # The rolling torque is the couple about the contact point, turning with the
+            # wall at w_wall; the previous one is not kept, so the current one counts for
+            # the whole step.
+            by_wall += force_i[k] * v_wall[k] + 2.0 * torque[k] * om[k]
+        rows.energy[c] = energy
+        rows.work[c] = 0.5 * moved_dt * by_wall
+        rows.dissipated[c] = 0.5 * moved_dt * (by_wall - on_particle) - (energy - previous_energy)
+
+
+@body
+def add_wall_rows(p, wall_start, rows, force, moment):
+    """Add particle p's wall rows to force[p] (N) and moment[p] (N m), in list order."""
+    for c in range(wall_start[p], wall_start[p + 1]):
+        for k in range(3):
+            force[p, k] += rows.force[c, k]
+            moment[p, k] += rows.moment[c, k]
