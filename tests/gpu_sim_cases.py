@@ -53,6 +53,30 @@ def periodic_chain(n=12):
                               box_high=(length, 1.0, 1.0))
 
 
+def kelvin_cluster():
+    """bonded_cluster with half of its bonds Kelvin bonds (damping ratio ~0.1 along the
+    axis), bond materials chosen per bond."""
+    model, state = bonded_cluster()
+    elastic = model.bond_materials[0]
+    kelvin = bondem.BondMaterial(young_modulus=1e8, poisson_ratio=0.3, normal_strength=4e5,
+                                 tangential_strength=3e5, model="kelvin", viscosity=2.3e-6,
+                                 name="kelvin")
+    index = np.arange(model.n_bonds) % 2
+    glass = model.materials[0]
+    return bondem.make_system(state.position, model.radius, glass,
+                              velocity=state.velocity, angular_velocity=state.angular_velocity,
+                              fixed=model.fixed, bonds=model.bond_pairs,
+                              bond_diameter=model.bond_diameter,
+                              bond_material=[elastic, kelvin], bond_material_index=index,
+                              gravity=model.gravity, damping=model.damping)
+
+
+def case_kelvin_bonds_match_cpu():
+    """Kelvin and elastic bonds side by side, breaking: GPU equals CPU, the dashpots' loss
+    included."""
+    case_bonds_match_cpu(system=kelvin_cluster)
+
+
 def case_periodic_match_cpu():
     """Periodic boundaries and MUSEN-compatible start-up: GPU equals CPU to round-off."""
     case_bonds_match_cpu(steps=20, system=periodic_chain, musen_compat=True, breaks=False)
@@ -75,6 +99,7 @@ def case_bonds_match_cpu(steps=30, system=bonded_cluster, musen_compat=False, br
         sim.step(steps - steps // 2)   # two batches: the host copy between them is exact
         runs[backend] = (sim.state, sim.energy_terms())
     cpu, gpu = runs["cpu"][0], runs["gpu"][0]
+    assert set(runs["cpu"][1]) == set(runs["gpu"][1])
     print(f"bonds {cpu.bond_active.size}, broken cpu {np.sum(~cpu.bond_active)} "
           f"gpu {np.sum(~gpu.bond_active)}, time {cpu.time:.3e} s")
     if breaks:

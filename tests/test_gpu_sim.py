@@ -56,6 +56,13 @@ def test_musen_bond_law_matches_cpu_under_simulator():
     assert "ok" in run_case("musen_bonds_match_cpu")
 
 
+def test_kelvin_bonds_match_cpu_under_simulator():
+    """Kelvin bonds beside elastic ones, breaking: positions, velocities, bond state and
+    every energy term (the dashpots' loss too) to 1e-12 of the CPU's."""
+    out = run_case("kelvin_bonds_match_cpu")
+    assert "dissipated_bonds" in out
+
+
 def test_extra_device_law_matches_cpu_under_simulator():
     """A second law on the device (a tether spring) adds to the fused bond gather as the
     CPU law does; a CPU-only law is refused by backend='gpu' with a message."""

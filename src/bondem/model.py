@@ -12,7 +12,12 @@ from dataclasses import dataclass, field, fields
 
 import numpy as np
 
+from .physics import bond_elastic, bond_kelvin
 from .physics.bond_elastic import CRITERION_CODES
+
+# The bond models, by the name a bond material gives (its code is the index here).
+BOND_MODELS = {"elastic": bond_elastic, "kelvin": bond_kelvin}
+assert list(BOND_MODELS).index("kelvin") == bond_kelvin.MODEL_KELVIN
 
 INDEX = np.int64
 
@@ -47,11 +52,15 @@ class Material:
 
 @dataclass(frozen=True)
 class BondMaterial:
-    """Bond material of the elastic solid bond.
+    """Bond material: the bond model and its parameters (one schema with the scene file:
+    ``bond_material_schema``).
 
+    model: "elastic" (MUSEN's elastic solid bond, physics/bond_elastic.py) | "kelvin" (the
+    same with a dashpot beside each force spring, physics/bond_kelvin.py);
     young_modulus: Pa; poisson_ratio: -; normal_strength (sigma_max) and
     tangential_strength (tau_max): Pa; breakage: "combined" | "separate" | "none";
-    compressive_breakage: evaluate the normal criterion in compression too.
+    compressive_breakage: evaluate the normal criterion in compression too;
+    viscosity: s, dashpot over spring of the "kelvin" model (0 for "elastic").
     """
     young_modulus: float
     poisson_ratio: float = 0.3
@@ -60,18 +69,32 @@ class BondMaterial:
     breakage: str = "combined"
     compressive_breakage: bool = False
     name: str = "bond"
+    model: str = "elastic"
+    viscosity: float = 0.0
 
     def __post_init__(self):
         where = f"bond material {self.name!r}"
-        _check_range(where, "young_modulus", self.young_modulus, 0.0, math.inf)
-        _check_range(where, "poisson_ratio", self.poisson_ratio, -1.0, 0.5)
-        _check_range(where, "normal_strength", self.normal_strength, 0.0, math.inf,
-                     include_high=True)
-        _check_range(where, "tangential_strength", self.tangential_strength, 0.0, math.inf,
-                     include_high=True)
-        if self.breakage not in CRITERION_CODES:
-            raise ValueError(f"{where}: breakage = {self.breakage!r}; allowed: "
-                             + ", ".join(repr(k) for k in CRITERION_CODES))
+        for key, (kind, _, low, high, include_low, include_high) in \
+                bond_material_schema().items():
+            value = getattr(self, key)
+            if kind == "number":
+                _check_range(where, key, value, low, high, include_low, include_high)
+            elif kind == "str" and value not in low:
+                raise ValueError(f"{where}: {key} = {value!r}; allowed: "
+                                 + ", ".join(repr(k) for k in low))
+        if self.model != "kelvin" and self.viscosity != 0.0:
+            raise ValueError(f"{where}: viscosity = {self.viscosity!r} s needs model = "
+                             f"'kelvin' (model = {self.model!r} has no dashpots)")
+
+
+def bond_material_schema():
+    """Every bond material key with its (type, default, range or choices, ...): ``model``,
+    then each bond model's parameters (physics/bond_*.py ``PARAMETERS``)."""
+    schema = dict(bond_elastic.PARAMETERS)
+    schema["model"] = ("str", "elastic", tuple(BOND_MODELS), None, None, None)
+    for module in BOND_MODELS.values():
+        schema.update(module.PARAMETERS)
+    return schema
 
 
 def _check_range(where, key, value, low, high, include_low=False, include_high=False):
@@ -153,6 +176,8 @@ class Model:
             "tangential_strength": np.array([x.tangential_strength for x in m], dtype=np.float64),
             "criterion": np.array([CRITERION_CODES[x.breakage] for x in m], dtype=np.int8),
             "compressive_breakage": np.array([x.compressive_breakage for x in m], dtype=np.bool_),
+            "model": np.array([list(BOND_MODELS).index(x.model) for x in m], dtype=np.int8),
+            "viscosity": np.array([x.viscosity for x in m], dtype=np.float64),
         }
 
 

@@ -18,16 +18,16 @@ import numpy as np
 from .errors import InputError, decode_text
 from .generate import bonds_from_gap, particles_from_generator
 from .io.csv_files import read_bonds, read_particles
-from .model import BondMaterial, Material, make_system
+from .model import BondMaterial, Material, bond_material_schema, make_system
+from .physics._registry import REQUIRED as _REQUIRED
 
 BACKENDS = ("cpu", "gpu")
 CONTACT_MODELS = ("hertz_mindlin", "linear", "none")
-BREAKAGE = ("combined", "separate", "none")
 
 # Each schema entry: key -> (kind, default, low, high, include_low, include_high).
 # kind: "number", "int", "bool", "str", "vector3", "bool3", "time_step", "table", "any".
 # default REQUIRED means the key must be present; None means optional without default.
-REQUIRED = object()
+REQUIRED = _REQUIRED   # the same sentinel as the bond models' PARAMETERS schemas
 INF = math.inf
 
 SIMULATION_KEYS = {
@@ -57,14 +57,7 @@ MATERIAL_KEYS = {
     "friction": ("number", 0.3, 0.0, INF, True, False),
     "rolling_friction": ("number", 0.0, 0.0, INF, True, False),
 }
-BOND_MATERIAL_KEYS = {
-    "young_modulus": ("number", REQUIRED, 0.0, INF, False, False),
-    "poisson_ratio": ("number", 0.3, -1.0, 0.5, False, False),
-    "normal_strength": ("number", INF, 0.0, INF, False, True),
-    "tangential_strength": ("number", INF, 0.0, INF, False, True),
-    "breakage": ("str", "combined", BREAKAGE, None, None, None),
-    "compressive_breakage": ("bool", False, None, None, None, None),
-}
+BOND_MATERIAL_KEYS = bond_material_schema()   # declared by the bond models (physics/)
 PARTICLE_KEYS = {
     "file": ("str", None, None, None, None, None),
     "generator": ("table", None, None, None, None, None),
@@ -308,8 +301,17 @@ def _build(data, text, path):
     bond_materials = _named_tables(data.get("bond_materials", {}), "bond_materials",
                                    BOND_MATERIAL_KEYS, path)
     material_objects = [Material(name=name, **values) for name, values in materials.items()]
-    bond_material_objects = [BondMaterial(name=name, **values)
-                             for name, values in bond_materials.items()]
+    bond_material_objects = []
+    for name, values in bond_materials.items():
+        if values["model"] != "kelvin" and values["viscosity"] != 0.0:
+            raise InputError(f"viscosity = {values['viscosity']!r} s needs model = 'kelvin' "
+                             f"(model = {values['model']!r} has no dashpots)", file=path,
+                             key=f"bond_materials.{name}.viscosity")
+        if values["model"] != "elastic" and sim["musen_compat"]:
+            raise InputError("musen_compat = true reproduces MUSEN's elastic bond only; "
+                             f"model = {values['model']!r} is bondem's own", file=path,
+                             key=f"bond_materials.{name}.model")
+        bond_material_objects.append(BondMaterial(name=name, **values))
     material_names = list(materials)
     bond_material_names = list(bond_materials)
 

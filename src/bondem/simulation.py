@@ -53,6 +53,10 @@ class Simulation:
         self.time_step = time_step
         self.time_step_cause = cause
         self.musen_compat = bool(musen_compat)
+        if self.musen_compat and any(m.model != "elastic" for m in model.bond_materials):
+            raise ValueError("musen_compat = True reproduces MUSEN's elastic bond only; "
+                             "bond material model = 'kelvin' is bondem's Kelvin-Voigt bond, "
+                             "not MUSEN's ModelSBKelvin (docs/scene.md)")
         if state.bond_previous_length is None:
             # A state from before this array existed: its bonds start at their L0.
             state.bond_previous_length = model.bond_initial_length.copy()
@@ -69,6 +73,9 @@ class Simulation:
         self.backend.check_laws(laws)
         self.bonds = self.backend.bond_law(model)
         self.bonds.musen_compat = self.musen_compat
+        if self.bonds.dissipative and "bond_dissipated" not in state.extra:
+            # J removed by each Kelvin bond's dashpots (a state array: checkpoints keep it)
+            state.extra["bond_dissipated"] = np.zeros(model.n_bonds)
         self.laws = [self.bonds, *laws]
         self.integrator = self.backend.integrator(model)
         self.force, self.moment = self.backend.load_arrays(model.n_particles)
@@ -163,6 +170,8 @@ class Simulation:
                  "bond_elastic": self.bond_energy(), "work_external": state.work_external,
                  "dissipated_damping": state.dissipated_damping,
                  "released_breakage": float(state.bond_break_energy.sum())}
+        if "bond_dissipated" in state.extra:
+            terms["dissipated_bonds"] = float(state.extra["bond_dissipated"].sum())
         for law in self.laws[1:]:
             if hasattr(law, "energy_terms"):
                 terms.update(law.energy_terms(self.model, state))

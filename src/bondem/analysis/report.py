@@ -63,7 +63,7 @@ SIMULATION_UNITS = {"end_time": "s", "time_step": "s", "save_every": "s", "gravi
                     "damping": "-", "safety_factor": "-", "checkpoint_minutes": "min"}
 MATERIAL_UNITS = {"density": "kg/m^3", "young_modulus": "Pa", "poisson_ratio": "-",
                   "restitution": "-", "friction": "-", "rolling_friction": "-",
-                  "normal_strength": "Pa", "tangential_strength": "Pa"}
+                  "normal_strength": "Pa", "tangential_strength": "Pa", "viscosity": "s"}
 
 
 def scene_html(scene_text, attrs):

@@ -24,7 +24,8 @@ PER_FRAME = ("time", "particles/position", "particles/velocity",
 ENERGY_STORED = ("kinetic_translational", "kinetic_rotational", "bond_elastic",
                  "contact_elastic")
 ENERGY_WORK = ("work_external", "work_walls")
-ENERGY_LOSSES = ("dissipated_damping", "dissipated_contacts", "released_breakage")
+ENERGY_LOSSES = ("dissipated_damping", "dissipated_contacts", "dissipated_bonds",
+                 "released_breakage")
 
 
 def open_h5(path):

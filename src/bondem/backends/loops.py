@@ -24,6 +24,7 @@ from collections import namedtuple
 from ..physics import compile_physics
 from ..physics._registry import compile_functions
 from ..physics.bond_elastic import INTACT
+from ..physics.bond_kelvin import MODEL_KELVIN
 from ..physics.triangle import FACE
 from ..status import STATUS_NOT_FINITE, STATUS_OK, STATUS_OUT_OF_DOMAIN
 from ..walls import PLANE
@@ -38,9 +39,12 @@ Bodies = namedtuple("Bodies", "mass inertia fixed external_force external_moment
 Box = namedtuple("Box", "low high length periodic")
 Bonds = namedtuple("Bonds", "pairs diameter initial_length material")
 BondMaterials = namedtuple("BondMaterials", "young poisson normal_strength "
-                           "tangential_strength criterion compressive")
+                           "tangential_strength criterion compressive model viscosity")
+# dissipated: J removed by each bond's dashpots so far (Kelvin bonds; one unused row when
+# no bond material has dashpots).
 BondState = namedtuple("BondState", "active axis previous_length tangential_force "
-                       "normal_moment tangential_moment break_time break_mode break_energy")
+                       "normal_moment tangential_moment break_time break_mode break_energy "
+                       "dissipated")
 BondLoads = namedtuple("BondLoads", "force_i moment_i moment_j")
 BondIndex = namedtuple("BondIndex", "offsets ends")
 Grains = namedtuple("Grains", "radius mass inertia material")
@@ -142,7 +146,8 @@ def zero_bond_loads(b, loads):
 @body
 def advance_bond(b, bonds, materials, state, particles, box, time, dt, musen, loads):
     """Advance bond b by one increment dt (s) at ``time`` (s): its state, its break test,
-    its loads on i (force, moment) and j (moment) in its own row of ``loads``."""
+    its loads on i (force, moment) and j (moment) in its own row of ``loads``, and for a
+    Kelvin bond the J its dashpots remove over dt (state.dissipated[b])."""
     if not state.active[b]:
         zero_bond_loads(b, loads)
         return
@@ -152,14 +157,16 @@ def advance_bond(b, bonds, materials, state, particles, box, time, dt, musen, lo
     l0 = bonds.initial_length[b]
     diameter = bonds.diameter[b]
     r = separation(particles.position, i, j, box)
+    vi = row3(particles.velocity, i)
+    vj = row3(particles.velocity, j)
+    wi = row3(particles.angular_velocity, i)
+    wj = row3(particles.angular_velocity, j)
     length, n, f_n, f_t, m_n, m_t, mode, kn, kt, ktw, kb = bond_update(
-        musen, r, row3(particles.velocity, i), row3(particles.velocity, j),
-        row3(particles.angular_velocity, i), row3(particles.angular_velocity, j),
-        row3(state.axis, b), state.previous_length[b], row3(state.tangential_force, b),
-        row3(state.normal_moment, b), row3(state.tangential_moment, b), l0,
-        materials.young[m], materials.poisson[m], diameter, materials.normal_strength[m],
-        materials.tangential_strength[m], materials.criterion[m], materials.compressive[m],
-        dt)
+        musen, r, vi, vj, wi, wj, row3(state.axis, b), state.previous_length[b],
+        row3(state.tangential_force, b), row3(state.normal_moment, b),
+        row3(state.tangential_moment, b), l0, materials.young[m], materials.poisson[m],
+        diameter, materials.normal_strength[m], materials.tangential_strength[m],
+        materials.criterion[m], materials.compressive[m], dt)
     if mode != INTACT:
         state.active[b] = False
         state.break_time[b] = time
@@ -168,7 +175,14 @@ def advance_bond(b, bonds, materials, state, particles, box, time, dt, musen, lo
                                                     kb)
         zero_bond_loads(b, loads)
         return
-    force_i, moment_i, moment_j = bond_loads_on_particles(r, f_n, f_t, m_n, m_t)
+    if materials.model[m] == MODEL_KELVIN:
+        f_dn, f_dt, power = kelvin_dashpots(r, length, vi, vj, wi, wj, kn, kt,
+                                            materials.viscosity[m])
+        state.dissipated[b] += power * dt
+        force_i, moment_i, moment_j = bond_loads_on_particles(r, add(f_n, f_dn),
+                                                              add(f_t, f_dt), m_n, m_t)
+    else:
+        force_i, moment_i, moment_j = bond_loads_on_particles(r, f_n, f_t, m_n, m_t)
     state.previous_length[b] = length
     store3(state.axis, b, n)
     store3(state.tangential_force, b, f_t)

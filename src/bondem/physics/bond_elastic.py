@@ -23,7 +23,7 @@ compressive breakage is on, in which case always, with s = +1.
 """
 import math
 
-from ._registry import physics
+from ._registry import REQUIRED, physics
 from .rotation import twist_sincos
 from .vector import add, cross, dot, norm, scale, sub
 
@@ -32,6 +32,21 @@ BREAK_MODE_NAMES = ("intact", "tension", "compression", "shear")
 CRITERION_NONE, CRITERION_COMBINED, CRITERION_SEPARATE = 0, 1, 2
 CRITERION_CODES = {"none": CRITERION_NONE, "combined": CRITERION_COMBINED,
                    "separate": CRITERION_SEPARATE}
+
+# The bond material's parameters, one schema for the scene file and the Python API
+# (model.BondMaterial): type, default, then for numbers (low, high, include low, include
+# high), for strings the allowed values.
+_INF = float("inf")
+PARAMETERS = {
+    "young_modulus": ("number", REQUIRED, 0.0, _INF, False, False),
+    "poisson_ratio": ("number", 0.3, -1.0, 0.5, False, False),
+    "normal_strength": ("number", _INF, 0.0, _INF, False, True),
+    "tangential_strength": ("number", _INF, 0.0, _INF, False, True),
+    "breakage": ("str", "combined", tuple(CRITERION_CODES), None, None, None),
+    "compressive_breakage": ("bool", False, None, None, None, None),
+}
+UNITS = {"young_modulus": "Pa", "poisson_ratio": "-", "normal_strength": "Pa",
+         "tangential_strength": "Pa"}
 
 
 @physics
