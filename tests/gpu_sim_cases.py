@@ -73,8 +73,9 @@ def kelvin_cluster():
 
 def case_kelvin_bonds_match_cpu():
     """Kelvin and elastic bonds side by side, breaking: GPU equals CPU, the dashpots' loss
-    included."""
+    included; then the same with MUSEN's Kelvin numerics (musen_compat)."""
     case_bonds_match_cpu(system=kelvin_cluster)
+    case_bonds_match_cpu(system=kelvin_cluster, musen_compat=True)
 
 
 def case_periodic_match_cpu():

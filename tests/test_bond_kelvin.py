@@ -11,7 +11,9 @@
   force acts at the bond centre, so it turns both spheres by (r/2) x F_t,d (MUSEN's
   Kelvin bond leaves that moment out; this test fails for it).
 - viscosity 0 gives the elastic bond's bits; the scene and API refuse viscosity without
-  model = "kelvin", and MUSEN-compatible runs refuse Kelvin bonds.
+  model = "kelvin", and MUSEN-compatible runs refuse Kelvin bonds with "separate" breakage
+  (MUSEN's Kelvin bond has the combined criterion only). MUSEN's own Kelvin numerics are
+  checked against a run of the real MUSEN in test_validate.py (kelvin_cluster).
 """
 import numpy as np
 import pytest
@@ -124,8 +126,10 @@ def test_viscosity_needs_the_kelvin_model_and_musen_mode_refuses_it(glass, tmp_p
         bondem.BondMaterial(young_modulus=1e8, model="plastic")
     with pytest.raises(ValueError, match="viscosity = -1"):
         kelvin(-1.0)
-    model, state = pair(glass, kelvin(1e-6), [[0, 0, 0], [0, 0, 0]])
-    with pytest.raises(ValueError, match="musen_compat.*kelvin"):
+    material = bondem.BondMaterial(young_modulus=1e8, model="kelvin", viscosity=1e-6,
+                                   breakage="separate")
+    model, state = pair(glass, material, [[0, 0, 0], [0, 0, 0]])
+    with pytest.raises(ValueError, match="musen_compat.*combined criterion only"):
         bondem.Simulation(model, state, musen_compat=True)
 
 
@@ -146,11 +150,27 @@ def test_scene_files_select_the_model_per_bond_material(tmp_path):
     with pytest.raises(InputError, match="needs model = 'kelvin'") as error:
         load_scene(path)
     assert error.value.key == "bond_materials.binder.viscosity"
-    path.write_text(kelvin_text.replace("[simulation]", "[simulation]\nmusen_compat = true"))
-    with pytest.raises(InputError, match="MUSEN's elastic bond only") as error:
+    path.write_text(kelvin_text.replace("[simulation]", "[simulation]\nmusen_compat = true")
+                    .replace('model = "kelvin"', 'model = "kelvin"\nbreakage = "separate"'))
+    with pytest.raises(InputError, match="combined criterion only") as error:
         load_scene(path)
-    assert error.value.key == "bond_materials.binder.model"
+    assert error.value.key == "bond_materials.binder.breakage"
     path.write_text(text.replace("[bond_materials.binder]",
                                  '[bond_materials.binder]\nmodel = "plastic"'))
     with pytest.raises(InputError, match="elastic.*kelvin"):
         load_scene(path)
+
+
+def test_a_stiff_dashpot_limits_the_time_step(glass):
+    """Past a damping ratio of 1/2 the dashpot's own time m_red / (eta k_n) is the
+    smallest scale; a given step above it is refused."""
+    kn, m, omega_0 = axial_constants(glass, kelvin(1.0))
+    zeta = 5.0
+    model, state = pair(glass, kelvin(2 * zeta / omega_0), [[0, 0, 0], [0, 0, 0]])
+    scales = bondem.time_scales(model)
+    assert scales["bond_dashpot"] == pytest.approx((m / 2) / (2 * zeta / omega_0 * kn))
+    assert min(scales, key=scales.get) == "bond_dashpot"
+    with pytest.raises(ValueError, match="bond_dashpot"):
+        bondem.Simulation(model, state, time_step=0.5 * scales["bond_axial"])
+    # MUSEN's Kelvin viscosity is in s/m: no such scale in MUSEN-compatible runs
+    assert "bond_dashpot" not in bondem.time_scales(model, musen_compat=True)

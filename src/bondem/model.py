@@ -60,7 +60,9 @@ class BondMaterial:
     young_modulus: Pa; poisson_ratio: -; normal_strength (sigma_max) and
     tangential_strength (tau_max): Pa; breakage: "combined" | "separate" | "none";
     compressive_breakage: evaluate the normal criterion in compression too;
-    viscosity: s, dashpot over spring of the "kelvin" model (0 for "elastic").
+    viscosity: s, dashpot over spring of the "kelvin" model (0 for "elastic"; with
+    musen_compat MUSEN's viscosity, s/m); max_damping_ratio: MUSEN's MAX_DAMP_RATIO of the
+    "kelvin" model with musen_compat (0 for no cap), unused otherwise.
     """
     young_modulus: float
     poisson_ratio: float = 0.3
@@ -71,6 +73,7 @@ class BondMaterial:
     name: str = "bond"
     model: str = "elastic"
     viscosity: float = 0.0
+    max_damping_ratio: float = 0.5
 
     def __post_init__(self):
         where = f"bond material {self.name!r}"
@@ -82,7 +85,7 @@ class BondMaterial:
             elif kind == "str" and value not in low:
                 raise ValueError(f"{where}: {key} = {value!r}; allowed: "
                                  + ", ".join(repr(k) for k in low))
-        if self.model != "kelvin" and self.viscosity != 0.0:
+        if self.model == "elastic" and self.viscosity != 0.0:
             raise ValueError(f"{where}: viscosity = {self.viscosity!r} s needs model = "
                              f"'kelvin' (model = {self.model!r} has no dashpots)")
 
@@ -178,6 +181,7 @@ class Model:
             "compressive_breakage": np.array([x.compressive_breakage for x in m], dtype=np.bool_),
             "model": np.array([list(BOND_MODELS).index(x.model) for x in m], dtype=np.int8),
             "viscosity": np.array([x.viscosity for x in m], dtype=np.float64),
+            "max_damping_ratio": np.array([x.max_damping_ratio for x in m], dtype=np.float64),
         }
 
 

@@ -303,14 +303,15 @@ def _build(data, text, path):
     material_objects = [Material(name=name, **values) for name, values in materials.items()]
     bond_material_objects = []
     for name, values in bond_materials.items():
-        if values["model"] != "kelvin" and values["viscosity"] != 0.0:
+        if values["model"] == "elastic" and values["viscosity"] != 0.0:
             raise InputError(f"viscosity = {values['viscosity']!r} s needs model = 'kelvin' "
                              f"(model = {values['model']!r} has no dashpots)", file=path,
                              key=f"bond_materials.{name}.viscosity")
-        if values["model"] != "elastic" and sim["musen_compat"]:
-            raise InputError("musen_compat = true reproduces MUSEN's elastic bond only; "
-                             f"model = {values['model']!r} is bondem's own", file=path,
-                             key=f"bond_materials.{name}.model")
+        if values["model"] == "kelvin" and values["breakage"] == "separate" \
+                and sim["musen_compat"]:
+            raise InputError("musen_compat = true: MUSEN's Kelvin bond breaks by the "
+                             "combined criterion only", file=path,
+                             key=f"bond_materials.{name}.breakage")
         bond_material_objects.append(BondMaterial(name=name, **values))
     material_names = list(materials)
     bond_material_names = list(bond_materials)
@@ -409,7 +410,8 @@ def _check_time_step(scene, path, save_every_given=True):
     if step == "auto":
         with np.errstate(all="ignore"):   # absurd sizes overflow: reported just below
             step, cause = stable_time_step(scene.model,
-                                           scene.simulation_options["safety_factor"])
+                                           scene.simulation_options["safety_factor"],
+                                           scene.simulation_options["musen_compat"])
         if not (step > 0.0 and math.isfinite(step)):
             key = "bonds" if cause.startswith("bond") else "materials"
             raise InputError(f"the stable time step is {step!r} s (limited by {cause}): a bond "
@@ -422,7 +424,8 @@ def _check_time_step(scene, path, save_every_given=True):
                              f"{scene.end_time:.4g} s): a density, modulus or particle size "
                              "is out of range, or end_time too short", file=path, key=key)
     else:
-        critical = min(time_scales(scene.model).values())
+        critical = min(time_scales(scene.model,
+                                   scene.simulation_options["musen_compat"]).values())
         if step > critical and not scene.simulation_options["force_time_step"]:
             raise InputError(f"value {step!r} s exceeds the stable limit {critical:.4g} s; allowed "
                              f"(0, {critical:.4g}] or set force_time_step = true", file=path,

@@ -32,8 +32,8 @@ class Simulation:
                  backend="cpu"):
         self.model = model
         self.state = state
-        stable, cause = stable_time_step(model, safety_factor)
-        scales = time_scales(model)
+        stable, cause = stable_time_step(model, safety_factor, musen_compat)
+        scales = time_scales(model, musen_compat)
         if contact is not None:
             from .contacts import contact_time_scales
             scales.update(contact_time_scales(model, contact))
@@ -53,10 +53,11 @@ class Simulation:
         self.time_step = time_step
         self.time_step_cause = cause
         self.musen_compat = bool(musen_compat)
-        if self.musen_compat and any(m.model != "elastic" for m in model.bond_materials):
-            raise ValueError("musen_compat = True reproduces MUSEN's elastic bond only; "
-                             "bond material model = 'kelvin' is bondem's Kelvin-Voigt bond, "
-                             "not MUSEN's ModelSBKelvin (docs/scene.md)")
+        if self.musen_compat and any(m.model == "kelvin" and m.breakage == "separate"
+                                     for m in model.bond_materials):
+            raise ValueError("musen_compat = True: MUSEN's Kelvin bond breaks by the "
+                             "combined criterion only; breakage = 'separate' is bondem's "
+                             "(docs/bond_kelvin.md)")
         if state.bond_previous_length is None:
             # A state from before this array existed: its bonds start at their L0.
             state.bond_previous_length = model.bond_initial_length.copy()

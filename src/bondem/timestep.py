@@ -2,12 +2,16 @@
 import numpy as np
 
 
-def time_scales(model):
-    """Smallest time scale (s) of each kind: {"rayleigh", "bond_axial", "bond_bending"}.
+def time_scales(model, musen_compat=False):
+    """Smallest time scale (s) of each kind: {"rayleigh", "bond_axial", "bond_bending"},
+    and "bond_dashpot" with Kelvin bonds.
 
     Rayleigh: pi r sqrt(rho / G) / (0.1631 nu + 0.8766) per particle. Bonds:
     sqrt(m_red L0 / (E A_b)) and sqrt(I_red L0 / (E I)), with the pair's reduced mass
-    and reduced moment of inertia.
+    and reduced moment of inertia. Dashpots: m_red / (eta E A_b / L0), the time in which
+    the dashpot alone stops the pair (an explicit step must stay well below it; it is the
+    smallest scale once the damping ratio exceeds 1/2). Not with musen_compat: MUSEN's
+    Kelvin viscosity is no time (s/m), and MUSEN sets no limit.
     """
     table = model.material_table()
     density = table["density"][model.material]
@@ -29,11 +33,16 @@ def time_scales(model):
         scales["bond_axial"] = float(np.sqrt(reduced_mass * length / (bond_young * area)).min())
         scales["bond_bending"] = float(
             np.sqrt(reduced_inertia * length / (bond_young * second_moment)).min())
+        viscosity = model.bond_material_table()["viscosity"][model.bond_material]
+        viscous = viscosity > 0.0
+        if np.any(viscous) and not musen_compat:
+            dashpot = reduced_mass * length / (viscosity * bond_young * area)
+            scales["bond_dashpot"] = float(dashpot[viscous].min())
     return scales
 
 
-def stable_time_step(model, safety_factor=0.2):
+def stable_time_step(model, safety_factor=0.2, musen_compat=False):
     """(time step in s, limiting cause): safety_factor times the smallest time scale."""
-    scales = time_scales(model)
+    scales = time_scales(model, musen_compat)
     cause = min(scales, key=scales.get)
     return safety_factor * scales[cause], cause

@@ -323,7 +323,7 @@ def bond_tuples(model, put=lambda a: a):
                         put(model.bond_initial_length), put(model.bond_material))
     materials = loops.BondMaterials(*(put(table[k]) for k in (
         "young_modulus", "poisson_ratio", "normal_strength", "tangential_strength",
-        "criterion", "compressive_breakage", "model", "viscosity")))
+        "criterion", "compressive_breakage", "model", "viscosity", "max_damping_ratio")))
     offsets, ends = particle_bond_index(model.bond_pairs, model.n_particles)
     return bonds, materials, loops.BondIndex(put(offsets), put(ends))
 

@@ -39,7 +39,8 @@ Bodies = namedtuple("Bodies", "mass inertia fixed external_force external_moment
 Box = namedtuple("Box", "low high length periodic")
 Bonds = namedtuple("Bonds", "pairs diameter initial_length material")
 BondMaterials = namedtuple("BondMaterials", "young poisson normal_strength "
-                           "tangential_strength criterion compressive model viscosity")
+                           "tangential_strength criterion compressive model viscosity "
+                           "max_damping_ratio")
 # dissipated: J removed by each bond's dashpots so far (Kelvin bonds; one unused row when
 # no bond material has dashpots).
 BondState = namedtuple("BondState", "active axis previous_length tangential_force "
@@ -176,11 +177,11 @@ def advance_bond(b, bonds, materials, state, particles, box, time, dt, musen, lo
         zero_bond_loads(b, loads)
         return
     if materials.model[m] == MODEL_KELVIN:
-        f_dn, f_dt, power = kelvin_dashpots(r, length, vi, vj, wi, wj, kn, kt,
-                                            materials.viscosity[m])
+        force_i, moment_i, moment_j, power = kelvin_loads(
+            musen, r, length, l0, vi, vj, wi, wj, f_n, f_t, m_n, m_t, kn, kt,
+            materials.young[m], diameter, materials.viscosity[m],
+            materials.max_damping_ratio[m])
         state.dissipated[b] += power * dt
-        force_i, moment_i, moment_j = bond_loads_on_particles(r, add(f_n, f_dn),
-                                                              add(f_t, f_dt), m_n, m_t)
     else:
         force_i, moment_i, moment_j = bond_loads_on_particles(r, f_n, f_t, m_n, m_t)
     state.previous_length[b] = length

@@ -14,21 +14,29 @@ Two free spheres of mass m along the bond axis follow the damped oscillator
 The dashpots remove eta (k_n (n . v_rel)^2 + k_t |v_t|^2) >= 0 watts (minus the power of
 their forces on the particles), booked per bond in state.extra["bond_dissipated"].
 
-Not MUSEN's numerics: MUSEN scales the normal dashpot by |strain| and the tangential one by
-|tangential overlap| (a damping force that vanishes at zero deformation whatever the
-speed; its viscosity is in s/m), caps each at MAX_DAMP_RATIO times the spring force and
-leaves out the dashpot's moment (angular momentum then drifts). MUSEN-compatible runs
-refuse Kelvin bond materials rather than run another law under MUSEN's name.
+MUSEN-compatible runs (musen_compat) use MUSEN 1.70's ModelSBKelvin instead
+(``kelvin_loads_musen``, on top of MUSEN's elastic numerics): with its viscosity mu (s/m,
+MUSEN's model parameter MU),
+    F_n,d = mu E A |strain| (n . v_rel) n,   F_t,d = mu |F_t| v_t
+each capped at max_damping_ratio (0.5, fixed in MUSEN 1.70; later MUSEN versions call it
+MAX_DAMP_RATIO, default 1, 0 for no cap) times the spring force |F_n| or |F_t|; the dashpot forces are added to the force only, without their
+moment (r/2) x F_t,d (angular momentum then drifts), and its break test is the combined
+one. A damping force that vanishes at zero deformation whatever the speed has no closed
+form, hence bondem's own law above.
 """
+import math
+
 from ._registry import physics
-from .vector import add, cross, dot, scale, sub
+from .bond_elastic import bond_loads_on_particles
+from .vector import add, cross, dot, norm, scale, sub
 
 MODEL_ELASTIC, MODEL_KELVIN = 0, 1
 
 # The bond model's parameters beyond the elastic bond's, in the scene's schema
 # (scene.BOND_MATERIAL_KEYS): type, default, range (low, high, include low, include high).
-PARAMETERS = {"viscosity": ("number", 0.0, 0.0, float("inf"), True, False)}
-UNITS = {"viscosity": "s"}
+PARAMETERS = {"viscosity": ("number", 0.0, 0.0, float("inf"), True, False),
+              "max_damping_ratio": ("number", 0.5, 0.0, float("inf"), True, False)}
+UNITS = {"viscosity": "s (s/m with musen_compat)", "max_damping_ratio": "-"}
 
 
 @physics
@@ -45,3 +53,53 @@ def kelvin_dashpots(r, length, vi, vj, wi, wj, normal_stiffness, shear_stiffness
     c_t = viscosity * shear_stiffness
     power = c_n * v_n * v_n + c_t * dot(v_t, v_t)
     return scale(n, c_n * v_n), scale(v_t, c_t), power
+
+
+@physics
+def kelvin_loads_musen(r, length, initial_length, vi, vj, wi, wj, f_n, f_t, m_n, m_t,
+                       young_modulus, diameter, viscosity, max_damping_ratio):
+    """MUSEN's ModelSBKelvin on top of MUSEN's elastic step (module docstring): (force on
+    i in N, moment on i, moment on j in N m, power the dashpots take from the particles
+    in W). f_n, f_t, m_n, m_t: the spring loads on i of this step (``elastic_bond_musen``);
+    viscosity mu in s/m; max_damping_ratio: 0 for no cap."""
+    radius = 0.5 * diameter
+    area = math.pi * radius * radius
+    n = scale(r, 1.0 / length)
+    v_rel = sub(sub(vj, vi), scale(cross(add(wi, wj), r), 0.5))
+    v_n = scale(n, dot(n, v_rel))
+    v_t = sub(v_rel, v_n)
+    strain = (length - initial_length) / initial_length
+    # MUSEN multiplies the vector factor by factor, in this order.
+    f_dn = scale(scale(scale(scale(v_n, viscosity), area), young_modulus), abs(strain))
+    f_dt = scale(v_t, viscosity * norm(f_t))
+    if max_damping_ratio != 0.0:
+        limit = max_damping_ratio * norm(f_n)
+        size = norm(f_dn)
+        if size > limit:
+            f_dn = scale(f_dn, limit / size)
+        limit = max_damping_ratio * norm(f_t)
+        size = norm(f_dt)
+        if size > limit:
+            f_dt = scale(f_dt, limit / size)
+    _, moment_i, moment_j = bond_loads_on_particles(r, f_n, f_t, m_n, m_t)
+    force_i = add(add(add(f_n, f_t), f_dn), f_dt)
+    return force_i, moment_i, moment_j, dot(add(f_dn, f_dt), sub(vj, vi))
+
+
+@physics
+def kelvin_loads(musen, r, length, initial_length, vi, vj, wi, wj, f_n, f_t, m_n, m_t,
+                 normal_stiffness, shear_stiffness, young_modulus, diameter, viscosity,
+                 max_damping_ratio):
+    """(force on i in N, moment on i, moment on j in N m, power removed in W) of a Kelvin
+    bond whose springs carry f_n, f_t, m_n, m_t (on i) after this step: bondem's law, or
+    with musen True MUSEN's (``kelvin_loads_musen``; musen None or False: bondem's)."""
+    if musen is not None:
+        if musen:
+            return kelvin_loads_musen(r, length, initial_length, vi, vj, wi, wj, f_n, f_t,
+                                      m_n, m_t, young_modulus, diameter, viscosity,
+                                      max_damping_ratio)
+    f_dn, f_dt, power = kelvin_dashpots(r, length, vi, vj, wi, wj, normal_stiffness,
+                                        shear_stiffness, viscosity)
+    force_i, moment_i, moment_j = bond_loads_on_particles(r, add(f_n, f_dn), add(f_t, f_dt),
+                                                          m_n, m_t)
+    return force_i, moment_i, moment_j, power

@@ -90,6 +90,9 @@ def read_columns(path):
     return {k: np.asarray(v) for k, v in columns.items()}
 
 
+# Runs of the real MUSEN made for bondem's own models (Kelvin bonds), shipped with it.
+PACKAGED_RUNS = Path(__file__).resolve().parents[1] / "data" / "validation" / "musen-runs"
+
 QUANTITIES = ("particles/position", "particles/velocity", "particles/angular_velocity")
 SPEC_NOTE = ("SPEC mode differs from MUSEN by design: exact rotations and SPEC section 1's "
              "start-up, where MUSEN re-orthogonalises nothing and starts with a prediction "
@@ -107,6 +110,8 @@ def compare_run(run, compat, compat_only=False):
         return [skipped(f"refdata:{run.name}", run.title, "scene loader not available")]
     from bondem import Simulation
     scene = load_scene(run.path / run.spec["scene"])
+    if scene.simulation_options.get("musen_compat", False):
+        compat_only = False   # a MUSEN-compatible scene: its tolerances hold in every mode
     options = dict(scene.simulation_options)
     options["musen_compat"] = compat == "musen" or options.get("musen_compat", False)
     sim = Simulation(scene.model, scene.state.copy(), **options)
@@ -187,8 +192,10 @@ def run(p, compat, quick=False):
     and other codes) and ``musen_runs`` (runs of the real MUSEN, whose tolerances hold for
     --compat musen: info rows in SPEC mode). One row per folder and quantity."""
     rows: list[Row] = []
-    for key, compat_only in (("search", False), ("musen_runs", True)):
-        directory = reference_directory(p, key)
+    for key, compat_only in (("search", False), ("musen_runs", True), ("packaged", True)):
+        directory = PACKAGED_RUNS if key == "packaged" else reference_directory(p, key)
+        if key == "packaged" and os.environ.get("BONDEM_REFDATA"):
+            continue     # a test's own reference folder replaces all of them
         runs = discover(directory)
         if not runs:
             if key == "search":
