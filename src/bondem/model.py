@@ -8,16 +8,13 @@ assume valid input.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field, fields, make_dataclass
 
 import numpy as np
 
-from .physics import bond_elastic, bond_kelvin
+from .physics import bond_models
 from .physics.bond_elastic import CRITERION_CODES
-
-# The bond models, by the name a bond material gives (its code is the index here).
-BOND_MODELS = {"elastic": bond_elastic, "kelvin": bond_kelvin}
-assert list(BOND_MODELS).index("kelvin") == bond_kelvin.MODEL_KELVIN
+from .physics.bond_models import bond_material_schema
 
 INDEX = np.int64
 
@@ -50,54 +47,53 @@ class Material:
                      0.0, math.inf, include_low=True)
 
 
-@dataclass(frozen=True)
-class BondMaterial:
-    """Bond material: the bond model and its parameters (one schema with the scene file:
-    ``bond_material_schema``).
-
-    model: "elastic" (MUSEN's elastic solid bond, physics/bond_elastic.py) | "kelvin" (the
-    same with a dashpot beside each force spring, physics/bond_kelvin.py);
-    young_modulus: Pa; poisson_ratio: -; normal_strength (sigma_max) and
-    tangential_strength (tau_max): Pa; breakage: "combined" | "separate" | "none";
-    compressive_breakage: evaluate the normal criterion in compression too;
-    viscosity: s, dashpot over spring of the "kelvin" model (0 for "elastic"; with
-    musen_compat MUSEN's viscosity, s/m); max_damping_ratio: MUSEN's MAX_DAMP_RATIO of the
-    "kelvin" model with musen_compat (0 for no cap), unused otherwise.
-    """
-    young_modulus: float
-    poisson_ratio: float = 0.3
-    normal_strength: float = math.inf
-    tangential_strength: float = math.inf
-    breakage: str = "combined"
-    compressive_breakage: bool = False
-    name: str = "bond"
-    model: str = "elastic"
-    viscosity: float = 0.0
-    max_damping_ratio: float = 0.5
-
-    def __post_init__(self):
-        where = f"bond material {self.name!r}"
-        for key, (kind, _, low, high, include_low, include_high) in \
-                bond_material_schema().items():
-            value = getattr(self, key)
-            if kind == "number":
-                _check_range(where, key, value, low, high, include_low, include_high)
-            elif kind == "str" and value not in low:
-                raise ValueError(f"{where}: {key} = {value!r}; allowed: "
-                                 + ", ".join(repr(k) for k in low))
-        if self.model == "elastic" and self.viscosity != 0.0:
-            raise ValueError(f"{where}: viscosity = {self.viscosity!r} s needs model = "
-                             f"'kelvin' (model = {self.model!r} has no dashpots)")
+def _bond_material_post_init(self):
+    where = f"bond material {self.name!r}"
+    values = {key: getattr(self, key) for key in bond_material_schema()}
+    for key, (kind, _, low, high, include_low, include_high) in \
+            bond_material_schema().items():
+        value = values[key]
+        if kind == "number":
+            _check_range(where, key, value, low, high, include_low, include_high)
+        elif kind == "str" and value not in low:
+            raise ValueError(f"{where}: {key} = {value!r}; allowed: "
+                             + ", ".join(repr(k) for k in low))
+    for key, message in bond_models.check(values):
+        raise ValueError(f"{where}: {message}")
 
 
-def bond_material_schema():
-    """Every bond material key with its (type, default, range or choices, ...): ``model``,
-    then each bond model's parameters (physics/bond_*.py ``PARAMETERS``)."""
-    schema = dict(bond_elastic.PARAMETERS)
-    schema["model"] = ("str", "elastic", tuple(BOND_MODELS), None, None, None)
-    for module in BOND_MODELS.values():
-        schema.update(module.PARAMETERS)
-    return schema
+def _bond_material_class():
+    """BondMaterial, its fields the bond models' schema (physics/bond_models.py) in
+    order: the elastic bond's keys, ``name``, ``model``, then each other model's keys."""
+    schema = bond_material_schema()
+    elastic = list(bond_models.MODELS[0].PARAMETERS)
+    order = elastic + ["name"] + [k for k in schema if k not in elastic]
+    kinds = {"number": float, "str": str, "bool": bool}
+    fields_ = []
+    for key in order:
+        if key == "name":
+            fields_.append(("name", str, field(default="bond")))
+            continue
+        kind, default = schema[key][:2]
+        if default is bond_models.REQUIRED:
+            fields_.append((key, kinds[kind]))
+        else:
+            fields_.append((key, kinds[kind], field(default=default)))
+    units = bond_models.units()
+    doc = ("Bond material: its bond model and the model's parameters, one schema with the "
+           "scene file (physics/bond_models.py).\n\n    model: "
+           + " | ".join(repr(m.NAME) for m in bond_models.MODELS) + "; "
+           + "; ".join(f"{k}: {units[k]}" for k in order if k in units)
+           + "; breakage: " + " | ".join(repr(c) for c in CRITERION_CODES)
+           + "; compressive_breakage: evaluate the normal criterion in compression too. "
+           "Parameters of another model than ``model`` must keep their defaults.")
+    cls = make_dataclass("BondMaterial", fields_, frozen=True,
+                         namespace={"__post_init__": _bond_material_post_init, "__doc__": doc,
+                                    "__module__": __name__})
+    return cls
+
+
+BondMaterial = _bond_material_class()
 
 
 def _check_range(where, key, value, low, high, include_low=False, include_high=False):
@@ -170,19 +166,26 @@ class Model:
                           "friction", "rolling_friction")}
 
     def bond_material_table(self) -> dict:
-        """Per-bond-material property arrays for kernels."""
+        """Per-bond-material arrays for kernels, one per schema key (numbers float64,
+        booleans bool, choices int8 codes: ``model`` the bond model's CODE, ``breakage``
+        the criterion, also under "criterion")."""
         m = self.bond_materials
-        return {
-            "young_modulus": np.array([x.young_modulus for x in m], dtype=np.float64),
-            "poisson_ratio": np.array([x.poisson_ratio for x in m], dtype=np.float64),
-            "normal_strength": np.array([x.normal_strength for x in m], dtype=np.float64),
-            "tangential_strength": np.array([x.tangential_strength for x in m], dtype=np.float64),
-            "criterion": np.array([CRITERION_CODES[x.breakage] for x in m], dtype=np.int8),
-            "compressive_breakage": np.array([x.compressive_breakage for x in m], dtype=np.bool_),
-            "model": np.array([list(BOND_MODELS).index(x.model) for x in m], dtype=np.int8),
-            "viscosity": np.array([x.viscosity for x in m], dtype=np.float64),
-            "max_damping_ratio": np.array([x.max_damping_ratio for x in m], dtype=np.float64),
-        }
+        table = {}
+        for key, (kind, _, choices, *_rest) in bond_material_schema().items():
+            values = [getattr(x, key) for x in m]
+            if kind == "number":
+                table[key] = np.array(values, dtype=np.float64)
+            elif kind == "bool":
+                table[key] = np.array(values, dtype=np.bool_)
+            else:
+                table[key] = np.array([choices.index(v) for v in values], dtype=np.int8)
+        table["criterion"] = table["breakage"]
+        return table
+
+    def bond_models_used(self) -> list:
+        """The bond model modules (physics/bond_models.py) that some bond uses."""
+        codes = np.unique(self.bond_material_table()["model"][self.bond_material])
+        return [bond_models.MODELS[int(c)] for c in codes]
 
 
 @dataclass(repr=False)

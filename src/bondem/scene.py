@@ -19,6 +19,7 @@ from .errors import InputError, decode_text
 from .generate import bonds_from_gap, particles_from_generator
 from .io.csv_files import read_bonds, read_particles
 from .model import BondMaterial, Material, bond_material_schema, make_system
+from .physics import bond_models
 from .physics._registry import REQUIRED as _REQUIRED
 
 BACKENDS = ("cpu", "gpu")
@@ -303,15 +304,8 @@ def _build(data, text, path):
     material_objects = [Material(name=name, **values) for name, values in materials.items()]
     bond_material_objects = []
     for name, values in bond_materials.items():
-        if values["model"] == "elastic" and values["viscosity"] != 0.0:
-            raise InputError(f"viscosity = {values['viscosity']!r} s needs model = 'kelvin' "
-                             f"(model = {values['model']!r} has no dashpots)", file=path,
-                             key=f"bond_materials.{name}.viscosity")
-        if values["model"] == "kelvin" and values["breakage"] == "separate" \
-                and sim["musen_compat"]:
-            raise InputError("musen_compat = true: MUSEN's Kelvin bond breaks by the "
-                             "combined criterion only", file=path,
-                             key=f"bond_materials.{name}.breakage")
+        for key, message in bond_models.check(values, sim["musen_compat"]):
+            raise InputError(message, file=path, key=f"bond_materials.{name}.{key}")
         bond_material_objects.append(BondMaterial(name=name, **values))
     material_names = list(materials)
     bond_material_names = list(bond_materials)

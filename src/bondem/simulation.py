@@ -6,6 +6,8 @@ import math
 
 import numpy as np
 
+from .physics import bond_models
+
 from .backends import select_backend
 from .integrate import extra_start_up_steps
 from .status import SimulationBlowUp
@@ -53,11 +55,11 @@ class Simulation:
         self.time_step = time_step
         self.time_step_cause = cause
         self.musen_compat = bool(musen_compat)
-        if self.musen_compat and any(m.model == "kelvin" and m.breakage == "separate"
-                                     for m in model.bond_materials):
-            raise ValueError("musen_compat = True: MUSEN's Kelvin bond breaks by the "
-                             "combined criterion only; breakage = 'separate' is bondem's "
-                             "(docs/bond_kelvin.md)")
+        if self.musen_compat:
+            for material in model.bond_materials:
+                values = {k: getattr(material, k) for k in bond_models.bond_material_schema()}
+                for key, message in bond_models.check(values, musen_compat=True):
+                    raise ValueError(f"bond material {material.name!r}: {message}")
         if state.bond_previous_length is None:
             # A state from before this array existed: its bonds start at their L0.
             state.bond_previous_length = model.bond_initial_length.copy()
@@ -74,9 +76,9 @@ class Simulation:
         self.backend.check_laws(laws)
         self.bonds = self.backend.bond_law(model)
         self.bonds.musen_compat = self.musen_compat
-        if self.bonds.dissipative and "bond_dissipated" not in state.extra:
-            # J removed by each Kelvin bond's dashpots (a state array: checkpoints keep it)
-            state.extra["bond_dissipated"] = np.zeros(model.n_bonds)
+        if self.bonds.model_state and "bond_model_state" not in state.extra:
+            # the bond models' per-bond state (a state array: checkpoints keep it)
+            state.extra["bond_model_state"] = np.zeros(model.n_bonds)
         self.laws = [self.bonds, *laws]
         self.integrator = self.backend.integrator(model)
         self.force, self.moment = self.backend.load_arrays(model.n_particles)
@@ -171,8 +173,14 @@ class Simulation:
                  "bond_elastic": self.bond_energy(), "work_external": state.work_external,
                  "dissipated_damping": state.dissipated_damping,
                  "released_breakage": float(state.bond_break_energy.sum())}
-        if "bond_dissipated" in state.extra:
-            terms["dissipated_bonds"] = float(state.extra["bond_dissipated"].sum())
+        if "bond_model_state" in state.extra:
+            # each bond model's state is an energy term (STATE): its sum over its bonds
+            codes = self.model.bond_material_table()["model"][self.model.bond_material]
+            for module in self.model.bond_models_used():
+                if module.STATE:
+                    mine = codes == module.CODE
+                    terms[module.STATE[1]] = float(
+                        state.extra["bond_model_state"][mine].sum())
         for law in self.laws[1:]:
             if hasattr(law, "energy_terms"):
                 terms.update(law.energy_terms(self.model, state))

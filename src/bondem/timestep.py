@@ -4,14 +4,12 @@ import numpy as np
 
 def time_scales(model, musen_compat=False):
     """Smallest time scale (s) of each kind: {"rayleigh", "bond_axial", "bond_bending"},
-    and "bond_dashpot" with Kelvin bonds.
+    and those of the bond models in use (e.g. "bond_dashpot" of Kelvin bonds).
 
     Rayleigh: pi r sqrt(rho / G) / (0.1631 nu + 0.8766) per particle. Bonds:
     sqrt(m_red L0 / (E A_b)) and sqrt(I_red L0 / (E I)), with the pair's reduced mass
-    and reduced moment of inertia. Dashpots: m_red / (eta E A_b / L0), the time in which
-    the dashpot alone stops the pair (an explicit step must stay well below it; it is the
-    smallest scale once the damping ratio exceeds 1/2). Not with musen_compat: MUSEN's
-    Kelvin viscosity is no time (s/m), and MUSEN sets no limit.
+    and reduced moment of inertia. musen_compat: passed to the bond models (MUSEN's Kelvin
+    viscosity is no time, for one).
     """
     table = model.material_table()
     density = table["density"][model.material]
@@ -33,11 +31,11 @@ def time_scales(model, musen_compat=False):
         scales["bond_axial"] = float(np.sqrt(reduced_mass * length / (bond_young * area)).min())
         scales["bond_bending"] = float(
             np.sqrt(reduced_inertia * length / (bond_young * second_moment)).min())
-        viscosity = model.bond_material_table()["viscosity"][model.bond_material]
-        viscous = viscosity > 0.0
-        if np.any(viscous) and not musen_compat:
-            dashpot = reduced_mass * length / (viscosity * bond_young * area)
-            scales["bond_dashpot"] = float(dashpot[viscous].min())
+        # and each bond model's own limits (time_scales in physics/bond_*.py)
+        codes = model.bond_material_table()["model"][model.bond_material]
+        for module in model.bond_models_used():
+            bonds = np.flatnonzero(codes == module.CODE)
+            scales.update(module.time_scales(model, bonds, reduced_mass[bonds], musen_compat))
     return scales
 
 

@@ -13,6 +13,7 @@ import matplotlib.pyplot as plt
 from .figures import build_figures
 from .results import Results
 from .summary import analyze, key_numbers
+from ..physics import bond_models
 
 CAPTIONS = {
     "bodies": "The body at the chosen frames, projected on the x-z plane; each fragment "
@@ -63,7 +64,7 @@ SIMULATION_UNITS = {"end_time": "s", "time_step": "s", "save_every": "s", "gravi
                     "damping": "-", "safety_factor": "-", "checkpoint_minutes": "min"}
 MATERIAL_UNITS = {"density": "kg/m^3", "young_modulus": "Pa", "poisson_ratio": "-",
                   "restitution": "-", "friction": "-", "rolling_friction": "-",
-                  "normal_strength": "Pa", "tangential_strength": "Pa", "viscosity": "s"}
+                  **bond_models.units()}
 
 
 def scene_html(scene_text, attrs):

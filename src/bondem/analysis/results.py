@@ -15,6 +15,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..io.results import open_results
+from ..physics import bond_models
 
 # Datasets with a leading frame axis; the complete-frame count is the smallest length.
 PER_FRAME = ("time", "particles/position", "particles/velocity",
@@ -24,8 +25,8 @@ PER_FRAME = ("time", "particles/position", "particles/velocity",
 ENERGY_STORED = ("kinetic_translational", "kinetic_rotational", "bond_elastic",
                  "contact_elastic")
 ENERGY_WORK = ("work_external", "work_walls")
-ENERGY_LOSSES = ("dissipated_damping", "dissipated_contacts", "dissipated_bonds",
-                 "released_breakage")
+ENERGY_LOSSES = ("dissipated_damping", "dissipated_contacts", "released_breakage",
+                 *(m.STATE[1] for m in bond_models.MODELS if m.STATE))
 
 
 def open_h5(path):

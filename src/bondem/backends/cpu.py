@@ -179,10 +179,10 @@ def elastic_bonds(bonds, materials, state, particles, box, time, dt, musen, vect
     tangential_force, normal_moment = state.tangential_force, state.normal_moment
     tangential_moment = state.tangential_moment
     force_i, moment_i, moment_j = loads
-    young, poisson = materials.young, materials.poisson
+    young, poisson = materials.young_modulus, materials.poisson_ratio
     normal_strength = materials.normal_strength
     tangential_strength = materials.tangential_strength
-    criterion = materials.criterion
+    criterion = materials.breakage
     length, periodic = box.length, box.periodic
     B = BOND_BLOCK
     for block in prange((n_bonds + B - 1) // B):
@@ -321,26 +321,23 @@ def bond_tuples(model, put=lambda a: a):
     table = model.bond_material_table()
     bonds = loops.Bonds(put(model.bond_pairs), put(model.bond_diameter),
                         put(model.bond_initial_length), put(model.bond_material))
-    materials = loops.BondMaterials(*(put(table[k]) for k in (
-        "young_modulus", "poisson_ratio", "normal_strength", "tangential_strength",
-        "criterion", "compressive_breakage", "model", "viscosity", "max_damping_ratio")))
+    materials = loops.BondMaterials(*(put(table[k]) for k in loops.BondMaterials._fields))
     offsets, ends = particle_bond_index(model.bond_pairs, model.n_particles)
     return bonds, materials, loops.BondIndex(put(offsets), put(ends))
 
 
-def bond_state(state, dissipated):
-    """The bond arrays of ``state`` (a State or a DeviceState) and ``dissipated`` (J per
-    bond, or one unused row) as a ``loops.BondState``."""
+def bond_state(state, model_state):
+    """The bond arrays of ``state`` (a State or a DeviceState) and ``model_state`` (the bond
+    models' per-bond state, or one unused row) as a ``loops.BondState``."""
     return loops.BondState(state.bond_active, state.bond_axis, state.bond_previous_length,
                            state.bond_tangential_force, state.bond_normal_moment,
                            state.bond_tangential_moment, state.bond_break_time,
-                           state.bond_break_mode, state.bond_break_energy, dissipated)
+                           state.bond_break_mode, state.bond_break_energy, model_state)
 
 
-def has_dashpots(model):
-    """True when a bond of ``model`` has a bond material with dashpots (Kelvin)."""
-    viscous = np.array([m.model == "kelvin" for m in model.bond_materials], dtype=bool)
-    return bool(model.n_bonds and np.any(viscous[model.bond_material]))
+def has_model_state(model):
+    """True when a bond of ``model`` uses a bond model with a per-bond state (STATE)."""
+    return bool(model.n_bonds) and any(m.STATE for m in model.bond_models_used())
 
 
 def particles(state):
@@ -381,9 +378,11 @@ class ElasticBonds:
     def __init__(self, model):
         self._bonds, self._materials, self._index = bond_tuples(model)
         self._box = box(model)
-        # True: Kelvin bonds, whose dashpots' loss goes to state.extra["bond_dissipated"].
-        self.dissipative = has_dashpots(model)
-        self._no_dissipation = np.zeros(1)
+        # True: a bond model with a per-bond state (state.extra["bond_model_state"]) is used.
+        self.model_state = has_model_state(model)
+        # The vectorised block has the elastic bond only.
+        self._vectorisable = all(m.VECTORISED for m in model.bond_models_used())
+        self._no_model_state = np.zeros(1)
         n_bonds = model.n_bonds
         self.loads = loops.BondLoads(np.zeros((n_bonds, 3)), np.zeros((n_bonds, 3)),
                                      np.zeros((n_bonds, 3)))
@@ -408,17 +407,17 @@ class ElasticBonds:
                       self._scratch, self._slow, self.loads)
 
     def _bond_state(self, model, state):
-        """The bond arrays the kernels take; Kelvin bonds add their dashpots' loss to
-        state.extra["bond_dissipated"] (J, made by Simulation)."""
-        if not self.dissipative:
-            return bond_state(state, self._no_dissipation)
-        return bond_state(state, state.extra["bond_dissipated"])
+        """The bond arrays the kernels take, with the bond models' per-bond state
+        state.extra["bond_model_state"] (made by Simulation) if a model has one."""
+        if not self.model_state:
+            return bond_state(state, self._no_model_state)
+        return bond_state(state, state.extra["bond_model_state"])
 
     def _vectorised(self, model):
         """True for the vectorised path, None for the scalar one (None, not False: Numba
-        then prunes the vectorised code from the kernel it compiles). Bonds with dashpots
-        take the scalar path (the vectorised one has no dashpot)."""
-        use = (self.vectorised and not self.musen_compat and not self.dissipative
+        then prunes the vectorised code from the kernel it compiles). Bonds of other models
+        than the elastic bond (VECTORISED False) take the scalar path."""
+        use = (self.vectorised and not self.musen_compat and self._vectorisable
                and model.n_bonds >= self.vectorise_from)
         return True if use else None
 

@@ -29,7 +29,7 @@ from ..errors import BackendUnavailable, InputError  # noqa: F401
 from ..integrate import step_plan
 from ..status import STATUS_OK, blow_up
 from . import loops
-from .cpu import bodies, bond_state, bond_tuples, box, has_dashpots, particles
+from .cpu import bodies, bond_state, bond_tuples, box, has_model_state, particles
 
 K = loops.compile_loops(cuda.jit(device=True), cuda.jit(device=True))
 add = K.add
@@ -308,22 +308,22 @@ class ElasticBondsGpu:
         self._bonds, self._materials, self.index = bond_tuples(model, put)
         n_bonds = max(model.n_bonds, 1)
         self.loads = loops.BondLoads(*(cuda.device_array((n_bonds, 3)) for _ in range(3)))
-        # Kelvin bonds: the J each bond's dashpots removed (state.extra["bond_dissipated"]).
-        self.dissipative = has_dashpots(model)
-        self._dissipated = cuda.to_device(np.zeros(n_bonds if self.dissipative else 1))
-        self._pending = self.dissipative   # take a resumed state's losses at the first step
-        if self.dissipative:
+        # The bond models' per-bond state (state.extra["bond_model_state"]), if one has it.
+        self.model_state = has_model_state(model)
+        self._model_state = cuda.to_device(np.zeros(n_bonds if self.model_state else 1))
+        self._pending = self.model_state   # take a resumed state's values at the first step
+        if self.model_state:
             backend.register_transfers(self)
 
     def to_device(self, state):
-        """Take the dashpot losses of a host ``state`` (J per bond)."""
+        """Take the bond models' per-bond state of a host ``state``."""
         self._pending = False
-        if "bond_dissipated" in state.extra:
-            self._dissipated.copy_to_device(state.extra["bond_dissipated"])
+        if "bond_model_state" in state.extra:
+            self._model_state.copy_to_device(state.extra["bond_model_state"])
 
     def to_host(self, state):
-        """Copy the dashpot losses (J per bond) into ``state.extra["bond_dissipated"]``."""
-        state.extra["bond_dissipated"] = self._dissipated.copy_to_host()
+        """Copy the bond models' per-bond state into state.extra["bond_model_state"]."""
+        state.extra["bond_model_state"] = self._model_state.copy_to_host()
 
     def accumulate(self, model, state, force, moment, increment_dt):
         """Advance the bonds by ``increment_dt`` (s); set the device force (N), moment (N m)."""
@@ -338,7 +338,7 @@ class ElasticBondsGpu:
             self.to_device(state)
         if model.n_bonds:
             elastic_bonds_kernel[_blocks(model.n_bonds), THREADS](
-                self._bonds, self._materials, bond_state(g.device, self._dissipated),
+                self._bonds, self._materials, bond_state(g.device, self._model_state),
                 particles(g.device),
                 g.box, state.time, increment_dt, bool(self.musen_compat), self.loads)
 
@@ -349,7 +349,7 @@ class ElasticBondsGpu:
         g = self.backend_object
         out = cuda.device_array(model.n_bonds)
         bond_energies_kernel[_blocks(model.n_bonds), THREADS](
-            self._bonds, self._materials, bond_state(g.device, self._dissipated),
+            self._bonds, self._materials, bond_state(g.device, self._model_state),
             g.device.position, g.box, out)
         return out.copy_to_host()
 

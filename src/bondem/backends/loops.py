@@ -24,7 +24,8 @@ from collections import namedtuple
 from ..physics import compile_physics
 from ..physics._registry import compile_functions
 from ..physics.bond_elastic import INTACT
-from ..physics.bond_kelvin import MODEL_KELVIN
+from ..physics import bond_models
+from ..physics.bond_models import bond_material_schema
 from ..physics.triangle import FACE
 from ..status import STATUS_NOT_FINITE, STATUS_OK, STATUS_OUT_OF_DOMAIN
 from ..walls import PLANE
@@ -38,14 +39,14 @@ Particles = namedtuple("Particles", "position velocity angular_velocity")
 Bodies = namedtuple("Bodies", "mass inertia fixed external_force external_moment")
 Box = namedtuple("Box", "low high length periodic")
 Bonds = namedtuple("Bonds", "pairs diameter initial_length material")
-BondMaterials = namedtuple("BondMaterials", "young poisson normal_strength "
-                           "tangential_strength criterion compressive model viscosity "
-                           "max_damping_ratio")
-# dissipated: J removed by each bond's dashpots so far (Kelvin bonds; one unused row when
-# no bond material has dashpots).
+# One array per bond material key (Model.bond_material_table: breakage as criterion codes,
+# model as the bond model's code), whatever the bond models declare.
+BondMaterials = namedtuple("BondMaterials", list(bond_material_schema()))
+# model_state: the per-bond state of bond models that have one (STATE in
+# physics/bond_models.py, e.g. a Kelvin bond's J lost), one unused row when none is used.
 BondState = namedtuple("BondState", "active axis previous_length tangential_force "
                        "normal_moment tangential_moment break_time break_mode break_energy "
-                       "dissipated")
+                       "model_state")
 BondLoads = namedtuple("BondLoads", "force_i moment_i moment_j")
 BondIndex = namedtuple("BondIndex", "offsets ends")
 Grains = namedtuple("Grains", "radius mass inertia material")
@@ -135,6 +136,30 @@ def bond_update(musen, r, vi, vj, wi, wj, axis, previous_length, f_t0, m_n0, m_t
     return length, n, f_n, f_t, m_n, m_t, mode, kn, kt, ktw, kb
 
 
+def _model_loads():
+    """``model_loads(code, musen, r, length, l0, diameter, vi, vj, wi, wj, f_n, f_t, m_n,
+    m_t, kn, kt, materials, m)``: (force on i, moment on i, moment on j, rate of the bond
+    model's state) by the LOADS of the bond model with that code (the springs' own loads
+    for the elastic bond), written from physics/bond_models.py's list of models."""
+    arguments = ("musen, r, length, l0, diameter, vi, vj, wi, wj, f_n, f_t, m_n, m_t, kn, "
+                 "kt, materials, m")
+    lines = [f"def model_loads(code, {arguments}):"]
+    for module in bond_models.MODELS:
+        if module.LOADS is not None:
+            lines += [f"    if code == {module.CODE}:",
+                      f"        return {module.LOADS}({arguments})"]
+    lines += ["    force_i, moment_i, moment_j = bond_loads_on_particles(r, f_n, f_t, m_n, m_t)",
+              "    return force_i, moment_i, moment_j, 0.0"]
+    namespace = {}
+    exec(compile("\n".join(lines), f"<bond models: {__name__}>", "exec"), namespace)
+    function = namespace["model_loads"]
+    function.__doc__ = _model_loads.__doc__
+    return function
+
+
+model_loads = body(_model_loads())
+
+
 @body
 def zero_bond_loads(b, loads):
     """Bond b puts no load on its particles."""
@@ -147,8 +172,8 @@ def zero_bond_loads(b, loads):
 @body
 def advance_bond(b, bonds, materials, state, particles, box, time, dt, musen, loads):
     """Advance bond b by one increment dt (s) at ``time`` (s): its state, its break test,
-    its loads on i (force, moment) and j (moment) in its own row of ``loads``, and for a
-    Kelvin bond the J its dashpots remove over dt (state.dissipated[b])."""
+    its loads on i (force, moment) and j (moment) in its own row of ``loads``, and its
+    model's per-bond state (state.model_state[b], e.g. a Kelvin bond's J lost)."""
     if not state.active[b]:
         zero_bond_loads(b, loads)
         return
@@ -165,9 +190,10 @@ def advance_bond(b, bonds, materials, state, particles, box, time, dt, musen, lo
     length, n, f_n, f_t, m_n, m_t, mode, kn, kt, ktw, kb = bond_update(
         musen, r, vi, vj, wi, wj, row3(state.axis, b), state.previous_length[b],
         row3(state.tangential_force, b), row3(state.normal_moment, b),
-        row3(state.tangential_moment, b), l0, materials.young[m], materials.poisson[m],
-        diameter, materials.normal_strength[m], materials.tangential_strength[m],
-        materials.criterion[m], materials.compressive[m], dt)
+        row3(state.tangential_moment, b), l0, materials.young_modulus[m],
+        materials.poisson_ratio[m], diameter, materials.normal_strength[m],
+        materials.tangential_strength[m], materials.breakage[m],
+        materials.compressive_breakage[m], dt)
     if mode != INTACT:
         state.active[b] = False
         state.break_time[b] = time
@@ -176,14 +202,11 @@ def advance_bond(b, bonds, materials, state, particles, box, time, dt, musen, lo
                                                     kb)
         zero_bond_loads(b, loads)
         return
-    if materials.model[m] == MODEL_KELVIN:
-        force_i, moment_i, moment_j, power = kelvin_loads(
-            musen, r, length, l0, vi, vj, wi, wj, f_n, f_t, m_n, m_t, kn, kt,
-            materials.young[m], diameter, materials.viscosity[m],
-            materials.max_damping_ratio[m])
-        state.dissipated[b] += power * dt
-    else:
-        force_i, moment_i, moment_j = bond_loads_on_particles(r, f_n, f_t, m_n, m_t)
+    force_i, moment_i, moment_j, rate = model_loads(
+        materials.model[m], musen, r, length, l0, diameter, vi, vj, wi, wj, f_n, f_t, m_n,
+        m_t, kn, kt, materials, m)
+    if rate != 0.0:
+        state.model_state[b] += rate * dt
     state.previous_length[b] = length
     store3(state.axis, b, n)
     store3(state.tangential_force, b, f_t)
@@ -226,7 +249,7 @@ def bond_energy(b, bonds, materials, state, position, box):
     m = bonds.material[b]
     l0 = bonds.initial_length[b]
     r = separation(position, bonds.pairs[b, 0], bonds.pairs[b, 1], box)
-    kn, kt, ktw, kb = bond_stiffnesses(materials.young[m], materials.poisson[m],
+    kn, kt, ktw, kb = bond_stiffnesses(materials.young_modulus[m], materials.poisson_ratio[m],
                                        bonds.diameter[b], l0)
     return bond_elastic_energy(math.sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]), l0,
                                row3(state.tangential_force, b),

@@ -33,9 +33,14 @@ CRITERION_NONE, CRITERION_COMBINED, CRITERION_SEPARATE = 0, 1, 2
 CRITERION_CODES = {"none": CRITERION_NONE, "combined": CRITERION_COMBINED,
                    "separate": CRITERION_SEPARATE}
 
-# The bond material's parameters, one schema for the scene file and the Python API
-# (model.BondMaterial): type, default, then for numbers (low, high, include low, include
-# high), for strings the allowed values.
+# The bond model's declaration (physics/bond_models.py). Its parameters are every bond
+# material's, one schema for the scene file and the Python API (model.BondMaterial):
+# type, default, then for numbers (low, high, include low, include high), for strings the
+# allowed values.
+NAME = "elastic"
+LOADS = None        # the springs' loads themselves (bond_loads_on_particles)
+STATE = None
+VECTORISED = True
 _INF = float("inf")
 PARAMETERS = {
     "young_modulus": ("number", REQUIRED, 0.0, _INF, False, False),
@@ -47,6 +52,11 @@ PARAMETERS = {
 }
 UNITS = {"young_modulus": "Pa", "poisson_ratio": "-", "normal_strength": "Pa",
          "tangential_strength": "Pa"}
+
+
+def time_scales(model, bonds, reduced_mass, musen_compat=False):
+    """No limit beyond the springs' (timestep.py): {}."""
+    return {}
 
 
 @physics

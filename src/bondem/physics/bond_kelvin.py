@@ -12,7 +12,7 @@ springs, as MUSEN's). Moments have no dashpot (as in MUSEN).
 Two free spheres of mass m along the bond axis follow the damped oscillator
     (m/2) x'' = -k_n x - eta k_n x',  omega_0^2 = 2 k_n / m,  zeta = eta omega_0 / 2.
 The dashpots remove eta (k_n (n . v_rel)^2 + k_t |v_t|^2) >= 0 watts (minus the power of
-their forces on the particles), booked per bond in state.extra["bond_dissipated"].
+their forces on the particles), booked per bond in state.extra["bond_model_state"] (STATE).
 
 MUSEN-compatible runs (musen_compat) use MUSEN 1.70's ModelSBKelvin instead
 (``kelvin_loads_musen``, on top of MUSEN's elastic numerics): with its viscosity mu (s/m,
@@ -26,17 +26,46 @@ form, hence bondem's own law above.
 """
 import math
 
+import numpy as np
+
 from ._registry import physics
 from .bond_elastic import bond_loads_on_particles
 from .vector import add, cross, dot, norm, scale, sub
 
-MODEL_ELASTIC, MODEL_KELVIN = 0, 1
-
-# The bond model's parameters beyond the elastic bond's, in the scene's schema
-# (scene.BOND_MATERIAL_KEYS): type, default, range (low, high, include low, include high).
+# The bond model's declaration (physics/bond_models.py): its parameters beyond the elastic
+# bond's, in the scene's schema (type, default, low, high, include low, include high).
+NAME = "kelvin"
 PARAMETERS = {"viscosity": ("number", 0.0, 0.0, float("inf"), True, False),
               "max_damping_ratio": ("number", 0.5, 0.0, float("inf"), True, False)}
 UNITS = {"viscosity": "s (s/m with musen_compat)", "max_damping_ratio": "-"}
+LOADS = "kelvin_loads"
+STATE = ("J removed by the bond's dashpots", "dissipated_bonds")
+VECTORISED = False
+
+
+def check(values, musen_compat=False):
+    """[(key, message)]: MUSEN's Kelvin bond has the combined break test only."""
+    if musen_compat and values["breakage"] == "separate":
+        return [("breakage", "musen_compat: MUSEN's Kelvin bond breaks by the combined "
+                             "criterion only; breakage = 'separate' is bondem's "
+                             "(docs/bond_kelvin.md)")]
+    return []
+
+
+def time_scales(model, bonds, reduced_mass, musen_compat=False):
+    """{"bond_dashpot": s}: m_red / (eta E A / L0), the time in which a dashpot alone
+    stops its pair (the smallest scale once the damping ratio exceeds 1/2). None with
+    musen_compat: MUSEN's viscosity is in s/m and MUSEN sets no limit."""
+    table = model.bond_material_table()
+    viscosity = table["viscosity"][model.bond_material[bonds]]
+    viscous = viscosity > 0.0
+    if musen_compat or not np.any(viscous):
+        return {}
+    area = np.pi * (0.5 * model.bond_diameter[bonds]) ** 2
+    young = table["young_modulus"][model.bond_material[bonds]]
+    stiffness = young * area / model.bond_initial_length[bonds]
+    dashpot = reduced_mass[viscous] / (viscosity[viscous] * stiffness[viscous])
+    return {"bond_dashpot": float(dashpot.min())}
 
 
 @physics
@@ -87,17 +116,19 @@ def kelvin_loads_musen(r, length, initial_length, vi, vj, wi, wj, f_n, f_t, m_n,
 
 
 @physics
-def kelvin_loads(musen, r, length, initial_length, vi, vj, wi, wj, f_n, f_t, m_n, m_t,
-                 normal_stiffness, shear_stiffness, young_modulus, diameter, viscosity,
-                 max_damping_ratio):
-    """(force on i in N, moment on i, moment on j in N m, power removed in W) of a Kelvin
-    bond whose springs carry f_n, f_t, m_n, m_t (on i) after this step: bondem's law, or
-    with musen True MUSEN's (``kelvin_loads_musen``; musen None or False: bondem's)."""
+def kelvin_loads(musen, r, length, initial_length, diameter, vi, vj, wi, wj, f_n, f_t, m_n,
+                 m_t, normal_stiffness, shear_stiffness, materials, m):
+    """LOADS of the Kelvin bond: (force on i in N, moment on i, moment on j in N m, power
+    removed in W) of a bond of material m (row of the ``materials`` table: viscosity,
+    max_damping_ratio, young_modulus) whose springs carry f_n, f_t, m_n, m_t (on i) after
+    this step: bondem's law, or with musen True MUSEN's (``kelvin_loads_musen``; musen
+    None or False: bondem's)."""
+    viscosity = materials.viscosity[m]
     if musen is not None:
         if musen:
             return kelvin_loads_musen(r, length, initial_length, vi, vj, wi, wj, f_n, f_t,
-                                      m_n, m_t, young_modulus, diameter, viscosity,
-                                      max_damping_ratio)
+                                      m_n, m_t, materials.young_modulus[m], diameter,
+                                      viscosity, materials.max_damping_ratio[m])
     f_dn, f_dt, power = kelvin_dashpots(r, length, vi, vj, wi, wj, normal_stiffness,
                                         shear_stiffness, viscosity)
     force_i, moment_i, moment_j = bond_loads_on_particles(r, add(f_n, f_dn), add(f_t, f_dt),

@@ -1,0 +1,78 @@
+"""The bond models: every ``physics/bond_<name>.py`` that declares ``NAME`` is one.
+
+A bond model file declares, besides its ``@physics`` functions:
+    NAME        the value of a bond material's ``model`` key ("elastic", "kelvin")
+    PARAMETERS  its bond material keys beyond the elastic bond's, in the scene schema
+                (type, default, low or choices, high, include low, include high)
+    UNITS       {key: unit} for reports
+    LOADS       name of its loads function, called after the elastic bond's springs have
+                been advanced and tested for breakage, (musen, r, length, l0, diameter,
+                vi, vj, wi, wj, f_n, f_t, m_n, m_t, k_n, k_t, materials, m) -> (force on
+                i, moment on i, moment on j, rate of its per-bond state); None for the
+                elastic bond
+    STATE       None, or (what its per-bond state is, the energy term that its sum is:
+                an energy loss in J), kept in state.extra["bond_model_state"]
+    VECTORISED  whether the CPU's vectorised elastic block may advance its bonds
+    check(values, musen_compat) -> [(key, message)] of a material that uses the model
+    time_scales(model, bonds, reduced_mass, musen_compat) -> {name: s}, its bonds' limits
+Everything else (bond materials, the scene schema, kernels on both backends, energy terms,
+time steps) reads these, so a new bond model is its file and its test.
+"""
+import importlib
+import pkgutil
+from pathlib import Path
+
+from . import bond_elastic
+from ._registry import REQUIRED  # noqa: F401  (the schema's "no default")
+
+_NAMES = sorted(info.name for info in pkgutil.iter_modules([str(Path(__file__).parent)])
+                if info.name.startswith("bond_") and info.name != "bond_models")
+MODELS = [bond_elastic] + [m for m in (importlib.import_module(f"{__package__}.{name}")
+                                       for name in _NAMES)
+                           if hasattr(m, "NAME") and m is not bond_elastic]
+for _code, _module in enumerate(MODELS):
+    _module.CODE = _code
+BY_NAME = {m.NAME: m for m in MODELS}
+
+
+def bond_material_schema():
+    """Every bond material key with its schema entry: the elastic bond's, ``model``, then
+    each other model's own PARAMETERS."""
+    schema = dict(bond_elastic.PARAMETERS)
+    schema["model"] = ("str", bond_elastic.NAME, tuple(BY_NAME), None, None, None)
+    for module in MODELS[1:]:
+        schema.update(module.PARAMETERS)
+    return schema
+
+
+def owner(key):
+    """The bond model whose PARAMETERS declare ``key`` (None for the shared ones)."""
+    for module in MODELS[1:]:
+        if key in module.PARAMETERS:
+            return module
+    return None
+
+
+def check(values, musen_compat=False):
+    """[(key, message)] of what is wrong with bond material ``values`` (a dict of every
+    key): another model's parameter set away from its default, and the model's own
+    ``check``."""
+    problems = []
+    schema = bond_material_schema()
+    for key, entry in schema.items():
+        module = owner(key)
+        if module is not None and module.NAME != values["model"] and values[key] != entry[1]:
+            problems.append((key, f"{key} = {values[key]!r} needs model = {module.NAME!r} "
+                                  f"(model = {values['model']!r} has no such parameter)"))
+    module = BY_NAME[values["model"]]
+    if hasattr(module, "check"):
+        problems.extend(module.check(values, musen_compat))
+    return problems
+
+
+def units():
+    """{key: unit} of every bond material key."""
+    out = {}
+    for module in MODELS:
+        out.update(module.UNITS)
+    return out
