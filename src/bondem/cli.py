@@ -15,7 +15,8 @@ COMMANDS = {
     "run": "Run a scene and write results.h5 (docs/scene.md).",
     "info": "Counts, masses, stable time step and memory estimate of a scene.",
     "demo": "Built-in demo: an agglomerate breaking on a wall.",
-    "export": "Export results to other formats (ParaView VTK).",
+    "export": "Export results to other formats (ParaView VTK, MUSEN text).",
+    "import": "Import a scene of another code (MUSEN's text format).",
     "generate": "Generate a packing and its bonds as particles.csv and bonds.csv.",
     "analyze": "Fragments, broken bonds, energy and force curves of a results file.",
     "report": "A self-contained HTML report of a results file.",
@@ -23,6 +24,10 @@ COMMANDS = {
     "bench": "Benchmarks: particle-steps/s and bond-updates/s on the bench scenes.",
     "study": "Run an ensemble study (parameter sweep) on Dask.",
 }
+
+
+# Commands whose module has another name ("import" is a Python keyword).
+MODULES = {"import": "importer"}
 
 
 class LazyGroup(click.Group):
@@ -38,10 +43,11 @@ class LazyGroup(click.Group):
     def _load(name):
         if name not in COMMANDS:
             return None
+        module_name = f"bondem.commands.{MODULES.get(name, name)}"
         try:
-            module = importlib.import_module(f"bondem.commands.{name}")
+            module = importlib.import_module(module_name)
         except ModuleNotFoundError as error:
-            if error.name == f"bondem.commands.{name}":
+            if error.name == module_name:
                 return None
             raise
         return module.command

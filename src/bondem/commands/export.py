@@ -1,4 +1,4 @@
-"""``bondem export vtk RESULTS.h5``: ParaView files of a results file."""
+"""``bondem export vtk|musen RESULTS.h5``: ParaView files or MUSEN text of a results file."""
 from pathlib import Path
 
 import click
@@ -38,3 +38,35 @@ def vtk_command(results, out_dir, every):
                          file=results, key="RESULTS")
     pvd = export_vtk(results, out_dir, every=every)
     click.echo(f"ParaView: {pvd}")
+
+
+@command.command(name="musen")
+@click.argument("results", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("--out", "out_file", type=click.Path(dir_okay=False, path_type=Path),
+              help="Output file (default: musen.txt next to the results file).")
+@click.option("--every", type=click.IntRange(min=1), default=1, show_default=True,
+              help="Write every N-th frame only.")
+def musen_command(results, out_file, every):
+    """A MUSEN text file of the scene and its frames (compounds, interactions, domain,
+    spheres with every frame's coordinates, velocities and angular velocities, solid bonds
+    with their activity intervals, walls as triangles at t = 0), which MUSEN's GUI and
+    cmusen's IMPORT_FROM_TEXT read (docs/musen_migration.md)."""
+    from ..io.musen_text import export_musen
+    from ..io.results import open_results
+
+    if not results.is_file():
+        raise InputError("no such file", file=results, key="RESULTS")
+    try:
+        with open_results(results) as f:
+            missing = [k for k in ("time", "particles/position", "bonds/pairs") if k not in f]
+    except InputError as error:
+        raise InputError(error.reason, file=results, key="RESULTS") from None
+    if missing:
+        raise InputError(f"not a bondem results file (missing {', '.join(missing)})",
+                         file=results, key="RESULTS")
+    out_file = out_file or results.with_name("musen.txt")
+    path, script, notes = export_musen(results, out_file, every=every)
+    click.echo(f"MUSEN text: {path}")
+    click.echo(f"cmusen script: {script}   (cmusen -s={script.name}, run in its folder)")
+    for note in notes:
+        click.echo(f"note: {note}")

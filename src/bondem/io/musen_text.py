@@ -1,0 +1,576 @@
+"""MUSEN's text format (1.70: what cmusen's IMPORT_FROM_TEXT reads and EXPORT_TO_TEXT
+writes, GeneralFunctions/SimResultsStorage/ImportFromText.cpp) to and from bondem scenes.
+
+A line is a sequence of (command id, values) groups (MUSENDefinitions.h ETXTCommands):
+an object line starts ``0 ID 1 TYPE`` (1 sphere, 9 solid bond, 14 triangular wall), then
+``5`` geometry (sphere: radius, contact radius; bond: left, right, diameter, initial
+length; wall: none), ``23`` compound, ``24`` activity interval (start, end, s) and, per
+time point, ``2 TIME`` followed by ``12`` coordinates, ``15`` velocity, ``16`` angular
+velocity (a wall's three vertices are 12, 31 and 16), ``18``, ``20``, ``31``, ``36``,
+``37``. Scene lines: ``22`` domain (6 m), ``25``/``26``/``27`` geometries (name key mass
+free-motion, motion, planes), ``28`` periodic boundaries, ``32`` compound (key name, then
+property id / value pairs: 0 density, 7 Young's modulus, 8 normal and 9 tangential
+strength, 10 Poisson ratio), ``33`` interaction (two keys, 200 restitution, 201
+friction, 202 rolling friction). The models and the time stepping are in the cmusen
+script (``MODEL_SB``, ``SIMULATION_STEP`` ...), read by ``read_script``.
+"""
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import InputError
+
+SPHERE, SOLID_BOND, LIQUID_BOND, TRIANGULAR_WALL = 1, 9, 10, 14
+DENSITY, VISCOSITY, YOUNG, NORMAL_STRENGTH, TANGENTIAL_STRENGTH, POISSON = 0, 2, 7, 8, 9, 10
+RESTITUTION, FRICTION, ROLLING = 200, 201, 202
+# MUSEN 1.70's interaction defaults (its export writes them for pairs a scene leaves out).
+MUSEN_INTERACTION = {RESTITUTION: 0.6, FRICTION: 0.45, ROLLING: 0.05}
+# Values of each command after its id; None: the rest is read by the command's own rule.
+_WIDTH = {2: 1, 12: 3, 15: 3, 16: 3, 17: 3, 10: 3, 11: 3, 18: 1, 20: 3, 31: 4, 36: 9,
+          37: 1, 23: 1, 24: 2}
+_NAMES = {SPHERE: "sphere", SOLID_BOND: "solid bond", LIQUID_BOND: "liquid bond",
+          TRIANGULAR_WALL: "triangular wall"}
+BOND_MODELS = {"ModelSBElastic": "elastic", "ModelSBKelvin": "kelvin"}
+CONTACT_MODELS = {"ModelPPHertzMindlin": "hertz_mindlin", "ModelPWHertzMindlin": "hertz_mindlin"}
+
+
+@dataclass
+class MusenObject:
+    """One object of a MUSEN text file: its type, geometry values, compound, activity
+    interval (s) and its first time point's (time, coordinates, velocity, angular
+    velocity, quaternion) in SI units."""
+    id: int
+    type: int
+    geometry: list = field(default_factory=list)
+    compound: str = ""
+    active: tuple = (0.0, 1e300)
+    time: float | None = None
+    coordinates: tuple = (0.0, 0.0, 0.0)
+    velocity: tuple = (0.0, 0.0, 0.0)
+    angular_velocity: tuple = (0.0, 0.0, 0.0)
+    quaternion: tuple = (0.0, 0.0, 0.0, 0.0)
+    times: int = 0
+
+
+@dataclass
+class MusenScene:
+    """What a MUSEN text file holds: objects by id, compounds {key: {property id:
+    value}}, interactions {(key, key): {property id: value}}, domain (6,) m, periodic
+    boundaries (enabled, x, y, z, low (3,), high (3,)), geometries [(name, key, motion
+    text, plane ids)], and the lines bondem does not map (``unmapped``)."""
+    objects: dict = field(default_factory=dict)
+    compounds: dict = field(default_factory=dict)
+    interactions: dict = field(default_factory=dict)
+    domain: tuple | None = None
+    periodic: tuple | None = None
+    geometries: list = field(default_factory=list)
+    unmapped: list = field(default_factory=list)
+
+
+def _numbers(tokens, k, n, path, line):
+    try:
+        return [float(t) for t in tokens[k:k + n]], k + n
+    except ValueError:
+        raise InputError(f"expected {n} numbers after command {tokens[k - 1]}, got "
+                         f"{' '.join(tokens[k:k + n])!r}", file=path, key=f"line {line}") from None
+
+
+def read_text(path) -> MusenScene:
+    """Parse a MUSEN text scene or export (every time point read; the first one kept)."""
+    path = Path(path)
+    try:
+        text = path.read_text()
+    except UnicodeDecodeError:
+        raise InputError("not a MUSEN text file (not text)", file=path) from None
+    scene = MusenScene()
+    for number, raw in enumerate(text.splitlines(), 1):
+        tokens = raw.split()
+        if not tokens:
+            continue
+        try:
+            command = int(float(tokens[0]))
+        except ValueError:
+            raise InputError(f"expected a command id, got {tokens[0]!r}", file=path,
+                             key=f"line {number}") from None
+        if command == 0:
+            _object_line(scene, tokens, path, number)
+        elif command == 22:
+            scene.domain = tuple(_numbers(tokens, 1, 6, path, number)[0])
+        elif command == 28:
+            values = _numbers(tokens, 1, 10, path, number)[0]
+            scene.periodic = (bool(values[0]), *map(bool, values[1:4]), tuple(values[4:7]),
+                              tuple(values[7:10]))
+        elif command == 32:
+            if len(tokens) < 3:
+                raise InputError("compound line: expected KEY NAME [ID VALUE]...", file=path,
+                                 key=f"line {number}")
+            values = _numbers(tokens, 3, len(tokens) - 3, path, number)[0]
+            scene.compounds[tokens[1]] = {int(values[k]): values[k + 1]
+                                          for k in range(0, len(values) - 1, 2)}
+        elif command == 33:
+            values = _numbers(tokens, 3, len(tokens) - 3, path, number)[0]
+            pair = tuple(sorted(tokens[1:3]))
+            scene.interactions[pair] = {int(values[k]): values[k + 1]
+                                        for k in range(0, len(values) - 1, 2)}
+        elif command == 25:
+            scene.geometries.append([tokens[1] if len(tokens) > 1 else "", tokens[2]
+                                     if len(tokens) > 2 else "", "", []])
+        elif command == 26 and scene.geometries:
+            scene.geometries[-1][2] = " ".join(tokens[1:])
+        elif command == 27 and scene.geometries:
+            count = int(float(tokens[1]))
+            scene.geometries[-1][3] = [int(float(t)) for t in tokens[2:2 + count]]
+        elif command in (29, 30, 40):
+            if any(float(t) != 0.0 for t in tokens[1:2]) and command != 40:
+                scene.unmapped.append(f"line {number}: command {command} "
+                                      f"({'anisotropy' if command == 29 else 'contact radius'})")
+        else:
+            scene.unmapped.append(f"line {number}: command {command} "
+                                  f"({ {34: 'mixture', 38: 'analysis volume', 39: 'package generator', 41: 'bonds generator'}.get(command, 'unknown')})")
+    return scene
+
+
+def _object_line(scene, tokens, path, number):
+    k = 0
+    obj = None
+    first_time = True
+    while k < len(tokens):
+        try:
+            command = int(float(tokens[k]))
+        except ValueError:
+            raise InputError(f"expected a command id, got {tokens[k]!r}", file=path,
+                             key=f"line {number}") from None
+        k += 1
+        if command == 0:
+            ident = int(float(tokens[k]))
+            k += 1
+            continue
+        if command == 1:
+            obj = MusenObject(ident, int(float(tokens[k])))
+            k += 1
+            scene.objects[ident] = obj
+            continue
+        if obj is None:
+            raise InputError("an object line needs '0 ID 1 TYPE' first", file=path,
+                             key=f"line {number}")
+        if command == 5:
+            width = {SPHERE: 2, SOLID_BOND: 4, LIQUID_BOND: 4, TRIANGULAR_WALL: 0}.get(obj.type)
+            if width is None:
+                raise InputError(f"object type {obj.type}: unknown", file=path, key=f"line {number}")
+            obj.geometry, k = _numbers(tokens, k, width, path, number)
+            continue
+        if command == 23:
+            obj.compound = tokens[k]
+            k += 1
+            continue
+        if command not in _WIDTH:
+            raise InputError(f"unknown object command {command}", file=path, key=f"line {number}")
+        values, k = _numbers(tokens, k, _WIDTH[command], path, number)
+        if command == 24:
+            obj.active = tuple(values)
+        elif command == 2:
+            if obj.times:
+                first_time = False
+            obj.times += 1
+            if first_time:
+                obj.time = values[0]
+        elif first_time and command == 12:
+            obj.coordinates = tuple(values)
+        elif first_time and command == 15:
+            obj.velocity = tuple(values)
+        elif first_time and command == 16:
+            obj.angular_velocity = tuple(values)
+        elif first_time and command == 31:
+            obj.quaternion = tuple(values)
+
+
+def read_script(path) -> dict:
+    """The keys of a cmusen script that a scene needs ({KEY: rest of the line}), from its
+    SIMULATOR job (or the whole file if it has none)."""
+    out = {}
+    job = None
+    for raw in Path(path).read_text().splitlines():
+        words = raw.split(None, 1)
+        if not words:
+            continue
+        key, rest = words[0].upper(), (words[1].strip() if len(words) > 1 else "")
+        if key == "JOB":
+            job = {}
+            continue
+        if key == "COMPONENT" and rest.upper() == "SIMULATOR":
+            out = job if job is not None else out
+        (job if job is not None else out)[key] = rest
+    return out
+
+
+def _params(text):
+    words = text.split()
+    return {words[k].upper(): float(words[k + 1]) for k in range(0, len(words) - 1, 2)}
+
+
+def to_bondem(scene: MusenScene, script: dict | None, out_dir, *, end_time=None):
+    """Write scene.toml, particles.csv, bonds.csv (and walls_N.stl) in ``out_dir``;
+    returns the notes: every MUSEN setting that was not mapped, or mapped with a loss."""
+    import tomli_w
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    script = script or {}
+    notes = list(scene.unmapped)
+    spheres = sorted((o for o in scene.objects.values() if o.type == SPHERE), key=lambda o: o.id)
+    bonds = sorted((o for o in scene.objects.values() if o.type == SOLID_BOND),
+                   key=lambda o: o.id)
+    walls = sorted((o for o in scene.objects.values() if o.type == TRIANGULAR_WALL),
+                   key=lambda o: o.id)
+    others = [o for o in scene.objects.values() if o.type not in (SPHERE, SOLID_BOND,
+                                                                     TRIANGULAR_WALL)]
+    for o in others:
+        notes.append(f"object {o.id}: {_NAMES.get(o.type, f'type {o.type}')} not mapped")
+    if not spheres:
+        raise InputError("no spheres (object type 1) in the MUSEN file", file=None)
+    t0 = min(o.time for o in spheres if o.time is not None) if any(
+        o.time is not None for o in spheres) else 0.0
+    index = {o.id: k for k, o in enumerate(spheres)}
+
+    # materials from compounds; contact properties from the pure interactions
+    particle_compounds = sorted({o.compound for o in spheres})
+    wall_compounds = sorted({o.compound for o in walls})
+    bond_compounds = sorted({o.compound for o in bonds})
+    materials = {}
+    for key in sorted(set(particle_compounds) | set(wall_compounds)):
+        props = scene.compounds.get(key)
+        if props is None:
+            raise InputError(f"compound {key!r} is used but not defined (command 32)",
+                             file=None)
+        pure = scene.interactions.get((key, key))
+        if pure is None:
+            pure = MUSEN_INTERACTION
+            notes.append(f"interaction {key}-{key} not given: MUSEN's defaults "
+                         "(restitution 0.6, friction 0.45, rolling friction 0.05)")
+        materials[key] = {"density": props.get(DENSITY, 1000.0),
+                          "young_modulus": props.get(YOUNG, 1e9),
+                          "poisson_ratio": props.get(POISSON, 0.2),
+                          "restitution": pure.get(RESTITUTION, MUSEN_INTERACTION[RESTITUTION]),
+                          "friction": pure.get(FRICTION, MUSEN_INTERACTION[FRICTION]),
+                          "rolling_friction": pure.get(ROLLING, MUSEN_INTERACTION[ROLLING])}
+    for (a, b), props in scene.interactions.items():
+        if a == b or a not in materials or b not in materials:
+            continue
+        for prop, name in ((RESTITUTION, "restitution"), (FRICTION, "friction"),
+                           (ROLLING, "rolling_friction")):
+            mean = 0.5 * (materials[a][name] + materials[b][name])
+            if prop in props and not math.isclose(props[prop], mean, rel_tol=1e-12):
+                notes.append(f"interaction {a}-{b}: {name} {props[prop]:g} is not the mean "
+                             f"of the pure pairs ({mean:g}), which bondem uses")
+    model_sb = script.get("MODEL_SB", "ModelSBElastic").split()[0] if bonds else "ModelSBElastic"
+    if model_sb not in BOND_MODELS:
+        raise InputError(f"solid bond model {model_sb}: not available in bondem "
+                         f"(allowed: {', '.join(BOND_MODELS)})", file=None, key="MODEL_SB")
+    sb = _params(script.get("MODEL_SB_PARAMS", ""))
+    criterion = int(sb.get("CONSIDER_BREAKAGE", 1))
+    bond_materials = {}
+    for key in bond_compounds:
+        props = scene.compounds.get(key)
+        if props is None:
+            raise InputError(f"compound {key!r} is used but not defined (command 32)",
+                             file=None)
+        entry = {"young_modulus": props.get(YOUNG, 1e9), "poisson_ratio": props.get(POISSON, 0.2),
+                 "normal_strength": props.get(NORMAL_STRENGTH, 1e7),
+                 "tangential_strength": props.get(TANGENTIAL_STRENGTH, 1e7),
+                 "breakage": {0: "none", 1: "combined", 2: "separate"}.get(criterion, "combined")}
+        if BOND_MODELS[model_sb] == "kelvin":
+            entry.update(model="kelvin", viscosity=sb.get("MU", 1.0), max_damping_ratio=0.5)
+        bond_materials[key] = entry
+
+    # particles and bonds at the first time point
+    rows = ["x,y,z,radius,material,vx,vy,vz,wx,wy,wz"]
+    for o in spheres:
+        rows.append(",".join(repr(float(c)) for c in o.coordinates) + f",{o.geometry[0]!r},"
+                    f"{o.compound}," + ",".join(repr(float(c)) for c in o.velocity) + ","
+                    + ",".join(repr(float(c)) for c in o.angular_velocity))
+        if o.geometry[1] != o.geometry[0]:
+            notes.append(f"sphere {o.id}: contact radius {o.geometry[1]:g} differs from its "
+                         "radius; bondem uses the radius")
+    (out / "particles.csv").write_text("\n".join(rows) + "\n")
+    brows = ["i,j,diameter,material"]
+    dropped = 0
+    lengths = []
+    for o in bonds:
+        if o.active[1] <= t0:
+            dropped += 1
+            continue
+        left, right = int(o.geometry[0]), int(o.geometry[1])
+        if left not in index or right not in index:
+            raise InputError(f"solid bond {o.id}: particle {left} or {right} is no sphere",
+                             file=None)
+        brows.append(f"{index[left]},{index[right]},{o.geometry[2]!r},{o.compound}")
+        lengths.append((index[left], index[right], o.geometry[3]))
+    if dropped:
+        notes.append(f"{dropped} solid bonds already broken at t = {t0:g} s: left out")
+    (out / "bonds.csv").write_text("\n".join(brows) + "\n")
+    positions = np.array([o.coordinates for o in spheres])
+    for i, j, l0 in lengths:
+        if not math.isclose(float(np.linalg.norm(positions[j] - positions[i])), l0,
+                            rel_tol=1e-9):
+            notes.append("a bond's initial length differs from its particles' distance at "
+                         "the start; bondem takes the distance")
+            break
+
+    simulation = {"end_time": end_time or float(script.get("END_TIME", 1e-3)),
+                  "time_step": float(script["SIMULATION_STEP"]) if "SIMULATION_STEP" in script
+                  else "auto", "musen_compat": True}
+    if end_time is None and "END_TIME" in script and "SIMULATION_STEP" in script:
+        # MUSEN stops once its summed time reaches END_TIME, which scripts put half a step
+        # short of a whole number of steps: bondem's end time is that whole number.
+        dt = simulation["time_step"]
+        simulation["end_time"] = math.ceil(simulation["end_time"] / dt - 1e-6) * dt
+    if "SAVING_STEP" in script:
+        simulation["save_every"] = float(script["SAVING_STEP"])
+    if "EXT_ACCEL" in script:
+        simulation["gravity"] = [float(v) for v in script["EXT_ACCEL"].split()[:3]]
+    pp = script.get("MODEL_PP", "").split()
+    pw = script.get("MODEL_PW", "").split()
+    simulation["contact_model"] = CONTACT_MODELS.get(pp[0], "none") if pp else "none"
+    for model in (pp[:1] + pw[:1]):
+        if model not in CONTACT_MODELS:
+            notes.append(f"contact model {model}: not available; Hertz-Mindlin is used")
+    if pp or pw:
+        notes.append("contacts: bondem's Hertz-Mindlin (SPEC section 3), not MUSEN's "
+                     "(docs/musen_migration.md)")
+    if "CONNECTED_PP_CONTACT" in script:
+        simulation["bonded_contacts"] = bool(int(float(script["CONNECTED_PP_CONTACT"])))
+    if scene.periodic and scene.periodic[0]:
+        simulation["periodic"] = list(scene.periodic[1:4])
+        simulation["box_low"], simulation["box_high"] = list(scene.periodic[4]), \
+            list(scene.periodic[5])
+    elif scene.domain is not None:
+        simulation["box_low"], simulation["box_high"] = list(scene.domain[:3]), \
+            list(scene.domain[3:])
+    if float(script.get("VARIABLE_TIME_STEP", "0") or 0) != 0.0:
+        notes.append("VARIABLE_TIME_STEP: bondem's step is fixed (SIMULATION_STEP)")
+    for key in ("VERLET_AUTO", "VERLET_COEF"):
+        if key in script:
+            notes.append(f"{key} {script[key]}: no counterpart (bondem's contact list: "
+                         "docs/musen_migration.md)")
+    data = {"simulation": simulation, "materials": materials}
+    if bond_materials:
+        data["bond_materials"] = bond_materials
+    data["particles"] = {"file": "particles.csv"}
+    if len(brows) > 1:
+        data["bonds"] = {"file": "bonds.csv"}
+
+    # walls: each geometry's triangles (or the loose ones per compound) as an STL mesh
+    if walls:
+        import trimesh
+        groups = [(g[0] or g[1], g[3], g[2]) for g in scene.geometries]
+        grouped = {i for _, ids, _ in groups for i in ids}
+        loose = [o.id for o in walls if o.id not in grouped]
+        if loose:
+            groups.append(("walls", loose, ""))
+        data["walls"] = []
+        for k, (name, ids, motion) in enumerate(groups):
+            triangles = [scene.objects[i] for i in ids if i in scene.objects]
+            if not triangles:
+                continue
+            if motion and any(float(v) != 0.0 for v in motion.split()[1:] if _is_number(v)):
+                notes.append(f"geometry {name}: its motion is not mapped (the wall is static)")
+            vertices = np.array([[t.coordinates, t.quaternion[:3], t.angular_velocity]
+                                 for t in triangles]).reshape(-1, 3)
+            faces = np.arange(len(vertices)).reshape(-1, 3)
+            mesh = trimesh.Trimesh(vertices, faces, process=True)
+            file = f"walls_{k}.stl"
+            mesh.export(out / file)
+            compound = triangles[0].compound
+            data["walls"].append({"type": "mesh", "file": file, "material": compound})
+    (out / "scene.toml").write_bytes(tomli_w.dumps(data).encode())
+    return notes
+
+
+def _is_number(text):
+    try:
+        float(text)
+        return True
+    except ValueError:
+        return False
+
+
+def import_musen(text_file, out_dir, script_file=None, *, end_time=None):
+    """``bondem import musen``: a MUSEN text file (and its cmusen script) as a bondem scene
+    in ``out_dir``; returns (scene path, notes)."""
+    text_file = Path(text_file)
+    if not text_file.is_file():
+        raise InputError("no such file", file=text_file)
+    scene = read_text(text_file)
+    script = read_script(script_file) if script_file else None
+    try:
+        notes = to_bondem(scene, script, out_dir, end_time=end_time)
+    except InputError as error:
+        if error.file is None:
+            raise InputError(error.reason, file=text_file, key=error.key) from None
+        raise
+    return Path(out_dir) / "scene.toml", notes
+
+
+def write_script(scene, time_step, text_name, path):
+    """A cmusen script for a bondem scene (dict of its TOML) with time step ``time_step``
+    (s): import the text file ``text_name``, simulate with the scene's models (MUSEN 1.70
+    names), END_TIME half a step short of the run's steps (MUSEN stops when its summed
+    time reaches it). Returns the notes (settings MUSEN has no counterpart for)."""
+    notes = []
+    simulation = scene.get("simulation", {})
+    bond_tables = list(scene.get("bond_materials", {}).values())
+    models = {t.get("model", "elastic") for t in bond_tables} or {"elastic"}
+    criteria = {t.get("breakage", "combined") for t in bond_tables} or {"combined"}
+    if len(models) > 1 or len(criteria) > 1:
+        notes.append("MUSEN has one solid bond model and criterion per run: the first "
+                     "bond material's are written")
+    model = sorted(models)[0]
+    sb = {"elastic": "ModelSBElastic", "kelvin": "ModelSBKelvin"}[model]
+    params = f"CONSIDER_BREAKAGE {({'none': 0, 'combined': 1, 'separate': 2})[sorted(criteria)[0]]}"
+    if model == "kelvin":
+        viscosity = {float(t.get("viscosity", 0.0)) for t in bond_tables}
+        params += f" MU {sorted(viscosity)[0]!r}"
+    steps = max(1, math.ceil(float(simulation.get("end_time", 1e-3)) / time_step - 1e-6))
+    contacts = simulation.get("contact_model", "hertz_mindlin") != "none"
+    if simulation.get("contact_model") == "linear":
+        notes.append("contact_model = 'linear': written as MUSEN's Hertz-Mindlin")
+    lines = ["JOB", "COMPONENT IMPORT_FROM_TEXT", f"SOURCE_FILE {text_name}",
+             "RESULT_FILE scene_t0.mdem", "JOB", "COMPONENT SIMULATOR",
+             "SOURCE_FILE scene_t0.mdem", "RESULT_FILE result.mdem", "SIMULATOR_TYPE CPU",
+             f"MODEL_SB {sb}", f"MODEL_SB_PARAMS {params}"]
+    if contacts:
+        lines += ["MODEL_PP ModelPPHertzMindlin", "MODEL_PW ModelPWHertzMindlin",
+                  f"CONNECTED_PP_CONTACT {int(bool(simulation.get('bonded_contacts', False)))}"]
+    lines += [f"SIMULATION_STEP {time_step!r}"]
+    if "save_every" in simulation:
+        lines.append(f"SAVING_STEP {float(simulation['save_every'])!r}")
+    lines += [f"END_TIME {(steps - 0.5) * time_step!r}",
+              "EXT_ACCEL " + " ".join(repr(float(g)) for g in
+                                      simulation.get("gravity", [0.0, 0.0, 0.0])),
+              "VARIABLE_TIME_STEP 0"]
+    if float(simulation.get("damping", 0.0)):
+        notes.append("local damping: MUSEN has none")
+    Path(path).write_text("\n".join(lines) + "\n")
+    return notes
+
+
+def export_musen(results_path, out_file, every=1):
+    """``bondem export musen``: a results file as a MUSEN text file (compounds,
+    interactions as the pairs' means, domain, spheres with every frame's coordinates,
+    velocities and angular velocities, solid bonds with their activity interval, walls as
+    triangles at t = 0: a plane as a square of twice the particles' extent) and a cmusen
+    script beside it (``write_script``: FILE_script.txt). Returns (text file, script,
+    notes)."""
+    from .results import read_results
+    data = read_results(results_path)
+    scene = tomllib.loads(str(data["attrs"]["scene"]))
+    names = [str(n) for n in data["materials/names"]]
+    bond_names = [str(n) for n in data.get("bond_materials/names", [])]
+    lines = []
+    time = data["time"][::every]
+    position = data["particles/position"][::every]
+    velocity = data["particles/velocity"][::every]
+    spin = data["particles/angular_velocity"][::every]
+    radius = data["particles/radius"]
+    material = data["particles/material"]
+    n = radius.shape[0]
+    full = repr
+    for p in range(n):
+        parts = ["0", str(p), "1", str(SPHERE), "5", full(float(radius[p])),
+                 full(float(radius[p])), "23", names[material[p]], "24", "0", "1e+300"]
+        for f in range(len(time)):
+            parts += ["2", full(float(time[f])), "12", *map(full, map(float, position[f, p])),
+                      "15", *map(full, map(float, velocity[f, p])),
+                      "16", *map(full, map(float, spin[f, p]))]
+        lines.append(" ".join(parts))
+    pairs = data["bonds/pairs"]
+    for b in range(pairs.shape[0]):
+        end = data["bonds/break_time"][b]
+        parts = ["0", str(n + b), "1", str(SOLID_BOND), "5", str(int(pairs[b, 0])),
+                 str(int(pairs[b, 1])), full(float(data["bonds/diameter"][b])),
+                 full(float(data["bonds/initial_length"][b])), "23",
+                 bond_names[data["bonds/material"][b]], "24", "0",
+                 "1e+300" if np.isnan(end) else full(float(end)), "2", full(float(time[0])),
+                 "12", "0", "0", "0"]
+        lines.append(" ".join(parts))
+    ident = n + pairs.shape[0]
+    extent = (position[0].min(axis=0), position[0].max(axis=0)) if n else (np.zeros(3),) * 2
+    size = 2.0 * float(np.max(extent[1] - extent[0]) + 4.0 * radius.max(initial=0.0))
+    wall_materials = []
+    for w, wall in enumerate(scene.get("walls", [])):
+        triangles = _wall_triangles(data, w, wall, size)
+        first = ident
+        for a, b, c in triangles:
+            lines.append(" ".join(["0", str(ident), "1", str(TRIANGULAR_WALL), "5", "23",
+                                   wall["material"], "2", full(float(time[0])), "12",
+                                   *map(full, a), "31", *map(full, b), "0", "16",
+                                   *map(full, c)]))
+            ident += 1
+        lines.append(f"25 wall{w} wall{w} 0 0 0 0")
+        lines.append(f"27 {ident - first} " + " ".join(str(i) for i in range(first, ident)))
+        wall_materials.append(wall["material"])
+    simulation = scene.get("simulation", {})
+    low = simulation.get("box_low")
+    high = simulation.get("box_high")
+    if low is None or high is None:
+        span = size
+        centre = 0.5 * (extent[0] + extent[1])
+        low, high = list(centre - span), list(centre + span)
+    lines.append("22 " + " ".join(full(float(v)) for v in [*low, *high]))
+    if any(simulation.get("periodic", [False] * 3)):
+        lines.append("28 1 " + " ".join(str(int(v)) for v in simulation["periodic"]) + " "
+                     + " ".join(full(float(v)) for v in [*low, *high]))
+    tables = scene.get("materials", {})
+    for key in names:
+        props = tables.get(key, {})
+        lines.append(f"32 {key} {key} {DENSITY} {full(float(props.get('density', 0.0)))} "
+                     f"{YOUNG} {full(float(props.get('young_modulus', 0.0)))} "
+                     f"{POISSON} {full(float(props.get('poisson_ratio', 0.3)))}")
+    density = float(tables.get(names[0], {}).get("density", 1000.0)) if names else 1000.0
+    for key in bond_names:
+        props = scene.get("bond_materials", {}).get(key, {})
+        line = (f"32 {key} {key} {DENSITY} {full(density)} "
+                f"{YOUNG} {full(float(props.get('young_modulus', 0.0)))} "
+                f"{POISSON} {full(float(props.get('poisson_ratio', 0.3)))}")
+        for name, prop in (("normal_strength", NORMAL_STRENGTH),
+                           ("tangential_strength", TANGENTIAL_STRENGTH)):
+            value = float(props.get(name, math.inf))
+            line += f" {prop} {full(value if math.isfinite(value) else 1e300)}"
+        lines.append(line)
+    defaults = {"restitution": 0.5, "friction": 0.3, "rolling_friction": 0.0}
+    keys = sorted(set(names) | set(wall_materials))
+    for a in range(len(keys)):
+        for b in range(a, len(keys)):
+            pa, pb = tables.get(keys[a], {}), tables.get(keys[b], {})
+            values = [0.5 * (float(pa.get(k, d)) + float(pb.get(k, d)))
+                      for k, d in defaults.items()]
+            lines.append(f"33 {keys[a]} {keys[b]} {RESTITUTION} {full(values[0])} "
+                         f"{FRICTION} {full(values[1])} {ROLLING} {full(values[2])}")
+    out_file = Path(out_file)
+    out_file.write_text("\n".join(lines) + "\n")
+    script = out_file.with_name(out_file.stem + "_script.txt")
+    notes = write_script(scene, float(data["attrs"]["time_step"]), out_file.name, script)
+    return out_file, script, notes
+
+
+def _wall_triangles(data, w, wall, size):
+    """Triangles (a, b, c) in m of wall w of a results file at t = 0."""
+    if wall.get("type") == "mesh":
+        vertices = data[f"walls/geometry/mesh{w}/vertices"]
+        triangles = data[f"walls/geometry/mesh{w}/triangles"]
+        return [tuple(map(tuple, vertices[t].astype(float))) for t in triangles]
+    point = np.asarray(data["walls/geometry/point"][w], dtype=float)
+    normal = np.asarray(data["walls/geometry/normal"][w], dtype=float)
+    normal = normal / np.linalg.norm(normal)
+    helper = np.array([1.0, 0.0, 0.0]) if abs(normal[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    u = np.cross(normal, helper)
+    u /= np.linalg.norm(u)
+    v = np.cross(normal, u)
+    h = 0.5 * size
+    corners = [point + h * (su * u + sv * v) for su, sv in ((-1, -1), (1, -1), (1, 1), (-1, 1))]
+    return [tuple(map(tuple, (corners[0], corners[1], corners[2]))),
+            tuple(map(tuple, (corners[0], corners[2], corners[3])))]

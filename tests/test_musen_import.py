@@ -1,0 +1,128 @@
+"""MUSEN scenes in and out: ``bondem import musen`` and ``bondem export musen``.
+
+References: runs of the real MUSEN 1.70.0 (the packaged Kelvin run; ../shared/musen-runs
+when present). A MUSEN text scene and its cmusen script, imported, run in the imported
+scene's MUSEN-compatible mode, reproduce MUSEN's own trajectories to round-off; an
+exported run imports back to the same scene; what cannot be mapped is named.
+"""
+import csv
+from pathlib import Path
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+import bondem
+from bondem.cli import main
+from bondem.errors import InputError
+from bondem.io.musen_text import import_musen
+from bondem.scene import load_scene
+
+KELVIN = (Path(bondem.__file__).parent / "data" / "validation" / "musen-runs"
+          / "kelvin_cluster")
+SHARED = Path(__file__).resolve().parents[2] / "shared" / "musen-runs"
+
+
+def musen_particles(folder):
+    with open(folder / "musen_particles.csv", newline="") as handle:
+        rows = list(csv.DictReader(handle))
+    time = np.array([float(r["time"]) for r in rows])
+    n = (len(rows[0]) - 1) // 9
+    position = np.array([[[float(r[f"{a}{k}"]) for a in "xyz"] for k in range(n)]
+                         for r in rows])
+    velocity = np.array([[[float(r[f"v{a}{k}"]) for a in "xyz"] for k in range(n)]
+                         for r in rows])
+    return time, position, velocity
+
+
+def run_imported(folder, tmp_path):
+    scene_path, notes = import_musen(folder / "musen_scene.txt", tmp_path / "scene",
+                                     folder / "musen_script.txt")
+    scene = load_scene(scene_path)
+    assert scene.simulation_options["musen_compat"] is True
+    sim = bondem.Simulation(scene.model, scene.state, **scene.simulation_options)
+    time, position, velocity = musen_particles(folder)
+    worst_x = worst_v = 0.0
+    for t, x, v in zip(time, position, velocity):
+        sim.run(until=t)
+        worst_x = max(worst_x, np.abs(sim.state.position - x).max()
+                      / np.abs(position - position[0]).max())
+        worst_v = max(worst_v, np.abs(sim.state.velocity - v).max() / np.abs(velocity).max())
+    return sim, worst_x, worst_v, notes
+
+
+def test_imported_kelvin_scene_reproduces_the_real_musen_run(tmp_path):
+    sim, worst_x, worst_v, notes = run_imported(KELVIN, tmp_path)
+    assert worst_x < 1e-11 and worst_v < 1e-10, (worst_x, worst_v)
+    material = sim.model.bond_materials[0]
+    assert (material.model, material.viscosity, material.breakage) == ("kelvin", 2.0,
+                                                                        "combined")
+    assert np.sum(~sim.state.bond_active) == 5          # as in MUSEN (musen_breaks.csv)
+    assert any("MUSEN's defaults" in note for note in notes)   # no interaction line
+
+
+@pytest.mark.skipif(not SHARED.is_dir(), reason="no ../shared/musen-runs")
+@pytest.mark.parametrize("run", ["breaking_combined", "breaking_separate", "two_bonded",
+                                 "cluster"])
+def test_imported_shared_runs_reproduce_the_real_musen(tmp_path, run):
+    sim, worst_x, worst_v, _ = run_imported(SHARED / run, tmp_path)
+    assert worst_x < 1e-11 and worst_v < 1e-10, (worst_x, worst_v)
+    with open(SHARED / run / "musen_breaks.csv", newline="") as handle:
+        breaks = [r["break_time"] for r in csv.DictReader(handle)]
+    assert int(np.sum(~sim.state.bond_active)) == sum(1 for b in breaks if b.strip())
+
+
+def test_export_then_import_gives_the_same_scene(tmp_path):
+    scene_path, _ = import_musen(KELVIN / "musen_scene.txt", tmp_path / "a",
+                                 KELVIN / "musen_script.txt")
+    text = scene_path.read_text()
+    scene_path.write_text(text.replace("save_every = 2.5e-05", "save_every = 1e-06")
+                          .replace("end_time = 0.0005", "end_time = 2e-06"))
+    runner = CliRunner()
+    done = runner.invoke(main, ["run", str(scene_path)])
+    assert done.exit_code == 0, done.output
+    results = tmp_path / "a" / "scene" / "results.h5"
+    done = runner.invoke(main, ["export", "musen", str(results), "--out",
+                                str(tmp_path / "musen.txt")])
+    assert done.exit_code == 0, done.output
+    script = tmp_path / "musen_script.txt"
+    assert "MODEL_SB ModelSBKelvin" in script.read_text()
+    assert "MODEL_SB_PARAMS CONSIDER_BREAKAGE 1 MU 2.0" in script.read_text()
+    done = runner.invoke(main, ["import", "musen", str(tmp_path / "musen.txt"), "--script",
+                                str(script), "--out", str(tmp_path / "b")])
+    assert done.exit_code == 0, done.output
+    for name in ("scene.toml", "particles.csv", "bonds.csv"):
+        assert (tmp_path / "a" / name).read_text() == (tmp_path / "b" / name).read_text(), \
+            name
+
+
+def test_what_cannot_be_mapped_is_named_and_bad_lines_are_errors(tmp_path):
+    lines = (KELVIN / "musen_scene.txt").read_text().splitlines()
+    lines.append("34 mix mix 1 solid 0.001 0.001 1")
+    lines.append("0 900 1 10 5 0 1 0.001 0.002 23 bond")   # a liquid bond
+    (tmp_path / "in.txt").write_text("\n".join(lines) + "\n")
+    _, notes = import_musen(tmp_path / "in.txt", tmp_path / "out",
+                            KELVIN / "musen_script.txt")
+    assert any("mixture" in n for n in notes) and any("liquid bond" in n for n in notes)
+    lines[3] = lines[3].replace("0.001", "0.0o1", 1)
+    (tmp_path / "bad.txt").write_text("\n".join(lines) + "\n")
+    with pytest.raises(InputError, match="line 4") as error:
+        import_musen(tmp_path / "bad.txt", tmp_path / "out2")
+    assert "bad.txt" in str(error.value)
+
+
+def test_walls_become_mesh_walls(tmp_path):
+    text = (KELVIN / "musen_scene.txt").read_text().splitlines()
+    n = 27 + 54
+    text += [f"0 {n} 1 14 5 23 solid 2 0 12 -0.02 -0.02 -0.01 31 0.02 -0.02 -0.01 0 "
+             "16 0.02 0.02 -0.01",
+             f"0 {n + 1} 1 14 5 23 solid 2 0 12 -0.02 -0.02 -0.01 31 0.02 0.02 -0.01 0 "
+             "16 -0.02 0.02 -0.01",
+             "25 plane plane 0 0 0 0", f"27 2 {n} {n + 1}"]
+    (tmp_path / "walls.txt").write_text("\n".join(text) + "\n")
+    scene_path, _ = import_musen(tmp_path / "walls.txt", tmp_path / "out",
+                                 KELVIN / "musen_script.txt")
+    scene = load_scene(scene_path)
+    (wall,) = scene.simulation_options["walls"]
+    assert len(wall.triangles) == 2
+    assert np.allclose(wall.vertices[:, 2], -0.01)
