@@ -6,6 +6,21 @@ import click
 from ..errors import InputError
 
 
+def _check_results(results):
+    """InputError unless ``results`` (Path) is a readable bondem results file."""
+    from ..io.results import open_results
+    if not results.is_file():
+        raise InputError("no such file", file=results, key="RESULTS")
+    try:
+        with open_results(results) as f:
+            missing = [k for k in ("time", "particles/position", "bonds/pairs") if k not in f]
+    except InputError as error:
+        raise InputError(error.reason, file=results, key="RESULTS") from None
+    if missing:
+        raise InputError(f"not a bondem results file (missing {', '.join(missing)})",
+                         file=results, key="RESULTS")
+
+
 @click.group(name="export")
 def command():
     """Export results to other formats."""
@@ -23,19 +38,9 @@ def vtk_command(results, out_dir, every):
     bonds (intact ones as lines, broken ones as points where they broke: active, break
     mode, force, normal and shear stress) and walls (planes as squares, meshes as
     triangles, moving with the wall: force). See docs/scene.md."""
-    from ..io.results import open_results
     from ..io.vtk import export_vtk
 
-    if not results.is_file():
-        raise InputError("no such file", file=results, key="RESULTS")
-    try:
-        with open_results(results) as f:
-            missing = [k for k in ("time", "particles/position", "bonds/pairs") if k not in f]
-    except InputError as error:
-        raise InputError(error.reason, file=results, key="RESULTS") from None
-    if missing:
-        raise InputError(f"not a bondem results file (missing {', '.join(missing)})",
-                         file=results, key="RESULTS")
+    _check_results(results)
     pvd = export_vtk(results, out_dir, every=every)
     click.echo(f"ParaView: {pvd}")
 
@@ -52,18 +57,8 @@ def musen_command(results, out_file, every):
     with their activity intervals, walls as triangles at t = 0), which MUSEN's GUI and
     cmusen's IMPORT_FROM_TEXT read (docs/musen_migration.md)."""
     from ..io.musen_text import export_musen
-    from ..io.results import open_results
 
-    if not results.is_file():
-        raise InputError("no such file", file=results, key="RESULTS")
-    try:
-        with open_results(results) as f:
-            missing = [k for k in ("time", "particles/position", "bonds/pairs") if k not in f]
-    except InputError as error:
-        raise InputError(error.reason, file=results, key="RESULTS") from None
-    if missing:
-        raise InputError(f"not a bondem results file (missing {', '.join(missing)})",
-                         file=results, key="RESULTS")
+    _check_results(results)
     out_file = out_file or results.with_name("musen.txt")
     path, script, notes = export_musen(results, out_file, every=every)
     click.echo(f"MUSEN text: {path}")
