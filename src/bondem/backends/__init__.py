@@ -29,8 +29,8 @@ class CpuBackend:
         return Integrator(model)
 
     def contact_law(self, model, settings, walls):
-        """The contact and wall law (``contacts.ContactLaw``) for this backend."""
-        from ..contacts import ContactLaw
+        """The contact and wall law (``cpu_contacts.ContactLaw``) for this backend."""
+        from .cpu_contacts import ContactLaw
         return ContactLaw(model, settings, walls)
 
     def load_arrays(self, n_particles):

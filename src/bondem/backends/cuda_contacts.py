@@ -31,7 +31,8 @@ import math
 import numpy as np
 from numba import cuda
 
-from ..contacts import PAIR_HISTORY, WALL_HISTORY, ContactLaw, _csr_by, pair_rows
+from ..contacts import PAIR_HISTORY, WALL_HISTORY
+from .cpu_contacts import ContactLaw, csr_by, pair_rows
 from . import cpu_contacts, loops
 from .cpu import particles
 from .cuda import THREADS, K, _blocks
@@ -199,7 +200,7 @@ class ContactLawGpu(ContactLaw):
         # CSR over every row (the CPU's over live rows; the others stay zero).
         i_start = np.zeros(n + 1, dtype=np.int64)
         np.cumsum(np.bincount(pairs[:, 0], minlength=n), out=i_start[1:])
-        j_start, j_order = _csr_by(pairs[:, 1], n)
+        j_start, j_order = csr_by(pairs[:, 1], n)
         k = wall_pairs.shape[0]
         dev = {"pairs": put(_at_least_one(pairs)),
                "pair_bond": put(_at_least_one(self._pair_bond)),

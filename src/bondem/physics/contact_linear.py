@@ -12,6 +12,11 @@ overlap delta_ref = 0.01 R*, and k_t = k_n S_t/S_n = 4 k_n G*/E*).
 import math
 
 from ._registry import physics
+
+# The pair law codes the kernels select a law by, and the linear law's default stiffness:
+# Hertz's k_n at an overlap of LINEAR_REFERENCE_OVERLAP R*.
+MODEL_HERTZ, MODEL_LINEAR = 0, 1
+LINEAR_REFERENCE_OVERLAP = 0.01
 from .contact_hertz import friction_and_rolling
 from .vector import add, dot, scale, sub
 
