@@ -182,10 +182,13 @@ class Model:
         table["criterion"] = table["breakage"]
         return table
 
+    def bond_model_codes(self) -> np.ndarray:
+        """(B,) int8: each bond's model code (index into physics/bond_models.MODELS)."""
+        return self.bond_material_table()["model"][self.bond_material]
+
     def bond_models_used(self) -> list:
         """The bond model modules (physics/bond_models.py) that some bond uses."""
-        codes = np.unique(self.bond_material_table()["model"][self.bond_material])
-        return [bond_models.MODELS[int(c)] for c in codes]
+        return [bond_models.MODELS[int(c)] for c in np.unique(self.bond_model_codes())]
 
 
 @dataclass(repr=False)

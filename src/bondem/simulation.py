@@ -175,7 +175,7 @@ class Simulation:
                  "released_breakage": float(state.bond_break_energy.sum())}
         if "bond_model_state" in state.extra:
             # each bond model's state is an energy term (STATE): its sum over its bonds
-            codes = self.model.bond_material_table()["model"][self.model.bond_material]
+            codes = self.model.bond_model_codes()
             for module in self.model.bond_models_used():
                 if module.STATE:
                     mine = codes == module.CODE

@@ -32,7 +32,7 @@ def time_scales(model, musen_compat=False):
         scales["bond_bending"] = float(
             np.sqrt(reduced_inertia * length / (bond_young * second_moment)).min())
         # and each bond model's own limits (time_scales in physics/bond_*.py)
-        codes = model.bond_material_table()["model"][model.bond_material]
+        codes = model.bond_model_codes()
         for module in model.bond_models_used():
             bonds = np.flatnonzero(codes == module.CODE)
             scales.update(module.time_scales(model, bonds, reduced_mass[bonds], musen_compat))

@@ -11,12 +11,11 @@ import numpy as np
 
 from ..contacts import MODELS, PAIR_HISTORY, WALL_HISTORY, ContactSettings, contact_cutoff
 from ..neighbors import build_pairs, carry_history, max_displacement
+from ..physics.contact_linear import MODEL_HERTZ
 from ..walls import PLANE, WallSet, build_wall_pairs
 from . import cpu, loops
 from .cpu import CHUNK, L, _jit, _serial, chunks
 
-MODEL_HERTZ, MODEL_LINEAR = loops.MODEL_HERTZ, loops.MODEL_LINEAR
-LINEAR_REFERENCE_OVERLAP = loops.LINEAR_REFERENCE_OVERLAP
 pair_contact = L.pair_contact
 pair_rows_sum = L.pair_rows_sum
 wall_contacts_of = L.wall_contacts_of

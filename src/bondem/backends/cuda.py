@@ -159,8 +159,8 @@ class GpuBackend:
         self.bodies = bodies(model, put)
         self.box = box(model, put)
         self.gravity = put(model.gravity)
-        self.mass, self.periodic, self.box_length = (self.bodies.mass, self.box.periodic,
-                                                     self.box.length)
+        # the domain's arrays the contact law's kernels take directly
+        self.periodic, self.box_length = self.box.periodic, self.box.length
         self.status = put(np.zeros(1, dtype=np.int64))
         self.force = cuda.device_array((n, 3))
         self.moment = cuda.device_array((n, 3))

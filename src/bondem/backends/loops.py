@@ -32,7 +32,7 @@ from ..physics.triangle import FACE
 from ..status import STATUS_NOT_FINITE, STATUS_OK, STATUS_OUT_OF_DOMAIN
 from ..walls import PLANE
 
-from ..physics.contact_linear import LINEAR_REFERENCE_OVERLAP, MODEL_HERTZ, MODEL_LINEAR  # noqa: F401,E501
+from ..physics.contact_linear import LINEAR_REFERENCE_OVERLAP, MODEL_HERTZ
 
 # What the bodies take, by name (a swapped pair of same-shaped arrays would otherwise
 # run silently). Units: SI throughout (m, m/s, rad/s, kg, kg m^2, N, N m, J, Pa).

@@ -36,6 +36,8 @@ _WIDTH = {2: 1, 12: 3, 15: 3, 16: 3, 17: 3, 10: 3, 11: 3, 18: 1, 20: 3, 31: 4, 3
 _NAMES = {SPHERE: "sphere", SOLID_BOND: "solid bond", LIQUID_BOND: "liquid bond",
           TRIANGULAR_WALL: "triangular wall"}
 BOND_MODELS = {"ModelSBElastic": "elastic", "ModelSBKelvin": "kelvin"}
+UNMAPPED = {29: "anisotropy", 30: "contact radius", 34: "mixture", 38: "analysis volume",
+            39: "package generator", 41: "bonds generator"}
 CONTACT_MODELS = {"ModelPPHertzMindlin": "hertz_mindlin", "ModelPWHertzMindlin": "hertz_mindlin"}
 
 
@@ -125,13 +127,13 @@ def read_text(path) -> MusenScene:
         elif command == 27 and scene.geometries:
             count = int(float(tokens[1]))
             scene.geometries[-1][3] = [int(float(t)) for t in tokens[2:2 + count]]
-        elif command in (29, 30, 40):
-            if any(float(t) != 0.0 for t in tokens[1:2]) and command != 40:
-                scene.unmapped.append(f"line {number}: command {command} "
-                                      f"({'anisotropy' if command == 29 else 'contact radius'})")
+        elif command == 40:
+            continue   # the package generator's configuration: nothing to run
+        elif command in (29, 30) and all(float(t) == 0.0 for t in tokens[1:2]):
+            continue   # anisotropy / extended contact radius switched off
         else:
             scene.unmapped.append(f"line {number}: command {command} "
-                                  f"({ {34: 'mixture', 38: 'analysis volume', 39: 'package generator', 41: 'bonds generator'}.get(command, 'unknown')})")
+                                  f"({UNMAPPED.get(command, 'unknown')})")
     return scene
 
 
