@@ -42,12 +42,14 @@ class ReferenceRun:
 
 def reference_directory(p=None, key="search"):
     """The reference-data directory (Path) of parameter ``key`` ("search": exact solutions
-    and other codes, $BONDEM_REFDATA if set; "musen_runs": runs of the real MUSEN), or None
-    when none exists."""
+    and other codes, $BONDEM_REFDATA if set; "musen_runs": runs of the real MUSEN;
+    "packaged": those shipped with bondem), or None when none exists."""
     if key == "search" and os.environ.get("BONDEM_REFDATA"):
         return Path(os.environ["BONDEM_REFDATA"])
     if key != "search" and os.environ.get("BONDEM_REFDATA"):
         return None     # a test's own reference folder replaces all of them
+    if key == "packaged":
+        return PACKAGED_RUNS
     repository = Path(__file__).resolve().parents[3]
     default = {"search": ["../shared/refdata"], "musen_runs": ["../shared/musen-runs"]}[key]
     for candidate in (p or {}).get(key, default):
@@ -188,14 +190,13 @@ def _break_rows(run, sim, compat, compat_only):
 
 @case("refdata", quick=True)
 def run(p, compat, quick=False):
-    """Reference runs from the shared reference-data folders: ``search`` (exact solutions
-    and other codes) and ``musen_runs`` (runs of the real MUSEN, whose tolerances hold for
-    --compat musen: info rows in SPEC mode). One row per folder and quantity."""
+    """Reference runs from the reference-data folders: ``search`` (exact solutions and
+    other codes), ``musen_runs`` and ``packaged`` (runs of the real MUSEN, whose tolerances
+    hold for --compat musen: info rows in SPEC mode unless the scene itself is MUSEN-
+    compatible). One row per folder and quantity."""
     rows: list[Row] = []
     for key, compat_only in (("search", False), ("musen_runs", True), ("packaged", True)):
-        directory = PACKAGED_RUNS if key == "packaged" else reference_directory(p, key)
-        if key == "packaged" and os.environ.get("BONDEM_REFDATA"):
-            continue     # a test's own reference folder replaces all of them
+        directory = reference_directory(p, key)
         runs = discover(directory)
         if not runs:
             if key == "search":
