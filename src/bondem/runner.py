@@ -277,15 +277,18 @@ def _run_locked(scene, out_dir, progress, resume, checkpoint_minutes, stop_after
                 rate = steps / max(now - started, 1e-9)
             batch = (max(1, min(2 * batch, int(rate * BATCH_SECONDS))) if rate < float("inf")
                      else 2 * batch)
-            if steps == to_frame:
-                try:
+            try:
+                if steps == to_frame:
                     writer.append(sim, terms)
-                except OSError as error:   # a full disk, a folder gone
-                    raise RunFailed(f"cannot write {results_path} ({error.strerror or error}) "
-                                    f"at t = {sim.state.time:.6g} s; it holds every frame up "
-                                    f"to t = {good.time:.6g} s, and the checkpoint lets "
-                                    f"--resume continue once there is room"
-                                    f"{_kept_previous(out_dir)}") from None
+                else:
+                    writer.append_wall_history(sim)
+            except OSError as error:   # a full disk, a folder gone
+                raise RunFailed(f"cannot write {results_path} ({error.strerror or error}) "
+                                f"at t = {sim.state.time:.6g} s; it holds every frame up "
+                                f"to t = {good.time:.6g} s, and the checkpoint lets "
+                                f"--resume continue once there is room"
+                                f"{_kept_previous(out_dir)}") from None
+            if steps == to_frame:
                 frames_here += 1
                 good = sim.state.copy()
             if notice is not None:

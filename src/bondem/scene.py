@@ -80,6 +80,16 @@ PLANE_KEYS = {
     "normal": ("vector3", REQUIRED, -INF, INF, False, False),
     "material": ("str", REQUIRED, None, None, None, None),
     "velocity": ("vector3", [0.0, 0.0, 0.0], -INF, INF, False, False),
+    "velocity_profile": ("profile", None, None, None, None, None),
+    "servo": ("table", None, None, None, None, None),
+}
+SERVO_KEYS = {
+    "target_force": ("number", None, 0.0, INF, True, False),
+    "target_stress": ("number", None, 0.0, INF, True, False),
+    "area": ("number", None, 0.0, INF, False, False),
+    "gain": ("number", REQUIRED, 0.0, INF, False, False),
+    "max_velocity": ("number", REQUIRED, 0.0, INF, False, False),
+    "tolerance": ("number", 0.01, 0.0, 1.0, False, True),
 }
 MESH_KEYS = {
     "type": ("str", REQUIRED, ("plane", "mesh"), None, None, None),
@@ -89,6 +99,7 @@ MESH_KEYS = {
     "velocity": ("vector3", [0.0, 0.0, 0.0], -INF, INF, False, False),
     "angular_velocity": ("vector3", [0.0, 0.0, 0.0], -INF, INF, False, False),
     "rotation_center": ("vector3", [0.0, 0.0, 0.0], -INF, INF, False, False),
+    "velocity_profile": ("profile", None, None, None, None, None),
 }
 TOP_KEYS = ("simulation", "materials", "bond_materials", "particles", "bonds", "walls")
 
@@ -281,6 +292,18 @@ def _check_value(value, kind, low, high, inc_low, inc_high, key, path):
         if not isinstance(value, dict):
             raise InputError(f"value {value!r}: expected a table", file=path, key=key)
         return value
+    if kind == "profile":
+        rows = value if isinstance(value, list) and value else None
+        if rows is None or not all(isinstance(r, list) and len(r) == 4
+                                   and all(_is_number(v) and math.isfinite(v) for v in r)
+                                   for r in rows):
+            raise InputError(f"value {value!r}: expected rows [time (s), vx, vy, vz (m/s)]",
+                             file=path, key=key)
+        times = [float(r[0]) for r in rows]
+        if times[0] != 0.0 or any(b < a for a, b in zip(times, times[1:])):
+            raise InputError(f"times {times}: the first must be 0 s and none may decrease",
+                             file=path, key=key)
+        return [[float(v) for v in r] for r in rows]
     raise AssertionError(kind)
 
 
@@ -465,7 +488,7 @@ def _check_step_displacement(scene, step, path):
             with np.errstate(all="ignore"):
                 reach = float(np.max(np.abs(wall.vertices - wall.rotation_center)))
         with np.errstate(all="ignore"):
-            slide = float(np.max(np.abs(wall.velocity))) * step
+            slide = wall.motion.max_speed() * step
             moved = slide + float(np.max(np.abs(wall.angular_velocity))) * reach * step
         if not moved <= r_min:
             key = "velocity" if slide > r_min else "angular_velocity"
@@ -509,15 +532,21 @@ def _contact_and_walls(options, sim, walls, material_objects, material_names, pa
         objects = []
         for w in walls:
             material = material_objects[material_names.index(w["material"])]
+            motion = None
+            if w["velocity_profile"] is not None:
+                rows = np.array(w["velocity_profile"])
+                motion = wall_module.VelocityProfile(rows[:, 0], rows[:, 1:])
+            elif w.get("servo") is not None:
+                motion = wall_module.Servo(**w["servo"])
             if w["type"] == "plane":
                 objects.append(wall_module.PlaneWall(w["point"], w["normal"], material,
-                                                     velocity=w["velocity"]))
+                                                     velocity=w["velocity"], motion=motion))
             else:
                 try:
                     objects.append(wall_module.MeshWall.from_stl(
                         w["file"], material, scale=w["scale"], velocity=w["velocity"],
                         angular_velocity=w["angular_velocity"],
-                        rotation_center=w["rotation_center"]))
+                        rotation_center=w["rotation_center"], motion=motion))
                 except (OSError, ValueError) as error:
                     raise InputError(f"cannot read the mesh {w['file']!r}: {error}",
                                      file=path, key=f"walls.{w['index']}.file")
@@ -536,6 +565,22 @@ def _wall(table, index, material_names, path):
     if wall["material"] not in material_names:
         raise InputError(f"value {wall['material']!r} is not defined; defined materials: "
                          f"{', '.join(material_names)}", file=path, key=f"{where}.material")
+    motions = [k for k in ("velocity_profile", "servo") if wall.get(k) is not None]
+    if any(wall["velocity"]) and motions:
+        motions.insert(0, "velocity")
+    if len(motions) > 1:
+        raise InputError(f"give one of velocity, velocity_profile, servo; got "
+                         f"{', '.join(motions)}", file=path, key=f"{where}.{motions[1]}")
+    if wall.get("servo") is not None:
+        servo = _check_table(wall["servo"], SERVO_KEYS, f"{where}.servo", path)
+        given = [k for k in ("target_force", "target_stress") if servo[k] is not None]
+        if len(given) != 1:
+            raise InputError("give exactly one of target_force (N) or target_stress (Pa)",
+                             file=path, key=f"{where}.servo.target_force")
+        if servo["target_stress"] is not None and servo["area"] is None:
+            raise InputError("target_stress needs the area (m^2) it acts on",
+                             file=path, key=f"{where}.servo.area")
+        wall["servo"] = {k: v for k, v in servo.items() if v is not None}
     if kind == "plane" and np.linalg.norm(wall["normal"]) == 0.0:
         raise InputError("value [0, 0, 0]: the normal must be a non-zero vector", file=path,
                          key=f"{where}.normal")

@@ -12,6 +12,7 @@ from .backends import select_backend
 from .integrate import extra_start_up_steps
 from .status import SimulationBlowUp
 from .timestep import stable_time_step, time_scales
+from .walls import Servo, WallHistory
 
 
 class Simulation:
@@ -73,6 +74,15 @@ class Simulation:
             self.contacts = self.backend.contact_law(model, contact, walls)
             laws = (self.contacts, *laws)
         self.walls = list(walls)
+        self._servos = [(k, w.motion) for k, w in enumerate(self.walls)
+                        if isinstance(w.motion, Servo)]
+        saved = state.extra.get("wall_servo")
+        if self._servos and saved is not None and saved.shape == (len(self._servos), 3):
+            for (_, servo), (travel, speed, measured) in zip(self._servos, saved):
+                servo.travel, servo.speed, servo.measured = float(travel), float(speed), \
+                    float(measured)
+        self.wall_history = (WallHistory(len(self.walls), state.extra.get("wall_history_last"))
+                             if self.walls else None)
         self.backend.check_laws(laws)
         self.bonds = self.backend.bond_law(model)
         self.bonds.musen_compat = self.musen_compat
@@ -112,11 +122,39 @@ class Simulation:
         # CPU: small systems run on one thread (same results, less thread overhead).
         limit = getattr(self.integrator, "thread_limit", None)
         with limit(self.model) if limit else contextlib.nullcontext():
+            # the GPU keeps the wall loads on the device: they come back per step only
+            # for servos, else at the end of the batch
+            per_step = self.wall_history is not None and (
+                self._servos or self.backend_name == "cpu")
             for _ in range(steps + extra_start_up_steps(self.state.started,
                                                          self.musen_compat)):
+                evaluated = self.state.time
                 self.backend.step(self.model, self.state, self.laws, self.integrator,
                                   self.force, self.moment, self.time_step, self.musen_compat)
+                if per_step:
+                    self._after_step(evaluated)
         self.backend.to_host(self.state)
+        if self.wall_history is not None and not per_step and steps:
+            evaluated = getattr(self.contacts, "_evaluated_time", None)
+            self._after_step(self.state.time if evaluated is None else evaluated,
+                             servos=False)
+
+    def _after_step(self, evaluated, servos=True):
+        """Record the wall loads of the step evaluated at ``evaluated`` (s) and move the
+        servo walls on (their state goes into ``state.extra["wall_servo"]``)."""
+        if self.backend_name != "cpu":
+            self.contacts.to_host(self.state)
+        force = self.wall_force
+        self.wall_history.record(evaluated, force,
+                                 [w.position(evaluated) for w in self.walls])
+        # a resumed run records from the same last row (checkpoints keep it)
+        self.state.extra["wall_history_last"] = self.wall_history.last
+        if servos and self._servos:
+            saved = np.empty((len(self._servos), 3))
+            for row, (k, servo) in enumerate(self._servos):
+                servo.update(force[k], self.time_step)
+                saved[row] = servo.travel, servo.speed, servo.measured
+            self.state.extra["wall_servo"] = saved
 
     def synchronize(self):
         """Wait until the backend has finished every queued step (for timing)."""

@@ -1,11 +1,13 @@
 """Walls: infinite planes and triangle meshes, moving by translation and rotation.
 
 A wall has a particle ``Material`` (its E, nu, e, mu, mu_r meet the particle's as in
-``physics.contact_hertz``) and a rigid motion: constant velocity v (m/s) and, for meshes,
-constant angular velocity w (rad/s) about the axis through ``rotation_center`` (which
-travels with v). At time t a mesh vertex X0 is at
-    c(t) + R(w t) (X0 - c0),  c(t) = c0 + v t
-and the wall's surface velocity at a point q is v + w x (q - c(t)). Planes only translate.
+``physics.contact_hertz``) and a rigid motion: a translation u(t) with velocity v(t) (a
+``motion``: constant velocity, a piecewise-linear ``VelocityProfile`` or a force-controlled
+``Servo``) and, for meshes, a constant angular velocity w (rad/s) about the axis through
+``rotation_center`` (which travels with u). At time t a mesh vertex X0 is at
+    c(t) + R(w t) (X0 - c0),  c(t) = c0 + u(t)
+and the wall's surface velocity at a point q is v(t) + w x (q - c(t)). Planes only
+translate.
 
 All walls are flattened into *elements* for the kernels: a plane is one element (type
 PLANE: row 0 its point, row 1 its unit normal), a mesh contributes one TRIANGLE element per
@@ -48,11 +50,161 @@ def rotation_matrix(angular_velocity, time):
     return np.eye(3) + math.sin(angle) * kx + (1.0 - math.cos(angle)) * (kx @ kx)
 
 
+class ConstantVelocity:
+    """Translation at a constant ``velocity`` (m/s): u(t) = v t."""
+
+    def __init__(self, velocity=(0.0, 0.0, 0.0)):
+        self.constant = _vector("velocity", velocity)
+
+    def velocity(self, time):
+        """Velocity (3,) m/s at ``time`` (s)."""
+        return self.constant
+
+    def displacement(self, time):
+        """Translation (3,) m from t = 0 to ``time`` (s)."""
+        return self.constant * time
+
+    def max_speed(self):
+        """Largest speed (m/s) the motion can have."""
+        return float(np.linalg.norm(self.constant))
+
+
+class VelocityProfile:
+    """Piecewise-linear velocity in time: ``times`` (K,) s from 0, non-decreasing, and
+    ``velocities`` (K,3) m/s at those times; linear between knots, a jump where a time is
+    repeated, the last velocity kept after the last knot. A ramp is two knots with
+    different velocities, a hold two with zero velocity, an unload a reversed velocity.
+    u(t) is the exact integral of v."""
+
+    def __init__(self, times, velocities):
+        times = np.asarray(times, dtype=np.float64).reshape(-1)
+        velocities = np.asarray(velocities, dtype=np.float64)
+        if velocities.shape != (times.shape[0], 3) or times.shape[0] == 0:
+            raise ValueError(f"velocity profile: {times.shape[0]} times and velocities of "
+                             f"shape {velocities.shape}; expected K times and (K, 3)")
+        if not (np.all(np.isfinite(times)) and np.all(np.isfinite(velocities))):
+            raise ValueError("velocity profile: times and velocities must be finite")
+        if times[0] != 0.0 or np.any(np.diff(times) < 0.0):
+            raise ValueError(f"velocity profile: times {times.tolist()} must start at 0 s "
+                             "and not decrease")
+        self.times, self.velocities = times, velocities
+        span = np.diff(times)[:, None]
+        self._start = np.vstack([np.zeros(3), np.cumsum(
+            0.5 * (velocities[1:] + velocities[:-1]) * span, axis=0)])
+
+    def _segment(self, time):
+        k = int(np.searchsorted(self.times, time, side="right")) - 1
+        return max(k, 0)
+
+    def velocity(self, time):
+        """Velocity (3,) m/s at ``time`` (s)."""
+        k = self._segment(time)
+        if k + 1 >= self.times.shape[0]:
+            return self.velocities[-1]
+        fraction = (time - self.times[k]) / (self.times[k + 1] - self.times[k])
+        return self.velocities[k] + fraction * (self.velocities[k + 1] - self.velocities[k])
+
+    def displacement(self, time):
+        """Translation (3,) m from t = 0 to ``time`` (s), the integral of the velocity."""
+        k = self._segment(time)
+        tau = time - self.times[k]
+        if k + 1 >= self.times.shape[0]:
+            return self._start[k] + self.velocities[k] * tau
+        slope = (self.velocities[k + 1] - self.velocities[k]) / (self.times[k + 1] - self.times[k])
+        return self._start[k] + self.velocities[k] * tau + 0.5 * slope * tau * tau
+
+    def max_speed(self):
+        """Largest speed (m/s) of the profile."""
+        return float(np.max(np.linalg.norm(self.velocities, axis=1)))
+
+
+class Servo:
+    """A plane wall driven along its normal to hold a target force (N) or stress (Pa).
+
+    target_force (N, the particles' push on the wall, along -normal) or target_stress (Pa)
+    with ``area`` (m^2, a number or a function of no arguments giving the current area,
+    e.g. a lateral wall's height times width); gain (m/s per N of force error); max_velocity
+    (m/s, the cap on the wall's speed); tolerance (fraction of the target within which
+    ``reached`` is true). After every step the wall moves on by its speed times the step
+    and takes the speed gain (F_target - F) along its normal, capped: with F below the target
+    it advances into the particles. The speed and the distance travelled are state
+    (``state.extra["wall_servo"]``, kept by checkpoints).
+    """
+
+    def __init__(self, *, target_force=None, target_stress=None, area=None, gain,
+                 max_velocity, tolerance=0.01):
+        if (target_force is None) == (target_stress is None):
+            raise ValueError("servo: give exactly one of target_force (N) or target_stress (Pa)")
+        if target_stress is not None and area is None:
+            raise ValueError("servo: target_stress needs the area (m^2) it acts on")
+        for name, value in (("gain", gain), ("max_velocity", max_velocity),
+                            ("tolerance", tolerance)):
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0.0):
+                raise ValueError(f"servo: {name} = {value!r}; must be a positive number")
+        self.target_force, self.target_stress, self.area = target_force, target_stress, area
+        self.gain, self.max_velocity, self.tolerance = float(gain), float(max_velocity), \
+            float(tolerance)
+        self.normal = np.array([0.0, 0.0, 1.0])
+        self.travel = 0.0      # m along the normal since t = 0
+        self.speed = 0.0       # m/s along the normal
+        self.measured = 0.0    # N, the particles' push in the last step
+
+    def target(self):
+        """The target force (N) now."""
+        if self.target_force is not None:
+            return float(self.target_force)
+        area = self.area() if callable(self.area) else self.area
+        return float(self.target_stress) * float(area)
+
+    def velocity(self, time):
+        """Velocity (3,) m/s: the current speed along the normal."""
+        return self.speed * self.normal
+
+    def displacement(self, time):
+        """Translation (3,) m since t = 0 (the travel so far; ``time`` is not used)."""
+        return self.travel * self.normal
+
+    def max_speed(self):
+        """The speed cap (m/s)."""
+        return self.max_velocity
+
+    @property
+    def error(self):
+        """Relative force error (F - F_target) / F_target of the last step."""
+        target = self.target()
+        return (self.measured - target) / target if target else self.measured
+
+    @property
+    def reached(self):
+        """True when the last step's force lay within the tolerance of the target."""
+        return abs(self.error) <= self.tolerance
+
+    def update(self, wall_force, time_step):
+        """After a step of ``time_step`` s whose load on the wall was ``wall_force`` (3,) N:
+        move on and set the new speed."""
+        self.travel += self.speed * time_step
+        self.measured = -float(np.dot(wall_force, self.normal))
+        speed = self.gain * (self.target() - self.measured)
+        self.speed = min(max(speed, -self.max_velocity), self.max_velocity)
+
+
+def _motion(velocity, motion):
+    if motion is None:
+        return ConstantVelocity(velocity)
+    if np.any(_vector("velocity", velocity)):
+        raise ValueError("give a wall either a constant velocity or a motion, not both")
+    if not hasattr(motion, "displacement"):
+        raise ValueError(f"motion: expected ConstantVelocity, VelocityProfile or Servo, "
+                         f"got {motion!r}")
+    return motion
+
+
 class PlaneWall:
     """Infinite plane through ``point`` (m) with outward ``normal`` (the particles' side),
-    a particle ``material`` and a constant ``velocity`` (m/s)."""
+    a particle ``material`` and a constant ``velocity`` (m/s) or a ``motion``
+    (``VelocityProfile``, ``Servo``)."""
 
-    def __init__(self, point, normal, material, velocity=(0.0, 0.0, 0.0)):
+    def __init__(self, point, normal, material, velocity=(0.0, 0.0, 0.0), motion=None):
         self.point = _vector("point", point)
         normal = _vector("normal", normal)
         length = float(np.linalg.norm(normal))
@@ -62,12 +214,23 @@ class PlaneWall:
         if not isinstance(material, Material):
             raise ValueError("material: expected a bondem.Material")
         self.material = material
-        self.velocity = _vector("velocity", velocity)
+        self.motion = _motion(velocity, motion)
+        if isinstance(self.motion, Servo):
+            self.motion.normal = self.normal
         self.angular_velocity = np.zeros(3)
+
+    @property
+    def velocity(self):
+        """Velocity (3,) m/s at t = 0 (``velocity_at`` for other times)."""
+        return np.array(self.motion.velocity(0.0), dtype=np.float64)
+
+    def velocity_at(self, time):
+        """Velocity (3,) m/s at ``time`` (s)."""
+        return self.motion.velocity(time)
 
     def position(self, time):
         """Reference point (m) at ``time`` (s): the given point moved with the wall."""
-        return self.point + self.velocity * time
+        return self.point + self.motion.displacement(time)
 
     def center(self, time):
         """Rotation centre (m) at ``time`` (s): the reference point for a plane."""
@@ -88,11 +251,13 @@ class PlaneWall:
 
 class MeshWall:
     """Triangle mesh: vertices (V,3) m, triangles (T,3) vertex indices, a particle
-    ``material``, constant ``velocity`` (m/s) and ``angular_velocity`` (rad/s) about an
-    axis through ``rotation_center`` (m), which moves with the velocity."""
+    ``material``, constant ``velocity`` (m/s) or a translating ``motion``
+    (``VelocityProfile``), and ``angular_velocity`` (rad/s) about an axis through
+    ``rotation_center`` (m), which moves with the translation."""
 
     def __init__(self, vertices, triangles, material, velocity=(0.0, 0.0, 0.0),
-                 angular_velocity=(0.0, 0.0, 0.0), rotation_center=(0.0, 0.0, 0.0)):
+                 angular_velocity=(0.0, 0.0, 0.0), rotation_center=(0.0, 0.0, 0.0),
+                 motion=None):
         vertices = np.ascontiguousarray(vertices, dtype=np.float64)
         triangles = np.ascontiguousarray(triangles, dtype=np.int64)
         if vertices.ndim != 2 or vertices.shape[1] != 3 or not np.all(np.isfinite(vertices)):
@@ -112,7 +277,9 @@ class MeshWall:
         self.vertices = vertices
         self.triangles = triangles
         self.material = material
-        self.velocity = _vector("velocity", velocity)
+        self.motion = _motion(velocity, motion)
+        if isinstance(self.motion, Servo):
+            raise ValueError("a servo drives plane walls only")
         self.angular_velocity = _vector("angular_velocity", angular_velocity)
         self.rotation_center = _vector("rotation_center", rotation_center)
 
@@ -133,9 +300,18 @@ class MeshWall:
         return cls(np.asarray(mesh.vertices) * float(scale), np.asarray(mesh.faces), material,
                    **motion)
 
+    @property
+    def velocity(self):
+        """Velocity (3,) m/s at t = 0 (``velocity_at`` for other times)."""
+        return np.array(self.motion.velocity(0.0), dtype=np.float64)
+
+    def velocity_at(self, time):
+        """Velocity (3,) m/s at ``time`` (s)."""
+        return self.motion.velocity(time)
+
     def center(self, time):
         """Rotation centre (m) at ``time`` (s)."""
-        return self.rotation_center + self.velocity * time
+        return self.rotation_center + self.motion.displacement(time)
 
     def position(self, time):
         """Reference point (m) at ``time`` (s): the rotation centre, moved with the wall."""
@@ -172,9 +348,10 @@ class WallSet:
             owners.append(np.full(t.shape[0], k, dtype=np.int64))
         self.element_type = np.concatenate(types) if types else np.zeros(0, dtype=np.int8)
         self.element_wall = np.concatenate(owners) if owners else np.zeros(0, dtype=np.int64)
-        self.velocity = np.array([w.velocity for w in self.walls]).reshape(-1, 3)
         self.angular_velocity = np.array([w.angular_velocity for w in self.walls]).reshape(-1, 3)
         self.extent = np.array([w.extent() for w in self.walls])
+        self.max_speed = np.array([w.motion.max_speed() for w in self.walls])
+        self.moving = bool(np.any(self.max_speed) or np.any(self.angular_velocity))
         self._static_rows = None
 
     @property
@@ -189,13 +366,17 @@ class WallSet:
         """(E,3,3) element rows at ``time`` (s); computed once when no wall moves."""
         if not self.walls:
             return np.zeros((0, 3, 3))
-        static = not (np.any(self.velocity) or np.any(self.angular_velocity))
-        if static and self._static_rows is not None:
+        if not self.moving and self._static_rows is not None:
             return self._static_rows
         rows = np.ascontiguousarray(np.concatenate([w.elements(time)[0] for w in self.walls]))
-        if static:
+        if not self.moving:
             self._static_rows = rows
         return rows
+
+    def velocities(self, time):
+        """(W,3) translation velocities (m/s) at ``time`` (s)."""
+        return np.array([w.velocity_at(time) for w in self.walls],
+                        dtype=np.float64).reshape(-1, 3)
 
     def centers(self, time):
         """(W,3) rotation centres (m) at ``time`` (s)."""
@@ -209,9 +390,48 @@ class WallSet:
         """Bound (m) on how far any wall point moved in ``elapsed`` seconds."""
         if not self.walls:
             return 0.0
-        speed = np.linalg.norm(self.velocity, axis=1)
         turn = np.linalg.norm(self.angular_velocity, axis=1)
-        return float(np.max(speed * elapsed + self.extent * np.minimum(turn * elapsed, 2.0)))
+        return float(np.max(self.max_speed * elapsed
+                            + self.extent * np.minimum(turn * elapsed, 2.0)))
+
+
+class WallHistory:
+    """The load on every wall, step by step: each step whose wall forces differ from the
+    last recorded ones adds a row (time at which the loads were evaluated, s; force (W,3)
+    N; reference point (W,3) m). ``take()`` hands the rows over and empties the buffer.
+    last: the forces (W,3) N of the last row recorded before (a resumed run's)."""
+
+    def __init__(self, n_walls, last=None):
+        self.n_walls = n_walls
+        self._time, self._force, self._position = [], [], []
+        self._last = None if last is None or np.shape(last) != (n_walls, 3) else \
+            np.array(last, dtype=np.float64)
+
+    @property
+    def last(self):
+        """The forces (W,3) N of the last row recorded (zeros before the first)."""
+        return np.zeros((self.n_walls, 3)) if self._last is None else self._last
+
+    def __len__(self):
+        return len(self._time)
+
+    def record(self, time, force, position):
+        """Add a row unless the forces equal the last recorded ones."""
+        if self._last is not None and np.array_equal(force, self._last):
+            return
+        self._last = np.array(force, dtype=np.float64)
+        self._time.append(float(time))
+        self._force.append(self._last)
+        self._position.append(np.array(position, dtype=np.float64))
+
+    def take(self):
+        """(times (H,), forces (H,W,3), positions (H,W,3)) recorded since the last take."""
+        w = self.n_walls
+        out = (np.array(self._time, dtype=np.float64),
+               np.array(self._force, dtype=np.float64).reshape(-1, w, 3),
+               np.array(self._position, dtype=np.float64).reshape(-1, w, 3))
+        self._time, self._force, self._position = [], [], []
+        return out
 
 
 @numba.njit(cache=True, nogil=True)

@@ -330,7 +330,7 @@ class ContactLaw:
         already placed."""
         w = self.walls
         return loops.Walls(put(w.elements(time)) if rows is None else rows,
-                           put(w.element_type), put(w.element_wall), put(w.velocity),
+                           put(w.element_type), put(w.element_wall), put(w.velocities(time)),
                            put(w.angular_velocity), put(w.centers(time)),
                            *(put(a) for a in self._wall_materials))
 

@@ -141,7 +141,7 @@ class ContactLawGpu(ContactLaw):
         self._d_grains = self.grains(model, put)
         self._d_materials = loops.ContactMaterials(*(put(a) for a in self._materials))
         self._put_walls = lambda a: put(_at_least_one(a))
-        self._moving = bool(np.any(self.walls.velocity) or np.any(self.walls.angular_velocity))
+        self._moving = self.walls.moving
         self._flag = put(np.zeros(1, dtype=np.int64))
         self._d_rows = None
         self._rows_host = None

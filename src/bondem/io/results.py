@@ -11,6 +11,8 @@ Layout (F frames, N particles, B bonds, W walls; every dataset has a ``unit`` at
        force (F,B,3) N (F_n + F_t on particle i), normal_moment, tangential_moment
        (F,B,3) N m (on particle i); all three zero for broken bonds
 /walls/force, torque, position (F,W,3) N, N m, m
+/walls/history/ time (H,) s, force (H,W,3) N, position (H,W,3) m: every step whose wall
+       forces changed (the loads evaluated at that time; not tied to the frames)
 /walls/geometry/ type (W,) 0 plane 1 mesh, point, normal, velocity, angular_velocity,
        rotation_center (W,3) m, -, m/s, rad/s, m at t = 0; meshN/vertices (V,3) m and
        meshN/triangles (T,3) for mesh wall N (for the ParaView export)
@@ -48,6 +50,7 @@ UNITS = {
     "bonds/break_time": "s", "bonds/break_mode": "1", "bonds/force": "N",
     "bonds/normal_moment": "N m", "bonds/tangential_moment": "N m", "walls/force": "N",
     "walls/torque": "N m", "walls/position": "m", "particles/force": "N",
+    "walls/history/time": "s", "walls/history/force": "N", "walls/history/position": "m",
 }
 
 
@@ -148,7 +151,7 @@ class ResultsWriter:
         self._guard = _start_guard(self.path)
 
     def _reopen(self, n_frames, state):
-        have = rewrite_results(self.path, n_frames)
+        have = rewrite_results(self.path, n_frames, history_until=state.time)
         if have < n_frames:
             raise UnreadableResults(f"holds {have} frames, the checkpoint needs {n_frames}",
                                     file=str(self.path))
@@ -175,6 +178,7 @@ class ResultsWriter:
     def append(self, sim, energy=None):
         """Append the Simulation's current state as one frame and flush it to disk.
         energy: its ``energy_terms()`` if the caller has them (J), else computed here."""
+        self.append_wall_history(sim)
         state, k = sim.state, self.n_frames
         # /time is written last: its length is the number of complete frames, even when
         # the process is killed in the middle of an append.
@@ -213,6 +217,26 @@ class ResultsWriter:
             raise
         self._break_time_written = max(self._break_time_written, broken)
         self.n_frames = k + 1
+
+    def append_wall_history(self, sim):
+        """Append the wall-load rows the Simulation recorded since the last call
+        (``/walls/history``; its time is written last, so its length counts whole rows)."""
+        history = getattr(sim, "wall_history", None)
+        if history is None or not len(history):
+            return
+        time, force, position = history.take()
+        f = self._open()
+        try:
+            if "walls/history/time" in f:   # files of earlier versions have no history
+                for name, data in (("force", force), ("position", position), ("time", time)):
+                    dataset = f[f"walls/history/{name}"]
+                    k = dataset.shape[0]
+                    dataset.resize(k + data.shape[0], axis=0)
+                    dataset[k:] = data
+            f.close()
+        except BaseException:
+            _close_quietly(f)
+            raise
 
     def close(self):
         """Stop the watchman (the file itself is closed after every frame)."""
@@ -311,15 +335,25 @@ def _create_layout(f, sim, *, scene_text, backend, scene_name, material_names,
         frames(f"bonds/{name}", (b, 3))
     for name in ("force", "torque", "position"):
         frames(f"walls/{name}", (w, 3))
+    if w:
+        frames("walls/history/time", ())
+        for name in ("force", "position"):
+            frames(f"walls/history/{name}", (w, 3))
     for name in energy_names:
         frames(f"energy/{name}", (), unit="J")
     return energy_names
 
 
-def _frame_datasets(f):
+HISTORY = "walls/history/"
+
+
+def _frame_datasets(f, history=False):
+    """Names of the datasets that grow by one row per frame (history=True: the wall
+    history's, which grow per step)."""
     names = []
     f.visititems(lambda name, obj: names.append(name)
-                 if isinstance(obj, h5py.Dataset) and obj.maxshape[:1] == (None,) else None)
+                 if isinstance(obj, h5py.Dataset) and obj.maxshape[:1] == (None,)
+                 and name.startswith(HISTORY) == history else None)
     return names
 
 
@@ -379,9 +413,10 @@ def _unreadable(path, error, what="cannot open as HDF5"):
     return UnreadableResults(f"{what} ({_hdf5_reason(error)})", file=str(path))
 
 
-def rewrite_results(path, n_frames=None) -> int:
+def rewrite_results(path, n_frames=None, history_until=None) -> int:
     """Rewrite a results file cleanly, keeping its first ``n_frames`` frames (default: all
-    complete frames, the length of /time); returns the frames kept. Call it only when no
+    complete frames, the length of /time) and the wall-history rows evaluated before
+    ``history_until`` (s; default: all whole rows); returns the frames kept. Call it only when no
     writer is running (``bondem run --resume`` does, holding the folder's lock).
 
     First clears an "open for write" mark left by a killed writer (as ``h5clear -s``),
@@ -406,6 +441,14 @@ def rewrite_results(path, n_frames=None) -> int:
                     source.copy(source[name], target, name=name)
                 for name in _frame_datasets(target):
                     target[name].resize(keep, axis=0)
+                rows = _frame_datasets(target, history=True)
+                if rows:
+                    whole = min(target[name].shape[0] for name in rows)
+                    if history_until is not None:
+                        times = target[HISTORY + "time"][:whole]
+                        whole = int(np.count_nonzero(times < history_until))
+                    for name in rows:
+                        target[name].resize(whole, axis=0)
     except (OSError, KeyError, RuntimeError) as error:
         temporary.unlink(missing_ok=True)
         raise _unreadable(path, error, "cannot read") from None

@@ -203,17 +203,21 @@ def plane_square(point, normal, center, side):
                      middle + h * u + h * v, middle - h * u + h * v])
 
 
-def walls_polydata(geometry, time, force, center, side):
+def walls_polydata(geometry, time, force, center, side, position=None):
     """Walls at ``time`` (s) from the results file's /walls/geometry group (see
     ``bondem.io.results.write_wall_geometry``); force (W,3) N; center (3,) m and side (m)
-    of the planes' squares."""
+    of the planes' squares; position: the walls' reference points (W,3) m recorded at that
+    time (velocity profiles and servos move walls in ways the geometry's t = 0 velocity does
+    not tell), else they move at that velocity."""
     from ..walls import rotation_matrix
     points, connectivity, sizes, owner = [], [], [], []
     count = 0
     for w in range(geometry["type"].shape[0]):
-        velocity = geometry["velocity"][w]
+        start = geometry["point" if geometry["type"][w] == 0 else "rotation_center"][w]
+        moved = (geometry["velocity"][w] * time if position is None
+                 else np.asarray(position[w]) - start)
         if geometry["type"][w] == 0:
-            corners = plane_square(geometry["point"][w] + velocity * time,
+            corners = plane_square(geometry["point"][w] + moved,
                                    geometry["normal"][w], center, side)
             points.append(corners)
             connectivity.append(count + np.arange(4))
@@ -224,7 +228,7 @@ def walls_polydata(geometry, time, force, center, side):
             group = geometry[f"mesh{w}"]
             rotation = rotation_matrix(geometry["angular_velocity"][w], time)
             c0 = geometry["rotation_center"][w]
-            vertices = c0 + velocity * time + (group["vertices"] - c0) @ rotation.T
+            vertices = c0 + moved + (group["vertices"] - c0) @ rotation.T
             triangles = group["triangles"]
             points.append(vertices)
             connectivity.append(count + triangles.reshape(-1))
@@ -324,7 +328,9 @@ def export_vtk(results_path, out_dir=None, *, every=1) -> Path:
             bonds.write(out_dir / name)
             entries.append((times[k], 1, name))
             if geometry is not None and geometry["type"].shape[0]:
-                walls = walls_polydata(geometry, times[k], f["walls/force"][k], center, side)
+                walls = walls_polydata(geometry, times[k], f["walls/force"][k], center, side,
+                                       f["walls/position"][k] if "walls/position" in f
+                                       else None)
                 name = f"walls_{k:06d}.vtp"
                 walls.write(out_dir / name)
                 entries.append((times[k], 2, name))
