@@ -83,7 +83,7 @@ def test_servo_settles_a_hertz_contact_at_its_target_force(glass):
     assert -sim.wall_force[0, 2] == pytest.approx(-target, rel=0.005) or \
         sim.wall_force[0, 2] == pytest.approx(target, rel=0.005)
     assert RADIUS - sim.wall_positions()[0, 2] == pytest.approx(overlap, rel=0.005)
-    assert state.extra["wall_servo"].shape == (1, 3)
+    assert state.extra["wall_servo"].shape == (1, 4)
     # every step changed the force while the wall moved: one history row per step
     time, force, position = sim.wall_history.take()
     assert time.shape[0] >= 3000 and np.all(np.diff(time) > 0)

@@ -90,6 +90,7 @@ SERVO_KEYS = {
     "gain": ("number", REQUIRED, 0.0, INF, False, False),
     "max_velocity": ("number", REQUIRED, 0.0, INF, False, False),
     "tolerance": ("number", 0.01, 0.0, 1.0, False, True),
+    "integral_time": ("number", None, 0.0, INF, False, False),
 }
 MESH_KEYS = {
     "type": ("str", REQUIRED, ("plane", "mesh"), None, None, None),

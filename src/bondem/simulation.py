@@ -77,10 +77,10 @@ class Simulation:
         self._servos = [(k, w.motion) for k, w in enumerate(self.walls)
                         if isinstance(w.motion, Servo)]
         saved = state.extra.get("wall_servo")
-        if self._servos and saved is not None and saved.shape == (len(self._servos), 3):
-            for (_, servo), (travel, speed, measured) in zip(self._servos, saved):
-                servo.travel, servo.speed, servo.measured = float(travel), float(speed), \
-                    float(measured)
+        if self._servos and saved is not None and saved.shape == (len(self._servos), 4):
+            for (_, servo), (travel, speed, measured, integral) in zip(self._servos, saved):
+                servo.travel, servo.speed, servo.measured, servo.integral = \
+                    float(travel), float(speed), float(measured), float(integral)
         self.wall_history = (WallHistory(len(self.walls), state.extra.get("wall_history_last"))
                              if self.walls else None)
         self.backend.check_laws(laws)
@@ -150,10 +150,10 @@ class Simulation:
         # a resumed run records from the same last row (checkpoints keep it)
         self.state.extra["wall_history_last"] = self.wall_history.last
         if servos and self._servos:
-            saved = np.empty((len(self._servos), 3))
+            saved = np.empty((len(self._servos), 4))
             for row, (k, servo) in enumerate(self._servos):
                 servo.update(force[k], self.time_step)
-                saved[row] = servo.travel, servo.speed, servo.measured
+                saved[row] = servo.travel, servo.speed, servo.measured, servo.integral
             self.state.extra["wall_servo"] = saved
 
     def synchronize(self):

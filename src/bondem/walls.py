@@ -125,29 +125,43 @@ class Servo:
     with ``area`` (m^2, a number or a function of no arguments giving the current area,
     e.g. a lateral wall's height times width); gain (m/s per N of force error); max_velocity
     (m/s, the cap on the wall's speed); tolerance (fraction of the target within which
-    ``reached`` is true). After every step the wall moves on by its speed times the step
-    and takes the speed gain (F_target - F) along its normal, capped: with F below the target
-    it advances into the particles. The speed and the distance travelled are state
+    ``reached`` is true); stiffness: instead of a fixed gain, a function of no arguments
+    giving the stiffness k (N/m) the wall meets now (e.g. the sum of its contacts'
+    tangent stiffnesses), the gain then being fraction / (k dt) each step, as PFC's servo
+    (fraction 1 would close the gap in one step; the cap applies while k = 0);
+    integral_time (s): adds the integral of the force error over this time (a PI servo:
+    no lasting error while the wall must keep moving, e.g. a dilating specimen). After
+    every step the wall moves on by its speed times the step and takes the speed
+    gain (F_target - F) along its normal, capped: with F below the target it advances into
+    the particles. The travel, speed, force and integral are state
     (``state.extra["wall_servo"]``, kept by checkpoints).
     """
 
-    def __init__(self, *, target_force=None, target_stress=None, area=None, gain,
-                 max_velocity, tolerance=0.01):
+    def __init__(self, *, target_force=None, target_stress=None, area=None, gain=None,
+                 max_velocity, tolerance=0.01, stiffness=None, fraction=0.3,
+                 integral_time=None):
         if (target_force is None) == (target_stress is None):
             raise ValueError("servo: give exactly one of target_force (N) or target_stress (Pa)")
         if target_stress is not None and area is None:
             raise ValueError("servo: target_stress needs the area (m^2) it acts on")
-        for name, value in (("gain", gain), ("max_velocity", max_velocity),
-                            ("tolerance", tolerance)):
+        if (gain is None) == (stiffness is None):
+            raise ValueError("servo: give exactly one of gain (m/s per N) or stiffness")
+        for name, value in (("gain", 1.0 if gain is None else gain),
+                            ("max_velocity", max_velocity), ("tolerance", tolerance),
+                            ("fraction", fraction)):
             if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0.0):
                 raise ValueError(f"servo: {name} = {value!r}; must be a positive number")
         self.target_force, self.target_stress, self.area = target_force, target_stress, area
-        self.gain, self.max_velocity, self.tolerance = float(gain), float(max_velocity), \
-            float(tolerance)
+        self.gain = None if gain is None else float(gain)
+        self.max_velocity, self.tolerance = float(max_velocity), float(tolerance)
+        self.stiffness, self.fraction = stiffness, float(fraction)
+        self.integral_time = None if integral_time is None else float(integral_time)
+        self.integral = 0.0    # N s: the force error integrated (with integral_time)
         self.normal = np.array([0.0, 0.0, 1.0])
         self.travel = 0.0      # m along the normal since t = 0
         self.speed = 0.0       # m/s along the normal
         self.measured = 0.0    # N, the particles' push in the last step
+        self.held = False      # True: moving at a held speed, the force only measured
 
     def target(self):
         """The target force (N) now."""
@@ -179,12 +193,31 @@ class Servo:
         """True when the last step's force lay within the tolerance of the target."""
         return abs(self.error) <= self.tolerance
 
+    def hold(self, speed):
+        """Stop controlling: move on at ``speed`` (m/s along the normal, within the cap),
+        still measuring the force (a platen switched from confinement to loading)."""
+        if abs(speed) > self.max_velocity:
+            raise ValueError(f"servo: held speed {speed!r} m/s exceeds max_velocity "
+                             f"{self.max_velocity!r} m/s")
+        self.held, self.speed = True, float(speed)
+
     def update(self, wall_force, time_step):
         """After a step of ``time_step`` s whose load on the wall was ``wall_force`` (3,) N:
         move on and set the new speed."""
         self.travel += self.speed * time_step
         self.measured = -float(np.dot(wall_force, self.normal))
-        speed = self.gain * (self.target() - self.measured)
+        if self.held:
+            return
+        if self.stiffness is not None:
+            k = float(self.stiffness())
+            self.gain = (self.fraction / (k * time_step) if k > 0.0
+                         else self.max_velocity / max(abs(self.target()), 1e-300))
+        error = self.target() - self.measured
+        speed = self.gain * error
+        if self.integral_time is not None:
+            speed += self.gain * (self.integral + error * time_step) / self.integral_time
+            if abs(speed) < self.max_velocity:   # no wind-up against the cap
+                self.integral += error * time_step
         self.speed = min(max(speed, -self.max_velocity), self.max_velocity)
 
 
@@ -350,8 +383,8 @@ class WallSet:
         self.element_wall = np.concatenate(owners) if owners else np.zeros(0, dtype=np.int64)
         self.angular_velocity = np.array([w.angular_velocity for w in self.walls]).reshape(-1, 3)
         self.extent = np.array([w.extent() for w in self.walls])
-        self.max_speed = np.array([w.motion.max_speed() for w in self.walls])
-        self.moving = bool(np.any(self.max_speed) or np.any(self.angular_velocity))
+        self.moving = bool(any(w.motion.max_speed() for w in self.walls)
+                           or np.any(self.angular_velocity))
         self._static_rows = None
 
     @property
@@ -386,13 +419,29 @@ class WallSet:
         """(W,3) reference points (m) at ``time`` (s)."""
         return np.array([w.position(time) for w in self.walls]).reshape(-1, 3)
 
-    def max_displacement(self, elapsed):
-        """Bound (m) on how far any wall point moved in ``elapsed`` seconds."""
+    def mark(self, time):
+        """Remember where the servo walls are at ``time`` (s): the Verlet lists were built
+        then (``max_displacement`` measures from here)."""
+        self._marked = {k: w.motion.travel for k, w in enumerate(self.walls)
+                        if isinstance(w.motion, Servo)}
+
+    def max_displacement(self, time, elapsed):
+        """Bound (m) on how far any wall point moved in the ``elapsed`` seconds up to
+        ``time``: the translation itself (a servo's from its travel since ``mark``, or
+        its speed cap times the time when none was marked) plus the rotation's sweep."""
         if not self.walls:
             return 0.0
+        marked = getattr(self, "_marked", {})
+        moved = np.empty(len(self.walls))
+        for k, w in enumerate(self.walls):
+            if isinstance(w.motion, Servo):
+                moved[k] = (abs(w.motion.travel - marked[k]) if k in marked
+                            else w.motion.max_speed() * elapsed)
+            else:
+                moved[k] = float(np.linalg.norm(w.motion.displacement(time)
+                                                - w.motion.displacement(time - elapsed)))
         turn = np.linalg.norm(self.angular_velocity, axis=1)
-        return float(np.max(self.max_speed * elapsed
-                            + self.extent * np.minimum(turn * elapsed, 2.0)))
+        return float(np.max(moved + self.extent * np.minimum(turn * elapsed, 2.0)))
 
 
 class WallHistory:

@@ -104,11 +104,38 @@ def scene_html(scene_text, attrs):
     return "\n".join(parts) or "<p>(no scene stored in the results file)</p>"
 
 
-def render_html(title, numbers, images, attrs=None, scene_text="", captions=None):
+def lab_html(folder):
+    """The "Laboratory test" section from a ``bondem lab`` folder's lab.json and its
+    figures (empty when the folder holds no lab test)."""
+    import json
+    path = Path(folder) / "lab.json"
+    if not path.is_file():
+        return ""
+    from ..lab.output import CAPTIONS as LAB_CAPTIONS
+    data = json.loads(path.read_text())
+    units = data.get("units", {})
+    rows = [(k.replace("_", " "), "n/a" if v is None else v, units.get(k, ""))
+            for k, v in data.get("numbers", {}).items()]
+    figures = []
+    for name, caption in LAB_CAPTIONS.items():
+        png = Path(folder) / f"lab_{name}.png"
+        if png.is_file():
+            figures.append(f'<figure id="lab_{name}"><img alt="lab {name}" '
+                           f'src="data:image/png;base64,'
+                           f'{base64.b64encode(png.read_bytes()).decode("ascii")}">'
+                           f"<figcaption>{html.escape(caption)}</figcaption></figure>")
+    notes = "".join(f"<li>{html.escape(str(n))}</li>" for n in data.get("notes", []))
+    return (f'<h2 id="lab">Laboratory test: {html.escape(str(data.get("test", "")))}</h2>'
+            + _table(rows, ("quantity", "value", "unit")) + f"<ul>{notes}</ul>"
+            + "".join(figures))
+
+
+def render_html(title, numbers, images, attrs=None, scene_text="", captions=None,
+                extra=""):
     """HTML text: ``numbers`` {name: value} as a table with units, the scene's settings
     (``scene_text``, TOML), ``images`` {name: PNG bytes} inlined with their captions
     (``captions`` {name: text} overriding the defaults), ``attrs`` {name: value} of the
-    results file."""
+    results file; ``extra``: HTML of further sections (the lab test's)."""
     from .summary import format_number
     captions = {**CAPTIONS, **(captions or {})}
     rows = "\n".join(
@@ -130,6 +157,7 @@ table{{border-collapse:collapse}}td{{border:1px solid #ccc;padding:2px 8px}}
 img{{max-width:100%}}figure{{margin:1.5em 0}}figcaption{{color:#444}}</style></head>
 <body><h1>{html.escape(title)}</h1><p>bondem report, {stamp}</p>
 <h2>Key numbers</h2><table id="key-numbers">{rows}</table>
+{extra}
 <h2>Scene</h2><div id="scene">{scene_html(scene_text, attrs or {})}</div>
 <h2>Figures</h2>{figures}
 <h2>Run</h2><table id="attributes">{meta}</table></body></html>
@@ -166,5 +194,5 @@ def write_report(path, out=None, frames=(0, -1)):
     out.parent.mkdir(parents=True, exist_ok=True)
     captions = {"wall": wall_caption(data["wall"])} if data["wall"] is not None else {}
     out.write_text(render_html(f"bondem: {scene_name}", numbers, images, attrs, scene_text,
-                               captions), encoding="utf-8")
+                               captions, extra=lab_html(path.parent)), encoding="utf-8")
     return out, numbers

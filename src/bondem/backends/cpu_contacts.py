@@ -218,6 +218,7 @@ class ContactLaw:
         extra["wall_pairs"] = wall_pairs
         extra["contact_reference_position"] = position.copy()
         extra["contact_reference_time"] = np.array([state.time])
+        self.walls.mark(state.time)
         counters = extra.setdefault("contact_counters", np.array([0.0, 0.0, 0.0, state.time]))
         counters[2] += 1.0
 
@@ -227,7 +228,8 @@ class ContactLaw:
             return True
         moved = max_displacement(state.position, extra["contact_reference_position"],
                                  self._box_length, model.periodic)
-        moved += self.walls.max_displacement(state.time - extra["contact_reference_time"][0])
+        moved += self.walls.max_displacement(state.time,
+                                             state.time - extra["contact_reference_time"][0])
         return moved > 0.5 * self.skin
 
     def _derive_live(self, model, state):

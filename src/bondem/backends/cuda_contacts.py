@@ -232,7 +232,7 @@ class ContactLawGpu(ContactLaw):
     def _device_needs_rebuild(self, model, state):
         extra = state.extra
         limit = 0.5 * self.skin - self.walls.max_displacement(
-            state.time - extra["contact_reference_time"][0])
+            state.time, state.time - extra["contact_reference_time"][0])
         if not limit > 0.0:
             return True
         self._flag.copy_to_device(np.zeros(1, dtype=np.int64))

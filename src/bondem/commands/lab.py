@@ -1,0 +1,62 @@
+"""``bondem lab TEST SPEC.toml``: one laboratory test (ucs, triaxial, brazilian, tension,
+agglomerate) of the specimen in SPEC (docs/lab.md); writes lab.csv, lab.json, the figures
+and results.h5 into the output folder and prints the numbers."""
+from pathlib import Path
+
+import click
+
+from .run import _folder
+
+TESTS = ("ucs", "triaxial", "brazilian", "tension", "agglomerate")
+SHOWN = ("n_particles", "n_bonds", "ucs", "tensile_strength", "peak_deviator_stress",
+         "breakage_force", "young_modulus_secant", "young_modulus_tangent", "poisson_ratio",
+         "strain_at_peak", "crack_initiation_stress", "confining_stress_error",
+         "platen_force_mismatch", "kinetic_energy_ratio", "broken_bonds_final", "fragments",
+         "steps", "wall_time")
+
+
+@click.command(name="lab")
+@click.argument("test", type=click.Choice(TESTS))
+@click.argument("spec", type=click.Path(dir_okay=False, path_type=Path))
+@click.option("--out", "out_dir", callback=_folder,
+              help="Output folder (default: next to SPEC, named SPEC_TEST).")
+@click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE",
+              help="Override a spec value, e.g. --set test.strain_rate=5 (repeatable).")
+@click.option("--overwrite", is_flag=True, help="Replace an earlier test's files there.")
+def command(test, spec, out_dir, overrides, overwrite):
+    """Run laboratory TEST on the specimen of SPEC (TOML: [specimen] and [test])."""
+    from ..errors import InputError
+    from ..lab import RUNNERS
+    from ..lab.spec import load_spec
+    from ..scene import parse_override
+
+    changes = dict(parse_override(text) for text in overrides)
+    out_dir = out_dir or spec.with_name(f"{spec.stem}_{test}")
+    if (out_dir / "lab.json").exists() and not overwrite:
+        raise InputError("holds the files of an earlier test; give --overwrite to replace "
+                         "them or --out for another folder", file=out_dir, key="--out")
+    specimen, settings, text = load_spec(spec, changes or None)
+    if test == "triaxial" and settings.confining_stress is None:
+        raise InputError("a triaxial test needs test.confining_stress (Pa)", file=spec,
+                         key="test.confining_stress")
+    if test == "triaxial" and specimen.shape != "box":
+        raise InputError(f"a triaxial test needs a box specimen (plane lateral walls); "
+                         f"this one is a {specimen.shape}", file=spec, key="specimen.shape")
+    click.echo(f"bondem lab {test}: {specimen.n_particles} particles, {specimen.n_bonds} "
+               f"bonds ({'; '.join(specimen.notes)})")
+    for name in ("results.h5", "lab.json"):
+        (out_dir / name).unlink(missing_ok=True)
+    result = RUNNERS[test](specimen, settings, out_dir=out_dir, scene_text=text)
+    paths = result.write(out_dir)
+    for key in SHOWN:
+        if key in result.numbers:
+            value = result.numbers[key]
+            unit = result.units.get(key, "")
+            shown = f"{value:.4g}" if isinstance(value, float) else str(value)
+            click.echo(f"  {key.replace('_', ' ')}: {shown}"
+                       + (f" {unit}" if unit not in ("", "1") else ""))
+    click.echo(f"  ({result.notes[-1]})")
+    click.echo(f"table:   {paths['csv']}  and {paths['json'].name}")
+    figures = [p.name for k, p in paths.items() if k not in ("csv", "json")]
+    click.echo(f"figures: {', '.join(figures)}")
+    click.echo(f"next: bondem report {out_dir / 'results.h5'}")

@@ -1,0 +1,120 @@
+"""What a lab report reads off a test's curve: pure functions of arrays.
+
+Conventions: stress and strain are positive in the direction the test loads (compression
+for the compression tests, extension for direct tension); lateral strain is positive in
+the sense Poisson's ratio counts (widening under compression, narrowing under tension), so
+Poisson's ratio = lateral / axial strain; ``lateral_strain`` itself returns the widening.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+
+def gauge_groups(position, axis, fractions=(0.1, 0.25)):
+    """Indices of the particles whose centres lie between fractions[0] and fractions[1]
+    of the height from the lower and from the upper end along ``axis`` (the nearest layer
+    where that band is empty): gauge points inside the specimen, away from the platens'
+    contacts, whose mean positions give an axial strain free of platen compliance."""
+    z = position[:, axis]
+    low, high = z.min(), z.max()
+    h = high - low
+    near = np.flatnonzero((z >= low + fractions[0] * h) & (z <= low + fractions[1] * h))
+    far = np.flatnonzero((z <= high - fractions[0] * h) & (z >= high - fractions[1] * h))
+    if near.size == 0 or far.size == 0:
+        layers = np.unique(np.round((z - low) / max(h, 1e-300), 6))
+        second = layers[min(1, layers.size - 1)]
+        near = np.flatnonzero(np.round((z - low) / h, 6) == second)
+        far = np.flatnonzero(np.round((z - low) / h, 6) == layers[max(layers.size - 2, 0)])
+    return near, far
+
+
+def middle_band(position, axis, fractions=(0.25, 0.75)):
+    """Indices of the particles in the middle of the height (for the lateral strain)."""
+    z = position[:, axis]
+    low, h = z.min(), np.ptp(z)
+    band = np.flatnonzero((z >= low + fractions[0] * h) & (z <= low + fractions[1] * h))
+    return band if band.size >= 2 else np.arange(position.shape[0])
+
+
+def gauge_length(position, near, far, axis):
+    """Distance (m) between the mean positions of the two gauge groups along ``axis``."""
+    return float(position[far, axis].mean() - position[near, axis].mean())
+
+
+def lateral_strain(position0, position, band, axis):
+    """Least-squares uniform lateral strain (extension positive) of the particles
+    ``band``: sum(rho0 . (rho - rho0)) / sum(|rho0|^2), rho the position normal to
+    ``axis`` relative to the band's centroid (exact for u = eps rho)."""
+    lateral = [k for k in range(3) if k != axis]
+    rho0 = position0[band][:, lateral]
+    rho = position[band][:, lateral]
+    rho0 = rho0 - rho0.mean(axis=0)
+    rho = rho - rho.mean(axis=0)
+    norm = float(np.sum(rho0 * rho0))
+    return float(np.sum(rho0 * (rho - rho0)) / norm) if norm > 0.0 else 0.0
+
+
+def peak(stress):
+    """Index of the largest stress (the first where tied)."""
+    return int(np.argmax(stress))
+
+
+def _crossing(x, y, level, until):
+    """x where y first reaches ``level`` within [0, until] (linear between samples)."""
+    for k in range(1, until + 1):
+        if y[k] >= level:
+            y0, y1 = y[k - 1], y[k]
+            f = (level - y0) / (y1 - y0) if y1 != y0 else 1.0
+            return x[k - 1] + f * (x[k] - x[k - 1]), k
+    return math.nan, until
+
+
+def moduli(strain, stress, lateral=None, fraction=0.5):
+    """Young's modulus (Pa) from the pre-peak branch at ``fraction`` of the peak stress:
+    secant (stress over strain there) and tangent (least-squares slope of the samples
+    between fraction -/+ 0.1 of the peak), and Poisson's ratio (secant: lateral over axial
+    strain there); NaN where the curve gives no such point."""
+    strain, stress = np.asarray(strain, float), np.asarray(stress, float)
+    out = {"young_modulus_secant": math.nan, "young_modulus_tangent": math.nan,
+           "poisson_ratio": math.nan}
+    if stress.size < 3 or not np.isfinite(stress).all() or stress.max() <= 0.0:
+        return out
+    top = peak(stress)
+    level = fraction * stress[top]
+    at, k = _crossing(strain, stress, level, top)
+    if math.isfinite(at) and at != 0.0:
+        out["young_modulus_secant"] = float(level / at)
+    window = np.flatnonzero((stress[:top + 1] >= (fraction - 0.1) * stress[top])
+                            & (stress[:top + 1] <= (fraction + 0.1) * stress[top]))
+    if window.size >= 2 and np.ptp(strain[window]) > 0.0:
+        out["young_modulus_tangent"] = float(np.polyfit(strain[window], stress[window], 1)[0])
+    if lateral is not None and math.isfinite(at) and at != 0.0:
+        lateral = np.asarray(lateral, float)
+        f = 0.0 if k == 0 else (at - strain[k - 1]) / (strain[k] - strain[k - 1]) \
+            if strain[k] != strain[k - 1] else 1.0
+        value = lateral[k - 1] + f * (lateral[k] - lateral[k - 1])
+        out["poisson_ratio"] = float(value / at)
+    return out
+
+
+def crack_initiation(stress, broken, fraction=0.01):
+    """Stress (Pa) when the broken bonds first reach ``fraction`` of those broken at the
+    peak (at least one bond); NaN when none broke before the peak."""
+    stress, broken = np.asarray(stress, float), np.asarray(broken)
+    top = peak(stress)
+    needed = max(1, math.ceil(fraction * broken[top]))
+    if broken[top] < 1:
+        return math.nan
+    k = int(np.argmax(broken >= needed))
+    return float(stress[k])
+
+
+def fragments(pairs, active, mass):
+    """(number of fragments of two or more particles, mass fraction of the largest)."""
+    from ..analysis.fragments import fragment_labels
+    count, labels = fragment_labels(pairs, active, mass.shape[0], mass)
+    sizes = np.bincount(labels, minlength=count)
+    weights = np.bincount(labels, weights=mass, minlength=count)
+    return int(np.count_nonzero(sizes >= 2)), float(weights.max() / mass.sum())

@@ -1,0 +1,671 @@
+"""The five laboratory tests, each one function: ``uniaxial`` (UCS), ``triaxial``,
+``brazilian``, ``direct_tension`` and ``agglomerate`` (compression between two plates).
+
+Each builds a Simulation of the specimen with its boundary (frictionless platens on a
+velocity ramp, servo walls, or gripped end layers), runs it in samples of a few steps,
+reads the loads and the specimen's own particles at every sample, stops a given fraction
+of the peak after the peak or at a strain limit, and returns a ``LabResult``: the curve
+(one row per sample) and the numbers a lab report gives. Definitions: docs/lab.md.
+"""
+from __future__ import annotations
+
+import dataclasses
+import math
+import time as clock
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..contacts import ContactSettings
+from ..model import Material
+from ..simulation import Simulation
+from ..walls import PlaneWall, Servo, VelocityProfile
+from . import measure
+from .specimen import box_widths
+
+TESTS = ("ucs", "triaxial", "brazilian", "tension", "agglomerate")
+TENSION_MODE, COMPRESSION_MODE, SHEAR_MODE = 1, 2, 3
+
+
+@dataclass
+class LabSettings:
+    """Settings of a lab test (defaults in brackets).
+
+    strain_rate: 1/s of the platen gap (each platen moves at half of it times the height)
+    [None: 5e-4 over the time a compression wave takes to cross the specimen];
+    post_peak: stop once the stress has fallen to this fraction of the peak after it, with
+    at least ``failure_bonds`` of the bonds broken [0.7]; failure_bonds: that fraction
+    [0.01: a local break at a platen contact is not the failure]; max_strain: stop at this
+    axial strain (platen or grip strain; for the agglomerate the plate displacement over
+    the diameter) [0.05; Brazilian 0.1, agglomerate 0.2]; damping: local (non-viscous) damping
+    coefficient [0.7, as PFC's default]; confining_stress: Pa, triaxial only;
+    platen_material: the platens' Material [the particles' with no friction];
+    ramp: the platens reach their speed over this many wave-crossing times [2];
+    gauge: the gauge bands, fractions of the height from each end [(0.1, 0.25)];
+    grip: fraction of the height gripped at each end in direct tension [0.1];
+    samples: samples up to max_strain [2000]; frames: frames written to a results file
+    [20]; max_steps: a bound on the steps [5e6]; safety_factor: of the time step [0.2];
+    backend: "cpu" or "gpu".
+    """
+    strain_rate: float | None = None
+    post_peak: float = 0.7
+    failure_bonds: float = 0.01
+    max_strain: float | None = None
+    damping: float = 0.7
+    confining_stress: float | None = None
+    platen_material: Material | None = None
+    ramp: float = 2.0
+    gauge: tuple = (0.1, 0.25)
+    grip: float = 0.1
+    samples: int = 2000
+    frames: int = 20
+    max_steps: int = 5_000_000
+    safety_factor: float = 0.2
+    backend: str = "cpu"
+
+    def __post_init__(self):
+        checks = [("post_peak", 0.0, 1.0), ("failure_bonds", -1e-300, 1.0),
+                  ("damping", -1e-300, 1.0),
+                  ("ramp", -1e-300, math.inf), ("grip", 0.0, 0.5),
+                  ("safety_factor", 0.0, 1.0)]
+        for name, low, high in checks:
+            value = getattr(self, name)
+            if not (isinstance(value, (int, float)) and low < value < high
+                    or (name == "safety_factor" and value == 1.0)):
+                raise ValueError(f"{name} = {value!r}; allowed range ({max(low, 0):g}, {high:g})")
+        if self.max_strain is not None and not 0.0 < self.max_strain < 1.0:
+            raise ValueError(f"max_strain = {self.max_strain!r}; allowed range (0, 1)")
+        if self.strain_rate is not None and not (self.strain_rate > 0.0
+                                                 and math.isfinite(self.strain_rate)):
+            raise ValueError(f"strain_rate = {self.strain_rate!r}; must be > 0 (1/s)")
+        if self.confining_stress is not None and not (self.confining_stress > 0.0
+                                                      and math.isfinite(self.confining_stress)):
+            raise ValueError(f"confining_stress = {self.confining_stress!r}; must be > 0 Pa")
+        if not (0.0 <= self.gauge[0] < self.gauge[1] <= 0.5):
+            raise ValueError(f"gauge = {self.gauge!r}; expected 0 <= low < high <= 0.5")
+        for name in ("samples", "frames", "max_steps"):
+            if int(getattr(self, name)) < 1:
+                raise ValueError(f"{name} = {getattr(self, name)!r}; must be >= 1")
+
+
+@dataclass
+class LabResult:
+    """A finished test: ``curve`` {column: (S,) array} one row per sample (units in
+    ``units``), ``numbers`` {name: value} (SI units, see ``units``), the settings used,
+    notes, and the final state for the specimen picture: ``position`` (N,3) m, ``bonds``
+    (B,2) and ``broken`` (B,) bool."""
+    test: str
+    curve: dict
+    numbers: dict
+    units: dict
+    settings: dict
+    notes: list = field(default_factory=list)
+    position: np.ndarray | None = None
+    bonds: np.ndarray | None = None
+    broken: np.ndarray | None = None
+    break_mode: np.ndarray | None = None
+
+    def write(self, out_dir, figures=True):
+        """Write lab.csv (the curve), lab.json (numbers, units, settings, notes) and the
+        figures into ``out_dir``; returns {name: path}."""
+        from .output import write_result
+        return write_result(self, out_dir, figures=figures)
+
+
+def _estimate_wave_time(specimen, axis):
+    """Time (s) a compression wave takes to cross the specimen along ``axis``, from an
+    estimate of its modulus: sum over bonds of k_n L^2 / (5 V) (the Voigt average of
+    axial springs), and its bulk density."""
+    size = specimen.size()
+    volume = float(np.prod(size))
+    length = np.linalg.norm(specimen.position[specimen.bonds[:, 1]]
+                            - specimen.position[specimen.bonds[:, 0]], axis=1)
+    young = np.array([m.young_modulus for m in specimen.bond_materials])[
+        specimen.bond_material_index]
+    area = math.pi * 0.25 * specimen.bond_diameter ** 2
+    modulus = float(np.sum(young * area * length) / (5.0 * volume))
+    density = np.array([m.density for m in specimen.materials])[specimen.material_index]
+    mass = float(np.sum(density * 4.0 / 3.0 * math.pi * specimen.radius ** 3))
+    return size[axis] / math.sqrt(modulus / (mass / volume))
+
+
+def _platen_material(specimen, settings):
+    if settings.platen_material is not None:
+        return settings.platen_material
+    return dataclasses.replace(specimen.materials[0], friction=0.0, rolling_friction=0.0)
+
+
+class _Probe:
+    """Per-sample readings of a running test (positions, bonds, energies)."""
+
+    def __init__(self, sim, axis, settings, exclude=None):
+        self.sim, self.axis = sim, axis
+        state = sim.state
+        self.position0 = state.position.copy()
+        self.near, self.far = measure.gauge_groups(state.position, axis, settings.gauge)
+        self.band = measure.middle_band(state.position, axis)
+        self.gauge0 = measure.gauge_length(state.position, self.near, self.far, axis)
+        self.moving = np.ones(sim.model.n_particles, bool)
+        if exclude is not None:
+            self.moving[exclude] = False
+
+    def gauge_strain(self):
+        """Extension of the gauge length (positive when it lengthens)."""
+        now = measure.gauge_length(self.sim.state.position, self.near, self.far, self.axis)
+        return (now - self.gauge0) / self.gauge0
+
+    def lateral(self):
+        return measure.lateral_strain(self.position0, self.sim.state.position, self.band,
+                                      self.axis)
+
+    def broken(self):
+        mode = self.sim.state.bond_break_mode
+        return (int(np.count_nonzero(mode == TENSION_MODE)),
+                int(np.count_nonzero(mode == COMPRESSION_MODE)),
+                int(np.count_nonzero(mode == SHEAR_MODE)))
+
+    def energy_ratio(self):
+        """Kinetic energy of the free particles over the elastic energy stored."""
+        state, model = self.sim.state, self.sim.model
+        m = self.moving
+        kinetic = 0.5 * float(np.sum(model.mass[m] * np.einsum(
+            "ij,ij->i", state.velocity[m], state.velocity[m]))) + 0.5 * float(np.sum(
+                model.inertia[m] * np.einsum("ij,ij->i", state.angular_velocity[m],
+                                             state.angular_velocity[m])))
+        elastic = self.sim.bond_energy()
+        return kinetic / elastic if elastic > 0.0 else math.nan
+
+
+def _mean_wall_force(sim, last):
+    """Mean force (W,3) N on each wall over the steps since the last sample (the last
+    recorded value when none changed)."""
+    _, force, _ = sim.wall_history.take()
+    return force.mean(axis=0) if force.shape[0] else last
+
+
+class _Runner:
+    """The sample loop shared by the tests: steps, readings, stop rule, frames."""
+
+    def __init__(self, sim, settings, steps_to_limit, out_dir, scene_text):
+        self.sim, self.settings = sim, settings
+        self.every = max(1, int(steps_to_limit // settings.samples))
+        self.rows = []
+        self.writer = None
+        if out_dir is not None:
+            from pathlib import Path
+
+            from ..io.results import ResultsWriter
+            out_dir = Path(out_dir)
+            out_dir.mkdir(parents=True, exist_ok=True)
+            self.writer = ResultsWriter(out_dir / "results.h5", sim, scene_text=scene_text,
+                                        backend=settings.backend, scene_name="lab")
+            self.writer.append(sim)
+        self.frame_every = max(1, int(settings.samples // settings.frames))
+        self.started = clock.monotonic()
+
+    def step(self):
+        self.sim.step(self.every)
+
+    def sample(self, row):
+        self.rows.append(row)
+        if self.writer is not None and len(self.rows) % self.frame_every == 0:
+            self.writer.append(self.sim)
+
+    def finish(self):
+        if self.writer is not None:
+            self.writer.append(self.sim)
+            self.writer.close()
+        curve = {k: np.array([r[k] for r in self.rows], dtype=np.float64)
+                 for k in self.rows[0]} if self.rows else {}
+        return curve, clock.monotonic() - self.started
+
+
+MAX_STRAIN = {"ucs": 0.05, "triaxial": 0.05, "tension": 0.05, "brazilian": 0.1,
+              "agglomerate": 0.2}
+RATE = 5e-4   # default strain per wave-crossing time
+SERVO_GAIN = 0.15   # of the dead-beat gain 1 / (k dt), k the wall's contact stiffness
+SERVO_INTEGRAL = 30   # steps: the servos' integral time (0.3 / 0 oscillates; measured)
+
+
+def _limits(settings, test):
+    """The settings with the test's default strain limit filled in."""
+    if settings.max_strain is None:
+        return dataclasses.replace(settings, max_strain=MAX_STRAIN[test])
+    return settings
+
+
+def _stop(stress, broken, n_bonds, strain, settings, top):
+    """Stop rule: past the peak, with at least failure_bonds of the bonds broken, below
+    post_peak of it; or at the strain limit."""
+    if strain >= settings.max_strain:
+        return "strain limit"
+    if (broken >= max(1.0, settings.failure_bonds * n_bonds) and top > 0.0
+            and stress <= settings.post_peak * top):
+        return "post-peak"
+    return None
+
+
+def _common_numbers(curve, strain_key, stress_key, lateral_key=None):
+    stress, strain = curve[stress_key], curve[strain_key]
+    k = measure.peak(stress)
+    out = {"peak_stress": float(stress[k]), "strain_at_peak": float(strain[k])}
+    out.update(measure.moduli(strain, stress, curve[lateral_key] if lateral_key else None))
+    broken = curve["broken_tension"] + curve["broken_compression"] + curve["broken_shear"]
+    out["crack_initiation_stress"] = measure.crack_initiation(stress, broken)
+    out["broken_bonds_at_peak"] = int(broken[k])
+    out["broken_bonds_final"] = int(broken[-1])
+    before = slice(0, k + 1)
+    live = stress[before] >= 0.2 * stress[k]
+    ratio = curve["kinetic_ratio"][before][live]
+    out["kinetic_energy_ratio"] = float(np.nanmax(ratio)) if ratio.size and np.isfinite(
+        ratio).any() else math.nan
+    return out
+
+
+UNITS = {"time": "s", "axial_stress": "Pa", "axial_strain": "1", "platen_strain": "1",
+         "lateral_strain": "1", "volumetric_strain": "1", "force_top": "N",
+         "force_bottom": "N", "force": "N", "displacement": "m", "gap": "m",
+         "tensile_stress": "Pa", "deviator_stress": "Pa", "lateral_stress": "Pa",
+         "broken_tension": "1", "broken_compression": "1", "broken_shear": "1",
+         "kinetic_ratio": "1", "peak_stress": "Pa", "strain_at_peak": "1",
+         "young_modulus_secant": "Pa", "young_modulus_tangent": "Pa", "poisson_ratio": "1",
+         "crack_initiation_stress": "Pa", "broken_bonds_at_peak": "1",
+         "broken_bonds_final": "1", "kinetic_energy_ratio": "1",
+         "platen_force_mismatch": "1", "platen_force_mismatch_max": "1", "fragments": "1",
+         "largest_fragment_fraction": "1",
+         "strain_rate": "1/s", "time_step": "s", "steps": "1", "wall_time": "s",
+         "tensile_strength": "Pa", "ucs": "Pa", "breakage_force": "N",
+         "displacement_at_peak": "m", "confining_stress": "Pa",
+         "peak_deviator_stress": "Pa", "confining_stress_error": "1",
+         "mismatch": "1", "diameter": "m", "thickness": "m", "height": "m",
+         "cross_section": "m^2", "n_particles": "1", "n_bonds": "1"}
+
+
+def _simulation(specimen, settings, walls=(), fixed=None, velocity=None):
+    model, state = specimen.system(fixed=fixed, velocity=velocity, damping=settings.damping)
+    contact = ContactSettings(model=specimen.contact_model)
+    return Simulation(model, state, contact=contact, walls=walls,
+                      safety_factor=settings.safety_factor, backend=settings.backend)
+
+
+def _platens(specimen, settings, axis, speed, wave_time, material):
+    """Two frictionless planes touching the specimen's ends along ``axis``, each moving in
+    at ``speed`` (m/s) after a linear ramp over ``settings.ramp`` wave-crossing times."""
+    low, high = specimen.bounds()
+    ramp = settings.ramp * wave_time
+    walls = []
+    for point, sign in ((low, 1.0), (high, -1.0)):
+        normal = np.zeros(3)
+        normal[axis] = sign
+        v = speed * normal   # along the normal: into the specimen
+        if ramp > 0.0:
+            motion = VelocityProfile([0.0, ramp], [np.zeros(3), v])
+        else:
+            motion = VelocityProfile([0.0], [v])
+        walls.append(PlaneWall(point, normal, material, motion=motion))
+    return walls
+
+
+def _finish(test, specimen, settings, sim, runner, numbers, stop, notes):
+    curve, wall_time = runner.finish()
+    state = sim.state
+    count, largest = measure.fragments(sim.model.bond_pairs, state.bond_active, sim.model.mass)
+    numbers.update({"fragments": count, "largest_fragment_fraction": largest,
+                    "time_step": sim.time_step, "steps": int(state.step),
+                    "wall_time": wall_time, "n_particles": specimen.n_particles,
+                    "n_bonds": specimen.n_bonds})
+    notes = [*specimen.notes, *notes, f"stopped: {stop}"]
+    return LabResult(test, curve, numbers, {k: UNITS.get(k, "") for k in (*curve, *numbers)},
+                     _settings_dict(settings), notes, state.position.copy(),
+                     sim.model.bond_pairs.copy(), ~state.bond_active.copy(),
+                     state.bond_break_mode.copy())
+
+
+def _settings_dict(settings):
+    out = {}
+    for f in dataclasses.fields(settings):
+        value = getattr(settings, f.name)
+        out[f.name] = (value.__dict__ if isinstance(value, Material) else
+                       list(value) if isinstance(value, tuple) else value)
+    return out
+
+
+def _compression(test, specimen, settings, axis, out_dir, scene_text, confining=None):
+    """UCS (confining None) and the loading stage of a triaxial test."""
+    wave = _estimate_wave_time(specimen, axis)
+    rate = settings.strain_rate or RATE / wave
+    height = float(specimen.size()[axis])
+    material = _platen_material(specimen, settings)
+    speed = 0.5 * rate * height
+    notes = []
+    if confining is None:
+        walls = _platens(specimen, settings, axis, speed, wave, material)
+        sim = _simulation(specimen, settings, walls)
+        lateral_walls = []
+    else:
+        sim, walls, lateral_walls, confine_note = _confine(specimen, settings, axis, speed,
+                                                           material, wave)
+        notes.append(confine_note)
+        for w in walls:
+            w.motion.hold(speed)
+    bottom, top = walls[0], walls[1]
+    probe = _Probe(sim, axis, settings)
+    gap0 = top.position(sim.state.time)[axis] - bottom.position(sim.state.time)[axis]
+    area0 = specimen.cross_section(axis)
+    steps_to_limit = settings.max_strain / rate / sim.time_step
+    runner = _Runner(sim, settings, steps_to_limit, out_dir, scene_text)
+    force = np.zeros((len(sim.walls), 3))
+    top_stress, stop = 0.0, None
+    while stop is None and sim.state.step < settings.max_steps:
+        runner.step()
+        force = _mean_wall_force(sim, force)
+        t = sim.state.time
+        f_bottom, f_top = -force[0, axis], force[1, axis]
+        gap = top.position(t)[axis] - bottom.position(t)[axis]
+        row = {"time": t, "force_bottom": f_bottom, "force_top": f_top, "gap": gap,
+               "platen_strain": (gap0 - gap) / gap0, "axial_strain": -probe.gauge_strain(),
+               "lateral_strain": probe.lateral()}
+        if confining is None:
+            row["axial_stress"] = 0.5 * (f_bottom + f_top) / area0
+        else:
+            widths = _lateral_widths(lateral_walls, t, axis)
+            area = widths[0] * widths[1]
+            sigma1 = 0.5 * (f_bottom + f_top) / area
+            lateral_force = [-np.dot(force[2 + k], w.normal) for k, w in enumerate(lateral_walls)]
+            faces = [gap * widths[1], gap * widths[1], gap * widths[0], gap * widths[0]]
+            row["axial_stress"] = sigma1
+            row["deviator_stress"] = sigma1 - confining
+            row["lateral_stress"] = float(np.mean(np.array(lateral_force) / np.array(faces)))
+            row["lateral_stress_worst"] = float(max(abs(f / a / confining - 1.0)
+                                                    for f, a in zip(lateral_force, faces)))
+        row["volumetric_strain"] = row["axial_strain"] - 2.0 * row["lateral_strain"]
+        tension, compression, shear = probe.broken()
+        row.update({"broken_tension": tension, "broken_compression": compression,
+                    "broken_shear": shear, "kinetic_ratio": probe.energy_ratio()})
+        runner.sample(row)
+        key = "axial_stress" if confining is None else "deviator_stress"
+        top_stress = max(top_stress, row[key])
+        stop = _stop(row[key], tension + compression + shear, sim.model.n_bonds,
+                     row["platen_strain"], settings, top_stress)
+    return sim, runner, rate, stop or "max_steps", notes
+
+
+def _lateral_widths(lateral_walls, t, axis):
+    """Distances (m) between the two lateral wall pairs."""
+    out = []
+    for pair in (lateral_walls[0:2], lateral_walls[2:4]):
+        k = int(np.argmax(np.abs(pair[0].normal)))
+        out.append(abs(pair[1].position(t)[k] - pair[0].position(t)[k]))
+    return out
+
+
+def wall_stiffness(sim, specimen, material):
+    """stiffness(w): the sum (N/m) of the Hertz tangent stiffnesses 2 E* sqrt(R d) of wall
+    w's contacts in the last step, each d from its force F = 4/3 E* sqrt(R) d^1.5 (what a
+    servo's gain is tuned to; computed once per step for all walls)."""
+    platen = material
+    particle = specimen.materials[0]
+    e_star = 1.0 / ((1.0 - particle.poisson_ratio ** 2) / particle.young_modulus
+                    + (1.0 - platen.poisson_ratio ** 2) / platen.young_modulus)
+    cache = {}
+
+    def stiffness(w):
+        now = sim.state.step
+        if cache.get("step") != now:
+            extra = sim.state.extra
+            n_walls = len(sim.walls)
+            total = np.zeros(n_walls)
+            if "wall_pairs" in extra and extra["wall_pairs"].shape[0]:
+                pairs = extra["wall_pairs"]
+                force = np.linalg.norm(extra["wall_force_rows"], axis=1)
+                root = np.sqrt(sim.model.radius[pairs[:, 0]])
+                k = 2.0 * e_star * root * np.cbrt(3.0 * force / (4.0 * e_star * root))
+                owner = sim.contacts.walls.element_wall[pairs[:, 1]]
+                total = np.bincount(owner, weights=k, minlength=n_walls)
+            cache.update(step=now, total=total)
+        return float(cache["total"][w])
+
+    return stiffness
+
+
+def _confine(specimen, settings, axis, speed, material, wave):
+    """Six servo walls (two platens, four lateral) press a box specimen to the confining
+    stress; returns (simulation, platens, lateral walls, note) once every wall holds it."""
+    if specimen.shape != "box":
+        raise ValueError("a triaxial test needs a box specimen (plane lateral walls)")
+    sigma = settings.confining_stress
+    if sigma is None:
+        raise ValueError("a triaxial test needs confining_stress (Pa)")
+    low, high = specimen.bounds()
+    r = float(np.mean(specimen.radius))
+    walls = []
+    order = [axis] + [k for k in range(3) if k != axis]
+    for k in order:
+        for point, sign in ((low, 1.0), (high, -1.0)):
+            normal = np.zeros(3)
+            normal[k] = sign
+            walls.append(PlaneWall(point, normal, material, motion=Servo(
+                target_stress=sigma, area=1.0, stiffness=lambda: 0.0, max_velocity=1.0,
+                tolerance=0.005, fraction=SERVO_GAIN)))
+    sim = _simulation(specimen, settings, walls)
+    dt = sim.time_step
+    width = box_widths(sim, walls)
+    stiffness = wall_stiffness(sim, specimen, material)
+    cap = max(4.0 * speed, 1e-3 * r / dt)
+    for index, w in enumerate(walls):
+        k = int(np.argmax(np.abs(w.normal)))
+        others = [j for j in range(3) if j != k]
+        w.motion.area = (lambda o=others: width(o[0]) * width(o[1]))
+        w.motion.stiffness = (lambda i=index: stiffness(i))
+        w.motion.max_velocity = cap
+        w.motion.integral_time = SERVO_INTEGRAL * dt
+    # at least 20 wave-crossing times (the specimen settles), at most 500
+    probe_time, limit = 20.0 * wave, 500.0 * wave
+    steps = 0
+    block = max(10, int(0.5 * wave / dt))
+    reached = False
+    while steps < settings.max_steps and sim.state.time < limit:
+        sim.step(block)
+        steps += block
+        reached = all(w.motion.reached for w in walls)
+        if sim.state.time > probe_time and reached:
+            break
+    worst = max(abs(w.motion.error) for w in walls)
+    return sim, walls[:2], walls[2:], (f"confined to {sigma:.4g} Pa in {steps} steps "
+                                       f"(worst wall {100 * worst:.2g} % off"
+                                       + ("" if reached else "; not settled") + ")")
+
+
+def uniaxial(specimen, settings=None, *, out_dir=None, scene_text="", axis=2):
+    """Unconfined compression (UCS) between frictionless platens along ``axis``.
+
+    Axial stress: the mean of both platen forces over the initial cross-section; axial
+    strain from the gauge bands (and ``platen_strain`` from the platen gap); lateral strain
+    from the particles of the middle band. Numbers: ucs (the peak, Pa), strain_at_peak,
+    young_modulus_secant and _tangent at 50 % of the peak (Pa), poisson_ratio,
+    crack_initiation_stress, platen_force_mismatch (largest |F_top - F_bottom| / mean before
+    the peak, above 20 % of it), kinetic_energy_ratio, broken bonds, fragments."""
+    settings = _limits(settings or LabSettings(), "ucs")
+    sim, runner, rate, stop, notes = _compression("ucs", specimen, settings, axis, out_dir,
+                                                  scene_text)
+    result = _finish("ucs", specimen, settings, sim, runner, {}, stop, notes)
+    result.numbers.update(_common_numbers(result.curve, "axial_strain", "axial_stress",
+                                          "lateral_strain"))
+    result.numbers.update({"ucs": result.numbers["peak_stress"], "strain_rate": rate,
+                           "cross_section": specimen.cross_section(axis),
+                           "height": float(specimen.size()[axis]),
+                           "platen_force_mismatch": _mismatch(result.curve, "axial_stress"),
+        "platen_force_mismatch_max": _mismatch(result.curve, "axial_stress", worst=True)})
+    result.units = {k: UNITS.get(k, "") for k in (*result.curve, *result.numbers)}
+    return result
+
+
+def _mismatch(curve, key, worst=False):
+    """Mean (worst=True: largest) of |F_top - F_bottom| / their mean over the samples
+    before the peak above 20 % of it."""
+    stress = curve[key]
+    k = measure.peak(stress)
+    mean = 0.5 * (curve["force_top"] + curve["force_bottom"])
+    live = np.flatnonzero(stress[:k + 1] >= 0.2 * stress[k])
+    if live.size == 0:
+        return math.nan
+    ratio = np.abs(curve["force_top"][live] - curve["force_bottom"][live]) / mean[live]
+    return float(ratio.max() if worst else ratio.mean())
+
+
+def triaxial(specimen, settings=None, *, out_dir=None, scene_text="", axis=2):
+    """Confined compression of a box specimen: six servo walls press it to
+    ``settings.confining_stress``, then the platens load it at the strain rate while the
+    four lateral walls hold the confining stress on their current areas. Numbers as
+    ``uniaxial`` on the deviator stress q = sigma_1 - sigma_3 (peak_deviator_stress), and
+    confining_stress_error: the largest relative deviation of a lateral wall's stress from
+    the target before the peak."""
+    settings = _limits(settings or LabSettings(), "triaxial")
+    sim, runner, rate, stop, notes = _compression("triaxial", specimen, settings, axis,
+                                                  out_dir, scene_text,
+                                                  confining=settings.confining_stress)
+    result = _finish("triaxial", specimen, settings, sim, runner, {}, stop, notes)
+    curve = result.curve
+    result.numbers.update(_common_numbers(curve, "axial_strain", "deviator_stress",
+                                          "lateral_strain"))
+    k = measure.peak(curve["deviator_stress"])
+    result.numbers.update({
+        "peak_deviator_stress": result.numbers["peak_stress"],
+        "peak_stress": float(curve["axial_stress"][k]), "strain_rate": rate,
+        "confining_stress": settings.confining_stress,
+        "confining_stress_error": float(np.max(curve["lateral_stress_worst"][:k + 1])),
+        "platen_force_mismatch": _mismatch(curve, "deviator_stress"),
+        "platen_force_mismatch_max": _mismatch(curve, "deviator_stress", worst=True)})
+    result.units = {k: UNITS.get(k, "") for k in (*result.curve, *result.numbers)}
+    return result
+
+
+def brazilian(specimen, settings=None, *, out_dir=None, scene_text=""):
+    """Brazilian test: a disc (axis y) compressed across its diameter by platens along z.
+    Tensile strength 2 F_peak / (pi D t), D the diameter (extent along z), t the thickness
+    (extent along y); the curve's tensile_stress is 2F/(pi D t) of the mean platen force
+    and its strain the platen displacement over D."""
+    settings = _limits(settings or LabSettings(), "brazilian")
+    if specimen.shape not in ("disc", "cylinder", "box"):
+        raise ValueError("a Brazilian test needs a disc specimen")
+    axis = 2
+    size = specimen.size()
+    diameter, thickness = float(size[2]), float(size[1])
+    sim, runner, rate, stop, notes = _compression("brazilian", specimen, settings, axis,
+                                                  out_dir, scene_text)
+    result = _finish("brazilian", specimen, settings, sim, runner, {}, stop, notes)
+    curve = result.curve
+    mean = 0.5 * (curve["force_top"] + curve["force_bottom"])
+    curve["force"] = mean
+    curve["tensile_stress"] = 2.0 * mean / (math.pi * diameter * thickness)
+    curve["displacement"] = diameter * curve["platen_strain"]
+    k = measure.peak(curve["tensile_stress"])
+    broken = curve["broken_tension"] + curve["broken_compression"] + curve["broken_shear"]
+    result.numbers.update({
+        "tensile_strength": float(curve["tensile_stress"][k]),
+        "peak_stress": float(curve["tensile_stress"][k]),
+        "breakage_force": float(mean[k]), "displacement_at_peak": float(curve["displacement"][k]),
+        "strain_at_peak": float(curve["platen_strain"][k]),
+        "crack_initiation_stress": measure.crack_initiation(curve["tensile_stress"], broken),
+        "broken_bonds_at_peak": int(broken[k]), "broken_bonds_final": int(broken[-1]),
+        "diameter": diameter, "thickness": thickness, "strain_rate": rate,
+        "platen_force_mismatch": _mismatch(curve, "tensile_stress"),
+        "platen_force_mismatch_max": _mismatch(curve, "tensile_stress", worst=True)})
+    result.units = {k: UNITS.get(k, "") for k in (*result.curve, *result.numbers)}
+    return result
+
+
+def agglomerate(specimen, settings=None, *, out_dir=None, scene_text=""):
+    """An agglomerate pressed between two plates along z (Kozhar et al. 2015): force
+    against the decrease of the plate gap; breakage_force is the peak force before the
+    force falls to post_peak of it; displacement_at_peak in m."""
+    settings = _limits(settings or LabSettings(), "agglomerate")
+    sim, runner, rate, stop, notes = _compression("agglomerate", specimen, settings, 2,
+                                                  out_dir, scene_text)
+    result = _finish("agglomerate", specimen, settings, sim, runner, {}, stop, notes)
+    curve = result.curve
+    curve["force"] = 0.5 * (curve["force_top"] + curve["force_bottom"])
+    curve["displacement"] = float(specimen.size()[2]) * curve["platen_strain"]
+    k = measure.peak(curve["force"])
+    broken = curve["broken_tension"] + curve["broken_compression"] + curve["broken_shear"]
+    result.numbers.update({
+        "breakage_force": float(curve["force"][k]), "peak_stress": float(curve["force"][k]),
+        "displacement_at_peak": float(curve["displacement"][k]),
+        "strain_at_peak": float(curve["platen_strain"][k]),
+        "broken_bonds_at_peak": int(broken[k]), "broken_bonds_final": int(broken[-1]),
+        "diameter": float(specimen.size()[2]), "strain_rate": rate,
+        "platen_force_mismatch": _mismatch(curve, "force"),
+        "platen_force_mismatch_max": _mismatch(curve, "force", worst=True)})
+    result.units = {k: UNITS.get(k, "") for k in (*result.curve, *result.numbers)}
+    return result
+
+
+def direct_tension(specimen, settings=None, *, out_dir=None, scene_text="", axis=2):
+    """Direct tension: the particles within ``settings.grip`` of the height at each end
+    (at least the end layer) are gripped and pulled apart, each end at half the strain
+    rate times the height (after the ramp). Stress: the mean of both grips' forces over the
+    cross-section; axial strain from the gauge bands (extension positive), lateral strain
+    from the middle band (its contraction gives Poisson's ratio). Numbers: tensile_strength
+    (the peak), E secant and tangent, poisson_ratio, crack initiation, broken bonds."""
+    settings = _limits(settings or LabSettings(), "tension")
+    z = specimen.position[:, axis]
+    low, high = z.min(), z.max()
+    h = high - low
+    reach = max(settings.grip * h, 1e-9 * h)
+    bottom = np.flatnonzero(z <= low + reach)
+    top = np.flatnonzero(z >= high - reach)
+    fixed = np.zeros(specimen.n_particles, bool)
+    fixed[bottom] = fixed[top] = True
+    height = float(specimen.size()[axis])
+    wave = _estimate_wave_time(specimen, axis)
+    rate = settings.strain_rate or RATE / wave
+    speed = 0.5 * rate * height
+    sim = _simulation(specimen, settings, fixed=fixed)
+    ramp = settings.ramp * wave
+    probe = _Probe(sim, axis, settings, exclude=fixed)
+    grip0 = float(sim.state.position[top, axis].mean() - sim.state.position[bottom, axis].mean())
+    area = specimen.cross_section(axis)
+    steps_to_limit = settings.max_strain / rate / sim.time_step
+    runner = _Runner(sim, settings, steps_to_limit, out_dir, scene_text)
+    top_stress, stop = 0.0, None
+    from ..io.results import _host
+    while stop is None and sim.state.step < settings.max_steps:
+        t = sim.state.time
+        v = speed * (min(1.0, t / ramp) if ramp > 0.0 else 1.0)
+        sim.state.velocity[top, axis] = v
+        sim.state.velocity[bottom, axis] = -v
+        if settings.backend != "cpu":
+            sim.backend.to_device(sim.state)
+        runner.step()
+        load = _host(sim.force)
+        f_top = -float(load[top, axis].sum())
+        f_bottom = float(load[bottom, axis].sum())
+        grip = float(sim.state.position[top, axis].mean()
+                     - sim.state.position[bottom, axis].mean())
+        row = {"time": sim.state.time, "force_bottom": f_bottom, "force_top": f_top,
+               "platen_strain": (grip - grip0) / grip0, "axial_strain": probe.gauge_strain(),
+               "lateral_strain": -probe.lateral()}
+        row["tensile_stress"] = 0.5 * (f_top + f_bottom) / area
+        tension, compression, shear = probe.broken()
+        row.update({"broken_tension": tension, "broken_compression": compression,
+                    "broken_shear": shear, "kinetic_ratio": probe.energy_ratio()})
+        runner.sample(row)
+        top_stress = max(top_stress, row["tensile_stress"])
+        stop = _stop(row["tensile_stress"], tension + compression + shear,
+                     sim.model.n_bonds, row["platen_strain"], settings, top_stress)
+    result = _finish("tension", specimen, settings, sim, runner, {}, stop or "max_steps",
+                     [f"gripped {bottom.size} + {top.size} particles"])
+    result.numbers.update(_common_numbers(result.curve, "axial_strain", "tensile_stress",
+                                          "lateral_strain"))
+    result.numbers.update({"tensile_strength": result.numbers["peak_stress"],
+                           "strain_rate": rate, "cross_section": area, "height": height,
+                           "platen_force_mismatch": _mismatch(result.curve,
+                                                              "tensile_stress"),
+        "platen_force_mismatch_max": _mismatch(result.curve,
+                                                              "tensile_stress", worst=True)})
+    result.units = {k: UNITS.get(k, "") for k in (*result.curve, *result.numbers)}
+    return result
+
+
+RUNNERS = {"ucs": uniaxial, "triaxial": triaxial, "brazilian": brazilian,
+           "tension": direct_tension, "agglomerate": agglomerate}

@@ -1,0 +1,250 @@
+"""The virtual laboratory against closed forms and its own consistency.
+
+A simple cubic lattice of touching spheres is a set of parallel bond chains: loaded along
+an axis, E = k_n / a with k_n = E_b A_b / L0 and L0 = a, Poisson's ratio 0, and it fails
+in direct tension when the bonds reach their normal strength, sigma_t = sigma_b A_b / a^2
+(no bending, every chain carries the same force). Random specimens: doubling the bond
+moduli doubles E and keeps Poisson's ratio, doubling the strengths doubles the strength,
+halving the strain rate changes neither by more than 3 % (the default rate is
+quasi-static), the platen forces agree before the peak, the triaxial servo holds the
+confining stress within 2 %.
+"""
+import json
+import math
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+import bondem
+from bondem.cli import main
+from bondem.lab import (LabSettings, agglomerate, brazilian, direct_tension,
+                        lattice_specimen, make_specimen, triaxial, uniaxial)
+
+RADIUS = 1e-3
+E_BOND = 1e8
+STRENGTH = 1e6
+GLASS = bondem.Material(density=2500.0, young_modulus=1e8, poisson_ratio=0.3, friction=0.3)
+BINDER = bondem.BondMaterial(young_modulus=E_BOND, poisson_ratio=0.3,
+                             normal_strength=STRENGTH, tangential_strength=STRENGTH)
+ROCK = bondem.Material(density=2500.0, young_modulus=1e9, poisson_ratio=0.3, friction=0.5)
+CEMENT = bondem.BondMaterial(young_modulus=1e9, poisson_ratio=0.3, normal_strength=5e6,
+                             tangential_strength=5e6)
+
+
+def lattice_closed_forms(ratio=0.5):
+    a = 2 * RADIUS
+    area = math.pi * (ratio * RADIUS) ** 2       # bond diameter = ratio x particle diameter
+    return E_BOND * area / a ** 2, STRENGTH * area / a ** 2
+
+
+@pytest.fixture(scope="module")
+def lattice():
+    return lattice_specimen((4, 4, 8), RADIUS, GLASS, BINDER, diameter_ratio=0.5)
+
+
+def test_lattice_in_compression_has_the_chains_modulus_and_no_lateral_strain(lattice):
+    modulus, _ = lattice_closed_forms()
+    result = uniaxial(lattice, LabSettings(max_strain=0.01))
+    n = result.numbers
+    assert n["young_modulus_secant"] == pytest.approx(modulus, rel=0.02)
+    assert n["young_modulus_tangent"] == pytest.approx(modulus, rel=0.02)
+    assert abs(n["poisson_ratio"]) < 0.01
+    # the platens' Hertz contacts add compliance that the gauge bands do not see
+    curve = result.curve
+    assert curve["platen_strain"][-1] > 1.05 * curve["axial_strain"][-1]
+    assert n["platen_force_mismatch"] < 0.05
+    assert n["kinetic_energy_ratio"] < 0.01
+
+
+def test_lattice_in_direct_tension_fails_at_the_bond_strength(lattice):
+    modulus, strength = lattice_closed_forms()
+    result = direct_tension(lattice)
+    n = result.numbers
+    assert n["tensile_strength"] == pytest.approx(strength, rel=0.02)
+    assert n["young_modulus_secant"] == pytest.approx(modulus, rel=0.02)
+    assert n["strain_at_peak"] == pytest.approx(STRENGTH / E_BOND, rel=0.03)
+    assert abs(n["poisson_ratio"]) < 0.01
+    # at least one cross-section of 16 chains fails, in tension (in a perfect lattice
+    # every bond of a chain reaches the strength at once: several sections may go)
+    assert result.curve["broken_tension"][-1] >= 16
+    assert result.curve["broken_shear"][-1] == result.curve["broken_compression"][-1] == 0
+    assert n["fragments"] >= 2
+    assert result.notes[-1] == "stopped: post-peak"
+
+
+def test_lattice_tension_through_the_command_line(tmp_path):
+    """Issue 17's closed form measured by ``bondem lab``: a 3 x 3 x 6 lattice with bonds
+    of 0.8 the particle diameter."""
+    spec = tmp_path / "lattice.toml"
+    spec.write_text(f"""
+[specimen]
+lattice = [3, 3, 6]
+radius = {RADIUS}
+diameter_ratio = 0.8
+[specimen.material]
+density = 2500.0
+young_modulus = 1e8
+[specimen.bond_material]
+young_modulus = {E_BOND}
+normal_strength = {STRENGTH}
+tangential_strength = {STRENGTH}
+""")
+    out = tmp_path / "out"
+    run = CliRunner().invoke(main, ["lab", "tension", str(spec), "--out", str(out)])
+    assert run.exit_code == 0, run.output
+    numbers = json.loads((out / "lab.json").read_text())["numbers"]
+    modulus, strength = lattice_closed_forms(0.8)
+    assert numbers["tensile_strength"] == pytest.approx(strength, rel=0.02)
+    assert numbers["young_modulus_secant"] == pytest.approx(modulus, rel=0.02)
+    header = (out / "lab.csv").read_text().splitlines()[0]
+    assert "tensile_stress (Pa)" in header and "axial_strain (1)" in header
+    for name in ("stress_strain", "cracks", "specimen"):
+        assert (out / f"lab_{name}.png").stat().st_size > 1000
+    again = CliRunner().invoke(main, ["lab", "tension", str(spec), "--out", str(out)])
+    assert again.exit_code == 2 and "--overwrite" in again.output
+
+
+@pytest.fixture(scope="module")
+def cylinder():
+    return make_specimen("cylinder", [6e-3, 12e-3], particle_radius=5e-4,
+                         solids_fraction=0.55, seed=1, material=ROCK, bond_material=CEMENT,
+                         max_gap=5e-5, diameter_ratio=0.6)
+
+
+@pytest.fixture(scope="module")
+def ucs_default(cylinder):
+    return uniaxial(cylinder)
+
+
+def test_random_cylinder_ucs_is_quasi_static(cylinder, ucs_default):
+    base = ucs_default.numbers
+    assert ucs_default.notes[-1] == "stopped: post-peak"
+    assert base["broken_bonds_final"] > 0.05 * cylinder.n_bonds
+    slow = uniaxial(cylinder, LabSettings(strain_rate=0.5 * base["strain_rate"])).numbers
+    assert slow["young_modulus_secant"] == pytest.approx(base["young_modulus_secant"],
+                                                         rel=0.03)
+    assert slow["ucs"] == pytest.approx(base["ucs"], rel=0.03)
+    assert base["platen_force_mismatch"] < 0.05 and slow["platen_force_mismatch"] < 0.05
+    assert 0.0 < base["poisson_ratio"] < 0.5
+    assert 0.0 < base["crack_initiation_stress"] < base["ucs"]
+    assert base["kinetic_energy_ratio"] < 0.01
+
+
+def test_doubling_bond_moduli_doubles_e_and_keeps_poisson(cylinder, ucs_default):
+    base = ucs_default.numbers
+    stiff = uniaxial(cylinder.with_bond_material(scale_young_modulus=2.0),
+                     LabSettings(max_strain=0.006)).numbers
+    assert stiff["young_modulus_secant"] == pytest.approx(2 * base["young_modulus_secant"],
+                                                          rel=0.03)
+    assert stiff["poisson_ratio"] == pytest.approx(base["poisson_ratio"], abs=0.02)
+
+
+def test_doubling_bond_strengths_doubles_the_strength(lattice, cylinder, ucs_default):
+    _, strength = lattice_closed_forms()
+    strong = direct_tension(lattice.with_bond_material(scale_normal_strength=2.0,
+                                                       scale_tangential_strength=2.0))
+    assert strong.numbers["tensile_strength"] == pytest.approx(2 * strength, rel=0.02)
+    random = uniaxial(cylinder.with_bond_material(scale_normal_strength=2.0,
+                                                  scale_tangential_strength=2.0)).numbers
+    assert random["ucs"] == pytest.approx(2 * ucs_default.numbers["ucs"], rel=0.06)
+
+
+def test_triaxial_servo_holds_the_confining_stress():
+    box = make_specimen("box", [5e-3, 5e-3, 10e-3], particle_radius=5e-4,
+                        solids_fraction=0.5, seed=2, material=ROCK, bond_material=CEMENT,
+                        max_gap=5e-5, diameter_ratio=0.6)
+    sigma3 = 2e5
+    result = triaxial(box, LabSettings(confining_stress=sigma3))
+    n, curve = result.numbers, result.curve
+    assert n["confining_stress_error"] < 0.02
+    k = int(np.argmax(curve["deviator_stress"]))
+    assert np.all(np.abs(curve["lateral_stress"][:k + 1] / sigma3 - 1) < 0.02)
+    assert n["peak_deviator_stress"] > 0 and n["peak_stress"] == pytest.approx(
+        n["peak_deviator_stress"] + sigma3, rel=1e-12)
+    assert n["young_modulus_secant"] > 0 and 0 < n["poisson_ratio"] < 0.5
+
+
+def test_brazilian_strength_is_2f_over_pi_d_t():
+    disc = make_specimen("disc", [8e-3, 3e-3], particle_radius=5e-4, solids_fraction=0.5,
+                         seed=1, material=ROCK, bond_material=CEMENT, max_gap=5e-5,
+                         diameter_ratio=0.6)
+    result = brazilian(disc)
+    n, curve = result.numbers, result.curve
+    size = disc.size()
+    assert n["tensile_strength"] == pytest.approx(
+        2 * n["breakage_force"] / (math.pi * size[2] * size[1]), rel=1e-12)
+    assert n["tensile_strength"] == pytest.approx(curve["tensile_stress"].max(), rel=1e-12)
+    assert n["broken_bonds_at_peak"] >= 1 and result.notes[-1] == "stopped: post-peak"
+
+
+def test_agglomerate_breaks_between_plates():
+    ball = make_specimen("sphere", [6e-3], particle_radius=5e-4, solids_fraction=0.5,
+                         seed=1, material=ROCK, bond_material=CEMENT, max_gap=5e-5,
+                         diameter_ratio=0.6)
+    result = agglomerate(ball)
+    n, curve = result.numbers, result.curve
+    k = int(np.argmax(curve["force"]))
+    assert n["breakage_force"] == pytest.approx(curve["force"][k]) and n["breakage_force"] > 0
+    assert np.all(np.diff(curve["displacement"]) >= -1e-15)
+    assert n["broken_bonds_final"] >= 0.01 * ball.n_bonds
+    assert result.notes[-1] == "stopped: post-peak"
+
+
+def test_consolidated_specimen_starts_stress_free():
+    specimen = make_specimen("cylinder", [4e-3, 4e-3], particle_radius=4e-4,
+                             solids_fraction=0.45, seed=3, material=ROCK,
+                             bond_material=CEMENT, max_gap=2e-5, consolidation_stress=1e5,
+                             consolidation_steps=40_000)
+    assert "consolidated to 1e+05 Pa" in specimen.notes[0]
+    model, state = specimen.system()
+    sim = bondem.Simulation(model, state, contact=bondem.contacts.ContactSettings())
+    sim.step(50)
+    speed = np.abs(state.velocity).max()
+    assert speed < 1e-6, speed
+    assert specimen.coordination() > 4
+
+
+def test_the_docs_worked_example_runs_and_reports(tmp_path):
+    """docs/lab.md's example: ``bondem lab ucs examples/lab_rock.toml``, then the report
+    with its lab section."""
+    from pathlib import Path
+    spec = Path(__file__).resolve().parents[1] / "examples" / "lab_rock.toml"
+    out = tmp_path / "ucs"
+    run = CliRunner().invoke(main, ["lab", "ucs", str(spec), "--out", str(out)])
+    assert run.exit_code == 0, run.output
+    assert "ucs:" in run.output and "young modulus secant:" in run.output
+    numbers = json.loads((out / "lab.json").read_text())["numbers"]
+    assert numbers["ucs"] > 0 and 0 < numbers["poisson_ratio"] < 0.5
+    report = CliRunner().invoke(main, ["report", str(out / "results.h5")])
+    assert report.exit_code == 0, report.output
+    page = (out / "results_report.html").read_text()
+    assert "Laboratory test: ucs" in page and 'id="lab_stress_strain"' in page
+
+
+@pytest.mark.parametrize("change, key", [
+    ("test.post_peak=3", "test.post_peak"),
+    ("specimen.size=[1]", "specimen.size"),
+    ("specimen.radius=-1", "specimen.radius"),
+    ("specimen.lattice=[2,2]", "specimen.lattice"),
+    ("specimen.material.density=-1", "specimen.material.density"),
+    ("specimen.colour=1", "specimen.colour"),
+    ("test.gauge=[0.3, 0.2]", "test.gauge"),
+])
+def test_bad_spec_names_the_key(tmp_path, change, key):
+    spec = tmp_path / "s.toml"
+    spec.write_text("""
+[specimen]
+lattice = [2, 2, 4]
+radius = 1e-3
+[specimen.material]
+density = 2500.0
+young_modulus = 1e8
+[specimen.bond_material]
+young_modulus = 1e8
+normal_strength = 1e6
+tangential_strength = 1e6
+""")
+    run = CliRunner().invoke(main, ["lab", "ucs", str(spec), "--set", change])
+    assert run.exit_code == 2, run.output
+    assert f"{spec}: {key}" in run.output, run.output
