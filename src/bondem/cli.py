@@ -23,6 +23,7 @@ COMMANDS = {
     "validate": "Run the validation suite against theory and reference data.",
     "bench": "Benchmarks: particle-steps/s and bond-updates/s on the bench scenes.",
     "study": "Run an ensemble study (parameter sweep) on Dask.",
+    "calibrate": "Calibrate bond parameters to measured macro properties (optuna, Dask).",
     "lab": "Laboratory tests of a bonded specimen: UCS, triaxial, Brazilian, tension, "
            "agglomerate.",
 }

@@ -1,0 +1,522 @@
+"""Calibration: bond parameters from the macro properties a user measured.
+
+A calibration file names a lab spec (docs/lab.md), the unknown parameters (any dotted key
+of the spec, with bounds), the targets (a lab test's number with its relative
+uncertainty) and a budget of simulations. The search is optuna's TPE sampler (seeded, so
+the same file gives the same trials), asked for batches of trials that run as a Dask
+ensemble. The first trial sits at the middle of the bounds. The second is the scaling rules'
+guess from it: macro E is proportional to the bond modulus, and strengths to the bond
+strengths at fixed ratios. Every finished trial is a row of ``calibration.csv``. A killed
+calibration replays the same sampler over that table and runs only what is missing, so it
+ends with the same result.
+
+What is identifiable is reported two ways:
+- the spread of the parameter sets consistent with the targets (every target within its
+  uncertainty);
+- the linearised uncertainty of each parameter at the best set, from finite differences
+  of the predictions. A parameter the targets do not constrain gets an uncertainty larger
+  than its range.
+"""
+from __future__ import annotations
+
+import csv
+import json
+import math
+import tomllib
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .errors import InputError, decode_text
+
+MODULUS_TARGETS = ("young_modulus_secant", "young_modulus_tangent")
+STRENGTH_TARGETS = ("ucs", "tensile_strength", "peak_deviator_stress", "breakage_force",
+                    "peak_stress", "crack_initiation_stress")
+
+
+class CalibrationFailed(RuntimeError):
+    """The targets cannot be met within the bounds (the message says which and by how
+    much)."""
+
+
+@dataclass
+class Parameter:
+    """One unknown: ``key`` a dotted lab-spec key, bounds ``low`` < ``high``, ``log``:
+    searched on a log scale."""
+    key: str
+    low: float
+    high: float
+    log: bool = False
+
+    def unit(self, value):
+        """Position of ``value`` in [0, 1] over the bounds (log-scaled if log)."""
+        if self.log:
+            return (math.log(value) - math.log(self.low)) / (math.log(self.high)
+                                                              - math.log(self.low))
+        return (value - self.low) / (self.high - self.low)
+
+    def middle(self):
+        return math.sqrt(self.low * self.high) if self.log else 0.5 * (self.low + self.high)
+
+
+@dataclass
+class Target:
+    """A measured property: ``name`` a number of the lab test ``test`` (see docs/lab.md),
+    its ``value`` (SI units) and relative uncertainty ``tolerance``."""
+    name: str
+    test: str
+    value: float
+    tolerance: float
+
+
+@dataclass
+class Calibration:
+    """A loaded calibration file."""
+    path: Path
+    spec: Path
+    parameters: list
+    targets: list
+    budget: int = 24
+    batch: int = 4
+    seed: int = 0
+    check_seeds: list = field(default_factory=list)
+    text: str = ""
+
+    @property
+    def tests(self):
+        return sorted({t.test for t in self.targets})
+
+
+PARAMETER_KEYS = ("low", "high", "log")
+TARGET_KEYS = ("test", "value", "tolerance")
+TOP_KEYS = ("spec", "budget", "batch", "seed", "check_seeds", "parameters", "targets")
+
+
+def _number(table, key, where, path, positive=True):
+    value = table.get(key)
+    if not (isinstance(value, (int, float)) and not isinstance(value, bool)
+            and math.isfinite(value) and (value > 0 if positive else True)):
+        raise InputError(f"value {value!r}: expected a {'positive ' if positive else ''}"
+                         "number", file=path, key=f"{where}.{key}")
+    return float(value)
+
+
+def load_calibration(path) -> Calibration:
+    """Read and check a calibration file (TOML, docs/calibration.md)."""
+    from .lab import TESTS
+    path = Path(path)
+    try:
+        text = decode_text(path.read_bytes(), path)
+    except OSError as error:
+        raise InputError(f"cannot read the calibration file ({error.strerror})", file=path)
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as error:
+        raise InputError(f"not valid TOML: {error}", file=path)
+    for key in data:
+        if key not in TOP_KEYS:
+            raise InputError(f"unknown key; allowed: {', '.join(TOP_KEYS)}", file=path,
+                             key=key)
+    if not isinstance(data.get("spec"), str):
+        raise InputError("missing: the lab spec file (docs/lab.md)", file=path, key="spec")
+    spec = (path.parent / data["spec"]).resolve()
+    if not spec.is_file():
+        raise InputError(f"value {data['spec']!r}: no such file", file=path, key="spec")
+    parameters = []
+    for key, table in (data.get("parameters") or {}).items():
+        where = f"parameters.{key}"
+        if not isinstance(table, dict) or any(k not in PARAMETER_KEYS for k in table):
+            raise InputError(f"expected a table of {', '.join(PARAMETER_KEYS)}", file=path,
+                             key=where)
+        log = bool(table.get("log", False))
+        low = _number(table, "low", where, path, positive=log)
+        high = _number(table, "high", where, path, positive=log)
+        if not high > low:
+            raise InputError(f"high {high!r} must exceed low {low!r}", file=path,
+                             key=f"{where}.high")
+        parameters.append(Parameter(key, low, high, log))
+    if not parameters:
+        raise InputError("no parameters to calibrate", file=path, key="parameters")
+    targets = []
+    for name, table in (data.get("targets") or {}).items():
+        where = f"targets.{name}"
+        if not isinstance(table, dict) or any(k not in TARGET_KEYS for k in table):
+            raise InputError(f"expected a table of {', '.join(TARGET_KEYS)}", file=path,
+                             key=where)
+        if table.get("test") not in TESTS:
+            raise InputError(f"value {table.get('test')!r}; allowed: {', '.join(TESTS)}",
+                             file=path, key=f"{where}.test")
+        value = _number(table, "value", where, path, positive=False)
+        tolerance = _number(table, "tolerance", where, path)
+        if value == 0.0:
+            raise InputError("a target of 0 has no relative uncertainty", file=path,
+                             key=f"{where}.value")
+        targets.append(Target(name, table["test"], value, tolerance))
+    if not targets:
+        raise InputError("no targets", file=path, key="targets")
+    budget = data.get("budget", 24)
+    batch = data.get("batch", 4)
+    seed = data.get("seed", 0)
+    for key, value, low in (("budget", budget, 3), ("batch", batch, 1), ("seed", seed, 0)):
+        if not isinstance(value, int) or isinstance(value, bool) or value < low:
+            raise InputError(f"value {value!r}: expected an integer >= {low}", file=path,
+                             key=key)
+    seeds = data.get("check_seeds", [])
+    if not (isinstance(seeds, list) and all(isinstance(s, int) and s >= 0 for s in seeds)):
+        raise InputError(f"value {seeds!r}: expected a list of integers >= 0", file=path,
+                             key="check_seeds")
+    calibration = Calibration(path, spec, parameters, targets, budget, batch, seed, seeds,
+                              text)
+    # the spec must load with every parameter at its middle: the keys exist and are valid
+    from .lab.spec import load_spec
+    load_spec(spec, {p.key: p.middle() for p in parameters})
+    return calibration
+
+
+def evaluate(spec, test, overrides):
+    """Run lab ``test`` on the spec with ``overrides`` {key: value}; returns its numbers.
+    (A module-level function: what the Dask workers run.)"""
+    from .lab import RUNNERS
+    from .lab.spec import load_spec
+    specimen, settings, _ = load_spec(spec, overrides)
+    return RUNNERS[test](specimen, settings).numbers
+
+
+def misfit(calibration, predictions):
+    """Sum over the targets of ((prediction - value) / (tolerance value))^2; inf when a
+    prediction is missing or not finite."""
+    total = 0.0
+    for t in calibration.targets:
+        p = predictions.get(t.name)
+        if p is None or not math.isfinite(p):
+            return math.inf
+        total += ((p - t.value) / (t.tolerance * abs(t.value))) ** 2
+    return total
+
+
+def consistent(calibration, predictions):
+    """True when every target lies within its uncertainty."""
+    return all(t.name in predictions and math.isfinite(predictions[t.name])
+               and abs(predictions[t.name] - t.value) <= t.tolerance * abs(t.value)
+               for t in calibration.targets)
+
+
+def scaled_guess(calibration, params, predictions):
+    """The scaling rules' guess from one trial: every bond modulus times E_target / E,
+    every bond strength times the mean ratio of the strength targets to their
+    predictions, clipped to the bounds (other parameters kept)."""
+    modulus = [t.value / predictions[t.name] for t in calibration.targets
+               if t.name in MODULUS_TARGETS and predictions.get(t.name)]
+    strength = [t.value / predictions[t.name] for t in calibration.targets
+                if t.name in STRENGTH_TARGETS and predictions.get(t.name)]
+    guess = {}
+    for p in calibration.parameters:
+        value = params[p.key]
+        last = p.key.rsplit(".", 1)[-1]
+        if "bond_material" in p.key and last == "young_modulus" and modulus:
+            value *= float(np.mean(modulus))
+        elif "bond_material" in p.key and last.endswith("_strength") and strength:
+            value *= float(np.mean(strength))
+        guess[p.key] = min(max(value, p.low), p.high)
+    return guess
+
+
+def reachable(calibration, params, predictions):
+    """Messages for targets the scaling rules say the bounds cannot reach (empty: none)."""
+    problems = []
+    for names, ending in ((MODULUS_TARGETS, "young_modulus"), (STRENGTH_TARGETS,
+                                                                "_strength")):
+        keys = [p for p in calibration.parameters if "bond_material" in p.key
+                and p.key.rsplit(".", 1)[-1].endswith(ending)]
+        if not keys:
+            continue
+        # all such parameters at their bounds together scale the property by these factors
+        low = min(p.low / params[p.key] for p in keys)
+        high = max(p.high / params[p.key] for p in keys)
+        for t in calibration.targets:
+            got = predictions.get(t.name)
+            if t.name in names and got:
+                lo, hi = sorted((got * low, got * high))
+                if not lo * (1 - t.tolerance) <= t.value <= hi * (1 + t.tolerance):
+                    problems.append(f"{t.name} = {t.value:.4g} lies outside what the "
+                                    f"bounds of {', '.join(p.key for p in keys)} reach "
+                                    f"({lo:.4g} to {hi:.4g}, by the scaling rule)")
+    return problems
+
+
+class Table:
+    """calibration.csv: one row per finished trial (trial, each parameter, each test's
+    targets' predictions, misfit)."""
+
+    def __init__(self, path, calibration):
+        self.path = Path(path)
+        self.calibration = calibration
+        self.columns = (["trial", *[p.key for p in calibration.parameters],
+                         *[t.name for t in calibration.targets], "misfit"])
+
+    def read(self):
+        """{trial: row dict of floats} of the rows already there."""
+        if not self.path.is_file():
+            return {}
+        rows = {}
+        with open(self.path, newline="") as handle:
+            reader = csv.reader(handle)
+            header = next(reader, None)
+            if header != self.columns:
+                raise InputError("holds another calibration's table (its columns differ); "
+                                 "run afresh with --overwrite", file=self.path)
+            for line in reader:
+                if len(line) != len(self.columns):
+                    continue   # a row cut by a kill
+                row = dict(zip(self.columns, (float(v) for v in line)))
+                rows[int(row["trial"])] = row
+        return rows
+
+    def start(self):
+        if not self.path.is_file():
+            with open(self.path, "w", newline="") as handle:
+                csv.writer(handle).writerow(self.columns)
+
+    def append(self, trial, params, predictions, value):
+        row = {"trial": trial, **params, **{t.name: predictions.get(t.name, math.nan)
+                                            for t in self.calibration.targets},
+               "misfit": value}
+        with open(self.path, "a", newline="") as handle:
+            csv.writer(handle).writerow([repr(float(row[c])) for c in self.columns])
+            handle.flush()
+        return row
+
+
+class _Evaluator:
+    """Runs trials serially or on Dask: {trial: params} -> {trial: predictions}."""
+
+    def __init__(self, calibration, scheduler, workers):
+        self.calibration = calibration
+        self.client = self.cluster = None
+        if scheduler == "serial":
+            return
+        from distributed import Client, LocalCluster
+        import os
+        if scheduler is None:
+            self.cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1,
+                                        threads_per_worker=1, processes=True,
+                                        dashboard_address=None,
+                                        env={"NUMBA_NUM_THREADS": "1",
+                                             "OMP_NUM_THREADS": "1"})
+            self.client = Client(self.cluster)
+        elif isinstance(scheduler, str):
+            try:
+                self.client = Client(scheduler, timeout="30s")
+            except OSError as error:
+                raise InputError(f"cannot reach the Dask scheduler {scheduler!r} ({error})",
+                                 key="--scheduler") from None
+        else:
+            self.client = scheduler
+
+    def run(self, jobs):
+        """jobs: {trial: overrides}; returns {trial: predictions of the targets}."""
+        cal = self.calibration
+        work = [(trial, test, overrides) for trial, overrides in jobs.items()
+                for test in cal.tests]
+        if self.client is None:
+            done = {(trial, test): _safe(cal.spec, test, overrides)
+                    for trial, test, overrides in work}
+        else:
+            futures = {(trial, test): self.client.submit(_safe, cal.spec, test, overrides,
+                                                         pure=False)
+                       for trial, test, overrides in work}
+            done = {key: future.result() for key, future in futures.items()}
+        out = {}
+        for trial in jobs:
+            predictions = {}
+            for t in cal.targets:
+                numbers = done[(trial, t.test)]
+                value = numbers.get(t.name, math.nan)
+                predictions[t.name] = float(value) if value is not None else math.nan
+            out[trial] = predictions
+        return out
+
+    def close(self):
+        if self.client is not None and self.cluster is not None:
+            self.client.close()
+            self.cluster.close()
+
+
+def _safe(spec, test, overrides):
+    """evaluate(), with a failed run (a specimen that cannot be packed, a blow-up) as no
+    numbers: the trial then has an infinite misfit."""
+    try:
+        return evaluate(spec, test, overrides)
+    except Exception:  # noqa: BLE001 - any failure of one trial is that trial's result
+        return {}
+
+
+def run_calibration(calibration, out_dir, *, scheduler="serial", workers=None,
+                    resume=False, stop_after=None, progress=None):
+    """Run a Calibration (or a calibration file) into ``out_dir``: calibration.csv (every
+    trial), calibration.json (the best set, the consistent sets, identifiability,
+    predictions over seeds) and figures. scheduler: "serial" (this process), None (a
+    LocalCluster of ``workers`` processes) or a scheduler address; resume: continue from
+    the table there; stop_after: stop after this many trials (a planned interruption).
+    Returns the summary dict; raises CalibrationFailed when no trial meets the targets."""
+    import optuna
+    if not isinstance(calibration, Calibration):
+        calibration = load_calibration(calibration)
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    table = Table(out_dir / "calibration.csv", calibration)
+    if table.path.exists() and not resume:
+        raise InputError("holds a calibration table; give --resume to continue it or "
+                         "--overwrite to start afresh", file=out_dir, key="--out")
+    have = table.read() if resume else {}
+    table.start()
+    import warnings
+    optuna.logging.set_verbosity(optuna.logging.WARNING)
+    warnings.filterwarnings("ignore", category=optuna.exceptions.ExperimentalWarning)
+    sampler = optuna.samplers.TPESampler(seed=calibration.seed, n_startup_trials=4,
+                                         multivariate=True)
+    study = optuna.create_study(sampler=sampler, direction="minimize")
+    distributions = {p.key: optuna.distributions.FloatDistribution(p.low, p.high, log=p.log)
+                     for p in calibration.parameters}
+    evaluator = _Evaluator(calibration, scheduler, workers)
+    rows = {}
+    finished = 0
+    middle = {p.key: p.middle() for p in calibration.parameters}
+    try:
+        while finished < calibration.budget:
+            if stop_after is not None and finished >= stop_after:
+                return None
+            if finished == 0:
+                study.enqueue_trial(middle)
+            elif finished == 1:
+                first = {t.name: rows[0][t.name] for t in calibration.targets}
+                problems = reachable(calibration, middle, first)
+                if problems:
+                    raise CalibrationFailed("the targets cannot be met: "
+                                            + "; ".join(problems))
+                study.enqueue_trial(scaled_guess(calibration, middle, first))
+            size = 1 if finished < 2 else min(calibration.batch,
+                                              calibration.budget - finished)
+            trials = [study.ask(distributions) for _ in range(size)]
+            if stop_after is not None:
+                trials_run = trials[:stop_after - finished]
+            else:
+                trials_run = trials
+            todo = {t.number: t.params for t in trials_run if t.number not in have}
+            results = evaluator.run(todo) if todo else {}
+            for trial in trials_run:
+                n = trial.number
+                if n in have:
+                    predictions = {t.name: have[n][t.name] for t in calibration.targets}
+                else:
+                    predictions = results[n]
+                value = misfit(calibration, predictions)
+                if n not in have:
+                    table.append(n, trial.params, predictions, value)
+                rows[n] = {"trial": n, **trial.params, **predictions, "misfit": value}
+                study.tell(trial, value if math.isfinite(value) else 1e300)
+                finished += 1
+                if progress is not None:
+                    progress(finished, calibration.budget, value)
+            if len(trials_run) < len(trials):
+                return None   # the planned interruption fell within this batch
+        summary = summarise(calibration, rows, evaluator)
+    finally:
+        evaluator.close()
+    (out_dir / "calibration.json").write_text(json.dumps(_clean(summary), indent=2) + "\n")
+    from .analysis.calibration import write_figures, write_page
+    write_figures(calibration, rows, summary, out_dir)
+    write_page(calibration, summary, out_dir)
+    if not summary["consistent"]:
+        best = summary["best"]
+        misses = ", ".join(f"{t.name} by {100 * (best['predictions'][t.name] / t.value - 1):+.1f} %"
+                           f" (tolerance {100 * t.tolerance:.0f} %)"
+                           for t in calibration.targets)
+        raise CalibrationFailed(f"no parameter set of {calibration.budget} trials meets "
+                                f"every target within its uncertainty; the best misses "
+                                f"{misses}. Widen the bounds, raise the budget or check "
+                                f"that the targets agree with each other")
+    return summary
+
+
+def _clean(value):
+    if isinstance(value, dict):
+        return {k: _clean(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_clean(v) for v in value]
+    if isinstance(value, (float, np.floating)):
+        return float(value) if math.isfinite(value) else None
+    if isinstance(value, np.integer):
+        return int(value)
+    return value
+
+
+def summarise(calibration, rows, evaluator):
+    """Best set, consistent sets, identifiability (spread and linearised uncertainty) and
+    the best set's predictions over the check seeds."""
+    names = [t.name for t in calibration.targets]
+    order = sorted(rows.values(), key=lambda r: r["misfit"])
+    best = order[0]
+    params = {p.key: best[p.key] for p in calibration.parameters}
+    good = [r for r in order if consistent(calibration, r)]
+    identifiability = {}
+    # linearised: predictions / (tolerance value) against the parameters' unit scale
+    steps = {}
+    jobs = {}
+    for k, p in enumerate(calibration.parameters):
+        u = p.unit(params[p.key])
+        h = 0.05 if u < 0.95 else -0.05
+        steps[p.key] = h
+        moved = dict(params)
+        moved[p.key] = (math.exp(math.log(p.low) + (u + h) * (math.log(p.high)
+                                                               - math.log(p.low)))
+                        if p.log else p.low + (u + h) * (p.high - p.low))
+        jobs[-(k + 1)] = moved
+    base = {t.name: best[t.name] for t in calibration.targets}
+    moved = evaluator.run(jobs)
+    jacobian = np.zeros((len(names), len(calibration.parameters)))
+    for k, p in enumerate(calibration.parameters):
+        for j, t in enumerate(calibration.targets):
+            jacobian[j, k] = ((moved[-(k + 1)][t.name] - base[t.name])
+                              / (t.tolerance * abs(t.value)) / steps[p.key])
+    info = jacobian.T @ jacobian
+    eigen = np.linalg.eigvalsh(info) if info.size else np.zeros(0)
+    covariance = np.linalg.pinv(info, rcond=1e-9)
+    for k, p in enumerate(calibration.parameters):
+        sigma = math.sqrt(max(covariance[k, k], 0.0)) if info[k, k] > 1e-12 else math.inf
+        values = [r[p.key] for r in good]
+        spread = (max(p.unit(v) for v in values) - min(p.unit(v) for v in values)
+                  if len(values) >= 2 else math.nan)
+        identifiable = sigma < 0.25
+        identifiability[p.key] = {
+            "best": params[p.key], "uncertainty_of_range": sigma,
+            "consistent_spread_of_range": spread, "identifiable": identifiable,
+            "consistent_low": min(values) if values else math.nan,
+            "consistent_high": max(values) if values else math.nan,
+            "verdict": ("identified: the targets fix it to +-{:.0%} of its range".format(
+                sigma) if identifiable else
+                "not identifiable: the targets leave it free over its range"
+                if not math.isfinite(sigma) or sigma > 1.0 else
+                "weakly identified: +-{:.0%} of its range".format(sigma))}
+    seeds = {}
+    if calibration.check_seeds:
+        runs = evaluator.run({-(100 + k): {**params, "specimen.seed": s}
+                              for k, s in enumerate(calibration.check_seeds)})
+        for t in calibration.targets:
+            values = [runs[-(100 + k)][t.name] for k in range(len(calibration.check_seeds))]
+            values.append(best[t.name])
+            seeds[t.name] = {"mean": float(np.mean(values)), "std": float(np.std(values)),
+                             "values": values}
+    return {"best": {"trial": int(best["trial"]), "parameters": params,
+                     "predictions": base, "misfit": best["misfit"]},
+            "targets": {t.name: {"test": t.test, "value": t.value,
+                                 "tolerance": t.tolerance} for t in calibration.targets},
+            "consistent": [{"trial": int(r["trial"]),
+                            "parameters": {p.key: r[p.key] for p in calibration.parameters},
+                            "predictions": {n: r[n] for n in names}} for r in good],
+            "identifiability": identifiability,
+            "information_eigenvalues": eigen.tolist(),
+            "seed_scatter": seeds, "trials": len(rows),
+            "simulations": (len(rows) + len(calibration.parameters)
+                            + len(calibration.check_seeds)) * len(calibration.tests)}

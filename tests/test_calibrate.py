@@ -1,0 +1,169 @@
+"""Calibration recovers known bond parameters from the macro properties they produce.
+
+The specimen is a 3 x 3 x 6 simple cubic lattice in direct tension. Its E is set by the
+bond modulus alone and its strength by the bonds' normal strength alone, so both are
+identifiable. The tangential strength does not act in pure tension and must be reported
+as not identifiable. A calibration killed mid-way resumes to the same result.
+Unreachable targets fail with a message, not a silent best effort.
+"""
+import json
+
+import pytest
+from click.testing import CliRunner
+
+from bondem.calibrate import CalibrationFailed, load_calibration, run_calibration
+from bondem.cli import main
+from bondem.errors import InputError
+from bondem.lab import RUNNERS
+from bondem.lab.spec import load_spec
+
+TRUE_MODULUS, TRUE_STRENGTH = 2e8, 3e6
+SPEC = """
+[specimen]
+lattice = [3, 3, 6]
+radius = 1e-3
+diameter_ratio = 0.8
+[specimen.material]
+density = 2500.0
+young_modulus = 1e8
+[specimen.bond_material]
+young_modulus = 1e8
+normal_strength = 1e6
+tangential_strength = 1e6
+"""
+CALIBRATION = """
+spec = "lattice.toml"
+budget = {budget}
+batch = 3
+seed = 1
+[parameters."specimen.bond_material.young_modulus"]
+low = 2e7
+high = 2e9
+log = true
+[parameters."specimen.bond_material.normal_strength"]
+low = 3e5
+high = 3e7
+log = true
+[parameters."specimen.bond_material.tangential_strength"]
+low = 3e5
+high = 3e7
+log = true
+[targets.young_modulus_secant]
+test = "tension"
+value = {modulus!r}
+tolerance = 0.03
+[targets.tensile_strength]
+test = "tension"
+value = {strength!r}
+tolerance = 0.03
+"""
+
+
+@pytest.fixture(scope="module")
+def truth(tmp_path_factory):
+    """The lattice's E and tensile strength at the true parameters, from the lab."""
+    folder = tmp_path_factory.mktemp("calibration")
+    (folder / "lattice.toml").write_text(SPEC)
+    specimen, settings, _ = load_spec(folder / "lattice.toml", {
+        "specimen.bond_material.young_modulus": TRUE_MODULUS,
+        "specimen.bond_material.normal_strength": TRUE_STRENGTH})
+    numbers = RUNNERS["tension"](specimen, settings).numbers
+    return folder, numbers["young_modulus_secant"], numbers["tensile_strength"]
+
+
+def _file(folder, name, **values):
+    path = folder / name
+    path.write_text(CALIBRATION.format(**values))
+    return path
+
+
+@pytest.fixture(scope="module")
+def whole(truth):
+    folder, modulus, strength = truth
+    path = _file(folder, "calib.toml", budget=8, modulus=modulus, strength=strength)
+    summary = run_calibration(path, folder / "whole")
+    return path, summary
+
+
+def test_recovers_the_identifiable_parameters_and_says_which_is_not(whole):
+    _, summary = whole
+    best = summary["best"]["parameters"]
+    assert best["specimen.bond_material.young_modulus"] == pytest.approx(TRUE_MODULUS,
+                                                                         rel=0.03)
+    assert best["specimen.bond_material.normal_strength"] == pytest.approx(TRUE_STRENGTH,
+                                                                           rel=0.03)
+    verdict = summary["identifiability"]
+    assert verdict["specimen.bond_material.young_modulus"]["identifiable"]
+    assert verdict["specimen.bond_material.normal_strength"]["identifiable"]
+    assert not verdict["specimen.bond_material.tangential_strength"]["identifiable"]
+    assert "not identifiable" in verdict["specimen.bond_material.tangential_strength"][
+        "verdict"]
+    assert summary["consistent"] and summary["trials"] == 8
+
+
+def test_a_killed_calibration_resumes_to_the_same_result(whole, truth):
+    path, summary = whole
+    folder = truth[0]
+    out = folder / "cut"
+    assert run_calibration(path, out, stop_after=4) is None     # mid-way through a batch
+    rows = (out / "calibration.csv").read_text().splitlines()
+    assert len(rows) == 1 + 4
+    with pytest.raises(InputError, match="--resume"):
+        run_calibration(path, out)
+    resumed = run_calibration(path, out, resume=True)
+    assert (out / "calibration.csv").read_text() == (folder / "whole" /
+                                                    "calibration.csv").read_text()
+    assert resumed["best"] == summary["best"]
+    assert json.loads((out / "calibration.json").read_text())["best"]["trial"] == \
+        summary["best"]["trial"]
+
+
+def test_unreachable_targets_fail_with_a_message(truth):
+    folder, modulus, strength = truth
+    path = _file(folder, "far.toml", budget=4, modulus=modulus * 100, strength=strength)
+    with pytest.raises(CalibrationFailed, match="young_modulus_secant .* outside what the "
+                                                "bounds"):
+        run_calibration(path, folder / "far")
+    run = CliRunner().invoke(main, ["calibrate", str(path), "--scheduler", "serial",
+                                    "--out", str(folder / "far_cli")])
+    assert run.exit_code == 1 and "calibration failed" in run.output
+
+
+def test_contradictory_targets_end_with_what_the_best_set_misses(truth):
+    """A lattice's E and strength come from separate parameters, but a tensile strength
+    with only one strength parameter held fixed below it cannot be met."""
+    folder, modulus, strength = truth
+    path = _file(folder, "contra.toml", budget=4, modulus=modulus, strength=strength)
+    text = path.read_text().replace('low = 3e5\nhigh = 3e7\nlog = true\n[parameters."'
+                                    'specimen.bond_material.tangential_strength"]',
+                                    'low = 3e5\nhigh = 1e6\nlog = true\n[parameters."'
+                                    'specimen.bond_material.tangential_strength"]')
+    path.write_text(text)
+    with pytest.raises(CalibrationFailed, match="tensile_strength"):
+        run_calibration(path, folder / "contra")
+
+
+def test_bad_calibration_files_name_the_key(truth, tmp_path):
+    folder = truth[0]
+    good = CALIBRATION.format(budget=4, modulus=1e7, strength=1e5)
+    for change, key in (('budget = 4', 'budget = 1'), ('test = "tension"', 'test = "x"'),
+                        ('low = 2e7', 'low = -2e7')):
+        path = folder / "bad.toml"
+        path.write_text(good.replace(change, key, 1))
+        with pytest.raises(InputError) as error:
+            load_calibration(path)
+        assert error.value.key in ("budget", "targets.young_modulus_secant.test",
+                                   'parameters.specimen.bond_material.young_modulus.low')
+
+
+def test_runs_as_a_dask_ensemble_from_the_command_line(truth):
+    folder, modulus, strength = truth
+    path = _file(folder, "dask.toml", budget=3, modulus=modulus, strength=strength)
+    run = CliRunner().invoke(main, ["calibrate", str(path), "--workers", "2",
+                                    "--out", str(folder / "dask")])
+    assert run.exit_code == 0, run.output
+    summary = json.loads((folder / "dask" / "calibration.json").read_text())
+    assert summary["trials"] == 3
+    best = summary["best"]["parameters"]["specimen.bond_material.young_modulus"]
+    assert best == pytest.approx(TRUE_MODULUS, rel=0.03)    # the scaling rules' guess
+    assert (folder / "dask" / "calibration.html").stat().st_size > 1000
