@@ -248,3 +248,22 @@ tangential_strength = 1e6
     run = CliRunner().invoke(main, ["lab", "ucs", str(spec), "--set", change])
     assert run.exit_code == 2, run.output
     assert f"{spec}: {key}" in run.output, run.output
+
+
+def test_a_scene_body_is_a_specimen(tmp_path):
+    """examples/compression.toml's generated agglomerate, pressed by the lab's plates."""
+    from pathlib import Path
+
+    from bondem.scene import load_scene
+    scene_path = Path(__file__).resolve().parents[1] / "examples" / "compression.toml"
+    spec = tmp_path / "from_scene.toml"
+    spec.write_text(f'[specimen]\nscene = "{scene_path}"\nshape = "sphere"\n'
+                    "[test]\nmax_strain = 0.01\nstrain_rate = 30.0\n")
+    out = tmp_path / "agg"
+    run = CliRunner().invoke(main, ["lab", "agglomerate", str(spec), "--out", str(out)])
+    assert run.exit_code == 0, run.output
+    numbers = json.loads((out / "lab.json").read_text())["numbers"]
+    scene = load_scene(scene_path)
+    assert numbers["n_particles"] == scene.model.n_particles
+    assert numbers["n_bonds"] == scene.model.n_bonds
+    assert numbers["breakage_force"] > 0.0

@@ -82,6 +82,7 @@ class Calibration:
     seed: int = 0
     check_seeds: list = field(default_factory=list)
     text: str = ""
+    test_overrides: dict = field(default_factory=dict)   # {test: {spec key: value}}
 
     @property
     def tests(self):
@@ -90,7 +91,8 @@ class Calibration:
 
 PARAMETER_KEYS = ("low", "high", "log")
 TARGET_KEYS = ("test", "value", "tolerance")
-TOP_KEYS = ("spec", "budget", "batch", "seed", "check_seeds", "parameters", "targets")
+TOP_KEYS = ("spec", "budget", "batch", "seed", "check_seeds", "parameters", "targets",
+            "tests")
 
 
 def _number(table, key, where, path, positive=True):
@@ -166,11 +168,18 @@ def load_calibration(path) -> Calibration:
     if not (isinstance(seeds, list) and all(isinstance(s, int) and s >= 0 for s in seeds)):
         raise InputError(f"value {seeds!r}: expected a list of integers >= 0", file=path,
                              key="check_seeds")
+    tests = data.get("tests", {})
+    if not isinstance(tests, dict) or any(k not in TESTS or not isinstance(v, dict)
+                                          for k, v in tests.items()):
+        raise InputError(f"expected tables named after tests ({', '.join(TESTS)}) of spec "
+                         "keys and values, e.g. [tests.brazilian] with "
+                         '"specimen.shape" = "disc"', file=path, key="tests")
     calibration = Calibration(path, spec, parameters, targets, budget, batch, seed, seeds,
-                              text)
+                              text, tests)
     # the spec must load with every parameter at its middle: the keys exist and are valid
     from .lab.spec import load_spec
-    load_spec(spec, {p.key: p.middle() for p in parameters})
+    for test in calibration.tests:
+        load_spec(spec, {**tests.get(test, {}), **{p.key: p.middle() for p in parameters}})
     return calibration
 
 
@@ -320,12 +329,13 @@ class _Evaluator:
         work = [(trial, test, overrides) for trial, overrides in jobs.items()
                 for test in cal.tests]
         if self.client is None:
-            done = {(trial, test): _safe(cal.spec, test, overrides)
+            done = {(trial, test): _safe(cal.spec, test,
+                                         {**cal.test_overrides.get(test, {}), **overrides})
                     for trial, test, overrides in work}
         else:
-            futures = {(trial, test): self.client.submit(_safe, cal.spec, test, overrides,
-                                                         pure=False)
-                       for trial, test, overrides in work}
+            futures = {(trial, test): self.client.submit(
+                _safe, cal.spec, test, {**cal.test_overrides.get(test, {}), **overrides},
+                pure=False) for trial, test, overrides in work}
             done = {key: future.result() for key, future in futures.items()}
         out = {}
         for trial in jobs:

@@ -16,6 +16,7 @@ one-sided); a triangle is two-sided.
 """
 from __future__ import annotations
 
+import bisect
 import math
 
 import numba
@@ -91,26 +92,32 @@ class VelocityProfile:
         span = np.diff(times)[:, None]
         self._start = np.vstack([np.zeros(3), np.cumsum(
             0.5 * (velocities[1:] + velocities[:-1]) * span, axis=0)])
+        self._times = times.tolist()
+        self._last, self._last_time = len(self._times) - 1, self._times[-1]
 
     def _segment(self, time):
-        k = int(np.searchsorted(self.times, time, side="right")) - 1
-        return max(k, 0)
+        # asked several times per step (elements, velocities, totals, Verlet bound): the
+        # last segment, where most of a test runs, without a search
+        if time >= self._last_time:
+            return self._last
+        return max(bisect.bisect_right(self._times, time) - 1, 0)
 
     def velocity(self, time):
         """Velocity (3,) m/s at ``time`` (s)."""
         k = self._segment(time)
         if k + 1 >= self.times.shape[0]:
             return self.velocities[-1]
-        fraction = (time - self.times[k]) / (self.times[k + 1] - self.times[k])
+        fraction = (time - self._times[k]) / (self._times[k + 1] - self._times[k])
         return self.velocities[k] + fraction * (self.velocities[k + 1] - self.velocities[k])
 
     def displacement(self, time):
         """Translation (3,) m from t = 0 to ``time`` (s), the integral of the velocity."""
         k = self._segment(time)
-        tau = time - self.times[k]
+        tau = time - self._times[k]
         if k + 1 >= self.times.shape[0]:
             return self._start[k] + self.velocities[k] * tau
-        slope = (self.velocities[k + 1] - self.velocities[k]) / (self.times[k + 1] - self.times[k])
+        slope = (self.velocities[k + 1] - self.velocities[k]) / (self._times[k + 1]
+                                                                 - self._times[k])
         return self._start[k] + self.velocities[k] * tau + 0.5 * slope * tau * tau
 
     def max_speed(self):
