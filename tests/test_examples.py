@@ -44,7 +44,7 @@ def test_readme_commands_name_files_that_exist():
     for command in commands:
         words = shlex.split(command)
         assert words[1] in ("info", "run", "export", "generate", "analyze", "report",
-                            "validate", "bench", "study", "demo", "lab"), command
+                            "validate", "bench", "study", "demo", "lab", "calibrate"), command
         for word in words:
             if word.endswith(".toml"):
                 assert (ROOT / word).is_file(), command

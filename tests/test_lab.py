@@ -220,6 +220,11 @@ def test_the_docs_worked_example_runs_and_reports(tmp_path):
     assert report.exit_code == 0, report.output
     page = (out / "results_report.html").read_text()
     assert "Laboratory test: ucs" in page and 'id="lab_stress_strain"' in page
+    # every step's platen loads are in the results file, in order, one row per change
+    from bondem.io.results import read_results
+    history = read_results(out / "results.h5")
+    assert history["walls/history/time"].shape[0] >= 0.9 * numbers["steps"]
+    assert (np.diff(history["walls/history/time"]) > 0).all()
 
 
 @pytest.mark.parametrize("change, key", [

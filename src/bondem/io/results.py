@@ -220,11 +220,17 @@ class ResultsWriter:
 
     def append_wall_history(self, sim):
         """Append the wall-load rows the Simulation recorded since the last call
-        (``/walls/history``; its time is written last, so its length counts whole rows)."""
+        (``/walls/history``)."""
         history = getattr(sim, "wall_history", None)
         if history is None or not len(history):
             return
-        time, force, position = history.take()
+        self.append_wall_rows(*history.take())
+
+    def append_wall_rows(self, time, force, position):
+        """Append wall-load rows: time (H,) s, force and position (H,W,3) N, m (the
+        history's time is written last, so its length counts whole rows)."""
+        if time.shape[0] == 0:
+            return
         f = self._open()
         try:
             if "walls/history/time" in f:   # files of earlier versions have no history

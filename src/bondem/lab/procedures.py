@@ -176,13 +176,6 @@ class _Probe:
         return kinetic / elastic if elastic > 0.0 else math.nan
 
 
-def _mean_wall_force(sim, last):
-    """Mean force (W,3) N on each wall over the steps since the last sample (the last
-    recorded value when none changed)."""
-    _, force, _ = sim.wall_history.take()
-    return force.mean(axis=0) if force.shape[0] else last
-
-
 class _Runner:
     """The sample loop shared by the tests: steps, readings, stop rule, frames."""
 
@@ -190,6 +183,7 @@ class _Runner:
         self.sim, self.settings = sim, settings
         self.every = max(1, int(steps_to_limit // settings.samples))
         self.rows = []
+        self.pending = []
         self.writer = None
         if out_dir is not None:
             from pathlib import Path
@@ -206,13 +200,30 @@ class _Runner:
     def step(self):
         self.sim.step(self.every)
 
+    def wall_force(self, last):
+        """Mean force (W,3) N on each wall over the steps since the last sample (``last``
+        when none changed); the rows go on to the results file."""
+        time, force, position = self.sim.wall_history.take()
+        if self.writer is not None:
+            self.pending.append((time, force, position))
+        return force.mean(axis=0) if force.shape[0] else last
+
+    def _flush(self):
+        """Write the wall rows kept since the last frame (one file opening per frame)."""
+        if self.pending:
+            self.writer.append_wall_rows(*(np.concatenate(parts) for parts in
+                                           zip(*self.pending)))
+            self.pending = []
+
     def sample(self, row):
         self.rows.append(row)
         if self.writer is not None and len(self.rows) % self.frame_every == 0:
+            self._flush()
             self.writer.append(self.sim)
 
     def finish(self):
         if self.writer is not None:
+            self._flush()
             self.writer.append(self.sim)
             self.writer.close()
         curve = {k: np.array([r[k] for r in self.rows], dtype=np.float64)
@@ -358,7 +369,7 @@ def _compression(test, specimen, settings, axis, out_dir, scene_text, confining=
     top_stress, stop = 0.0, None
     while stop is None and sim.state.step < settings.max_steps:
         runner.step()
-        force = _mean_wall_force(sim, force)
+        force = runner.wall_force(force)
         t = sim.state.time
         f_bottom, f_top = -force[0, axis], force[1, axis]
         gap = top.position(t)[axis] - bottom.position(t)[axis]
