@@ -194,3 +194,13 @@ def test_scene_servo_holds_its_force(tmp_path):
     assert late.size > 100
     assert np.all(np.abs(late - 0.2) < 0.02 * 0.2), (late.min(), late.max())
     assert servo.reached
+
+
+def test_an_untaken_history_keeps_its_newest_rows():
+    from bondem.walls import WallHistory
+    history = WallHistory(1, max_rows=10)
+    for k in range(25):
+        history.record(float(k), [[float(k), 0.0, 0.0]], [[0.0, 0.0, 0.0]])
+    time, force, _ = history.take()
+    assert history.dropped == 15 and time.tolist() == [float(k) for k in range(15, 25)]
+    assert force[-1, 0, 0] == 24.0

@@ -455,10 +455,13 @@ class WallHistory:
     """The load on every wall, step by step: each step whose wall forces differ from the
     last recorded ones adds a row (time at which the loads were evaluated, s; force (W,3)
     N; reference point (W,3) m). ``take()`` hands the rows over and empties the buffer.
-    last: the forces (W,3) N of the last row recorded before (a resumed run's)."""
+    last: the forces (W,3) N of the last row recorded before (a resumed run's). A buffer
+    nobody takes from keeps its newest ``max_rows`` rows (``dropped`` counts the others).
+    """
 
-    def __init__(self, n_walls, last=None):
+    def __init__(self, n_walls, last=None, max_rows=200_000):
         self.n_walls = n_walls
+        self.max_rows, self.dropped = int(max_rows), 0
         self._time, self._force, self._position = [], [], []
         self._last = None if last is None or np.shape(last) != (n_walls, 3) else \
             np.array(last, dtype=np.float64)
@@ -476,6 +479,10 @@ class WallHistory:
         if self._last is not None and np.array_equal(force, self._last):
             return
         self._last = np.array(force, dtype=np.float64)
+        if len(self._time) >= self.max_rows:
+            half = self.max_rows // 2
+            self.dropped += half
+            del self._time[:half], self._force[:half], self._position[:half]
         self._time.append(float(time))
         self._force.append(self._last)
         self._position.append(np.array(position, dtype=np.float64))
