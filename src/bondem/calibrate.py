@@ -303,6 +303,7 @@ class _Evaluator:
     def __init__(self, calibration, scheduler, workers):
         self.calibration = calibration
         self.client = self.cluster = None
+        self.errors = {}    # trial: the first failure's message
         if scheduler == "serial":
             return
         from distributed import Client, LocalCluster
@@ -344,6 +345,8 @@ class _Evaluator:
                 numbers = done[(trial, t.test)]
                 value = numbers.get(t.name, math.nan)
                 predictions[t.name] = float(value) if value is not None else math.nan
+                if "error" in numbers:
+                    self.errors.setdefault(trial, numbers["error"])
             out[trial] = predictions
         return out
 
@@ -358,8 +361,8 @@ def _safe(spec, test, overrides):
     numbers: the trial then has an infinite misfit."""
     try:
         return evaluate(spec, test, overrides)
-    except Exception:  # noqa: BLE001 - any failure of one trial is that trial's result
-        return {}
+    except Exception as error:  # noqa: BLE001 - any failure of one trial is its result
+        return {"error": f"{test}: {type(error).__name__}: {error}"}
 
 
 def run_calibration(calibration, out_dir, *, scheduler="serial", workers=None,
@@ -431,6 +434,9 @@ def run_calibration(calibration, out_dir, *, scheduler="serial", workers=None,
                     progress(finished, calibration.budget, value)
             if len(trials_run) < len(trials):
                 return None   # the planned interruption fell within this batch
+        if not any(math.isfinite(r["misfit"]) for r in rows.values()):
+            first = next(iter(evaluator.errors.values()), "no numbers came back")
+            raise CalibrationFailed(f"every trial failed; the first: {first}")
         summary = summarise(calibration, rows, evaluator)
     finally:
         evaluator.close()
@@ -490,6 +496,7 @@ def summarise(calibration, rows, evaluator):
         for j, t in enumerate(calibration.targets):
             jacobian[j, k] = ((moved[-(k + 1)][t.name] - base[t.name])
                               / (t.tolerance * abs(t.value)) / steps[p.key])
+    jacobian = np.where(np.isfinite(jacobian), jacobian, 0.0)   # a failed run: no information
     info = jacobian.T @ jacobian
     eigen = np.linalg.eigvalsh(info) if info.size else np.zeros(0)
     covariance = np.linalg.pinv(info, rcond=1e-9)
@@ -528,5 +535,6 @@ def summarise(calibration, rows, evaluator):
             "identifiability": identifiability,
             "information_eigenvalues": eigen.tolist(),
             "seed_scatter": seeds, "trials": len(rows),
+            "failed": {int(k): v for k, v in evaluator.errors.items() if k >= 0},
             "simulations": (len(rows) + len(calibration.parameters)
                             + len(calibration.check_seeds)) * len(calibration.tests)}
