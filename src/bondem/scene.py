@@ -144,10 +144,18 @@ def load_scene(path, overrides: dict | None = None) -> Scene:
     parsed table before validation (parameter studies). Raises InputError on bad input.
     """
     path = Path(path)
+    data, text = read_toml(path, overrides, "scene file")
+    return _build(data, text, path)
+
+
+def read_toml(path, overrides=None, what="file"):
+    """(table, text) of a TOML input file with ``overrides`` {dotted key: value} applied
+    (text then re-written from the table); InputError naming the file when it cannot be
+    read or parsed."""
     try:
-        raw = path.read_bytes()
+        raw = Path(path).read_bytes()
     except OSError as error:
-        raise InputError(f"cannot read the scene file ({error.strerror})", file=path)
+        raise InputError(f"cannot read the {what} ({error.strerror})", file=path)
     text = decode_text(raw, path)
     try:
         data = tomllib.loads(text)
@@ -159,7 +167,7 @@ def load_scene(path, overrides: dict | None = None) -> Scene:
             _apply_override(data, key, value, path)
         import tomli_w
         text = tomli_w.dumps(data)
-    return _build(data, text, path)
+    return data, text
 
 
 def parse_override(text, file="--set"):

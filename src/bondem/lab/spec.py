@@ -21,10 +21,9 @@ scene files (every bad value an InputError naming the file and the key).
 from __future__ import annotations
 
 import copy
-import tomllib
 from pathlib import Path
 
-from ..errors import InputError, decode_text
+from ..errors import InputError
 from ..model import BondMaterial, Material
 from .procedures import LabSettings
 from .specimen import lattice_specimen, make_specimen, specimen_from_scene
@@ -115,23 +114,9 @@ SIZES = {"box": 3, "cylinder": 2, "disc": 2, "sphere": 1}
 def load_spec(path, overrides=None):
     """Read a lab spec file: returns (Specimen, LabSettings, text). overrides: {"dotted.key":
     value} applied before the checks (as ``bondem lab --set``)."""
-    from ..scene import _apply_override
+    from ..scene import read_toml
     path = Path(path)
-    try:
-        raw = path.read_bytes()
-    except OSError as error:
-        raise InputError(f"cannot read the lab spec ({error.strerror})", file=path)
-    text = decode_text(raw, path)
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as error:
-        raise InputError(f"not valid TOML: {error}", file=path)
-    if overrides:
-        data = copy.deepcopy(data)
-        for key, value in overrides.items():
-            _apply_override(data, key, value, path)
-        import tomli_w
-        text = tomli_w.dumps(data)
+    data, text = read_toml(path, overrides, "lab spec")
     for key in data:
         if key not in ("specimen", "test"):
             raise InputError("unknown key; allowed: specimen, test", file=path, key=key)
