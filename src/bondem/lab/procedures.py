@@ -18,13 +18,13 @@ import numpy as np
 
 from ..contacts import ContactSettings
 from ..model import Material
+from ..physics.bond_elastic import COMPRESSION, SHEAR, TENSION
 from ..simulation import Simulation
 from ..walls import PlaneWall, Servo, VelocityProfile
 from . import measure
 from .specimen import box_widths
 
 TESTS = ("ucs", "triaxial", "brazilian", "tension", "agglomerate")
-TENSION_MODE, COMPRESSION_MODE, SHEAR_MODE = 1, 2, 3
 
 
 @dataclass
@@ -160,9 +160,9 @@ class _Probe:
 
     def broken(self):
         mode = self.sim.state.bond_break_mode
-        return (int(np.count_nonzero(mode == TENSION_MODE)),
-                int(np.count_nonzero(mode == COMPRESSION_MODE)),
-                int(np.count_nonzero(mode == SHEAR_MODE)))
+        return (int(np.count_nonzero(mode == TENSION)),
+                int(np.count_nonzero(mode == COMPRESSION)),
+                int(np.count_nonzero(mode == SHEAR)))
 
     def energy_ratio(self):
         """Kinetic energy of the free particles over the elastic energy stored."""
