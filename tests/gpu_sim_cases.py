@@ -621,7 +621,7 @@ def falling_clusters(seed=11, periodic=False):
 
 
 def compare_contact_runs(system, settings, steps, time_step="auto", expect_walls=True,
-                         restart=False):
+                         restart=False, musen_compat=False):
     """GPU (simulator) and CPU runs with contacts and walls: everything to 1e-12.
 
     restart: the GPU run's second batch is made by a new Simulation from a copy of the
@@ -630,12 +630,13 @@ def compare_contact_runs(system, settings, steps, time_step="auto", expect_walls
     for backend in ("cpu", "gpu"):
         model, state, walls = system()
         sim = bondem.Simulation(model, state, backend=backend, contact=settings, walls=walls,
-                                time_step=time_step)
+                                time_step=time_step, musen_compat=musen_compat)
         sim.step(steps // 2)
         half = (sim.wall_force.copy(), sim.wall_torque.copy())
         if restart and backend == "gpu":
             sim = bondem.Simulation(model, sim.state.copy(), backend=backend, contact=settings,
-                                    walls=walls, time_step=sim.time_step)
+                                    walls=walls, time_step=sim.time_step,
+                                    musen_compat=musen_compat)
         sim.step(steps - steps // 2)
         runs[backend] = (sim.state, sim.energy_terms(), sim.wall_force.copy(),
                          sim.wall_torque.copy(), half, sim.contacts.touching())
@@ -662,6 +663,9 @@ def compare_contact_runs(system, settings, steps, time_step="auto", expect_walls
         "contact_spring", "contact_force", "contact_moment_i", "contact_moment_j",
         "contact_energy", "wall_spring", "wall_force_rows", "wall_moment_rows",
         "wall_energy_rows")]
+    if musen_compat:
+        checks += [(name, cpu.extra[name], gpu.extra[name], None)
+                   for name in ("contact_tangential", "wall_tangential")]
     checks += [("wall_force", runs["cpu"][2], runs["gpu"][2], None),
                ("wall_torque", runs["cpu"][3], runs["gpu"][3], None),
                ("wall_force (batch 1)", runs["cpu"][4][0], runs["gpu"][4][0], None)]
@@ -688,6 +692,16 @@ def case_contacts_walls_match_cpu():
     """Hertz-Mindlin contacts, a plane and a moving mesh wall, breakage: GPU equals CPU."""
     from bondem.contacts import ContactSettings
     compare_contact_runs(falling_clusters, ContactSettings(model="hertz_mindlin"), steps=30)
+
+
+def case_musen_contacts_walls_match_cpu():
+    """MUSEN's Hertz-Mindlin (musen_compat) with a plane, a moving turning mesh wall and
+    breakage: the CUDA kernels take the same flag and bodies as the CPU's, GPU equals CPU."""
+    from bondem.contacts import ContactSettings
+    cpu = compare_contact_runs(falling_clusters, ContactSettings(model="hertz_mindlin"),
+                               steps=30, musen_compat=True)
+    assert np.any(cpu.extra["contact_tangential"] != 0.0)
+    assert np.any(cpu.extra["wall_tangential"] != 0.0)
 
 
 def case_contacts_linear_rebuilds():

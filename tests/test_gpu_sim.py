@@ -105,6 +105,14 @@ def test_contacts_and_walls_match_cpu_under_simulator():
     assert "wall_force" in out
 
 
+def test_musen_contacts_and_walls_match_cpu_under_simulator():
+    """The same scene with MUSEN's Hertz-Mindlin (musen_compat=True): the CUDA kernels run
+    the same bodies with the flag, so everything, the stored tangential forces that MUSEN
+    applies while sliding included, equals the CPU's to 1e-12."""
+    out = run_case("musen_contacts_walls_match_cpu")
+    assert "contact_tangential" in out and "wall_tangential" in out
+
+
 def test_contact_list_rebuilds_match_cpu_under_simulator():
     """Linear contacts with a small skin, x periodic (a contact across the boundary): the
     lists are rebuilt every few steps (on the host, springs carried), the GPU run is

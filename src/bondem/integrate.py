@@ -37,6 +37,10 @@ def step(model, state, laws, integrator, force, moment, dt, musen_compat=False):
     increment_dt, kick, drift, advances = step_plan(state.started, dt, musen_compat)
     force.fill(0.0)
     moment.fill(0.0)
+    if musen_compat:
+        # MUSEN adds contact and wall loads first, then the bonds' (CPUSimulator::
+        # CalculateForcesStep); laws[0] is the bond law
+        laws = [*laws[1:], *laws[:1]]
     for law in laws:
         law.accumulate(model, state, force, moment, increment_dt)
     status = integrator.advance(model, state, force, moment, kick, drift)

@@ -72,6 +72,9 @@ class Simulation:
             if contact is None:
                 contact = ContactSettings(model="none")
             self.contacts = self.backend.contact_law(model, contact, walls)
+            # MUSEN's Hertz-Mindlin numerics (physics/contact_hertz_musen.py); the linear
+            # law has no MUSEN counterpart here and stays bondem's own
+            self.contacts.musen_compat = self.musen_compat and contact.model != "linear"
             laws = (self.contacts, *laws)
         self.walls = list(walls)
         self._servos = [(k, w.motion) for k, w in enumerate(self.walls)

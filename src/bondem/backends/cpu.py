@@ -243,10 +243,10 @@ def elastic_bonds(bonds, materials, state, particles, box, time, dt, musen, vect
 def gather_bond_range(first, last, index, loads, force, moment):
     """Add the bond loads of particles first to last - 1 (``loops.bond_ends_sum``)."""
     for p in range(first, last):
-        f, m = bond_ends_sum(p, index, loads)
+        f, m = bond_ends_sum(p, index, loads, row3(force, p), row3(moment, p))
         for k in range(3):
-            force[p, k] += f[k]
-            moment[p, k] += m[k]
+            force[p, k] = f[k]
+            moment[p, k] = m[k]
 
 
 @numba.njit(**_jit)

@@ -28,16 +28,16 @@ restitution_beta = L.restitution_beta
 @numba.njit(**_serial)
 def pair_contact_range(first, last, live, pairs, pair_bond, bond_active, particles, grains,
                        materials, law, linear_stiffness, use_rolling, box, rows, dt,
-                       moved_dt):
+                       moved_dt, musen):
     """``loops.pair_contact`` for the rows live[first:last]."""
     for s in range(first, last):
         pair_contact(live[s], pairs, pair_bond, bond_active, particles, grains, materials,
-                     law, linear_stiffness, use_rolling, box, rows, dt, moved_dt)
+                     law, linear_stiffness, use_rolling, box, rows, dt, moved_dt, musen)
 
 
 @numba.njit(**_jit)
 def particle_contacts(live, pairs, pair_bond, bond_active, particles, grains, materials,
-                      law, linear_stiffness, use_rolling, box, rows, dt, moved_dt):
+                      law, linear_stiffness, use_rolling, box, rows, dt, moved_dt, musen):
     """Loads, stored energy and dissipation of every contact row listed in ``live``
     (``loops.pair_contact``), advancing the springs by dt (s); moved_dt (s): time since
     the previous evaluation.
@@ -46,13 +46,14 @@ def particle_contacts(live, pairs, pair_bond, bond_active, particles, grains, ma
     an intact bond, which carry no contact load and keep zero rows (bonds never form during
     a run), so skipping them saves the memory traffic of every bonded neighbour.
     linear_stiffness: None for Hertz-Mindlin (the linear law is then not compiled), else
-    k_n (N/m, 0 for the default) of the linear law.
+    k_n (N/m, 0 for the default) of the linear law. musen: None for the SPEC's law (MUSEN's
+    is then not compiled), True for MUSEN's Hertz-Mindlin.
     """
     n = live.shape[0]
     for c in prange(chunks(n)):
         pair_contact_range(c * CHUNK, min(n, (c + 1) * CHUNK), live, pairs, pair_bond,
                            bond_active, particles, grains, materials, law, linear_stiffness,
-                           use_rolling, box, rows, dt, moved_dt)
+                           use_rolling, box, rows, dt, moved_dt, musen)
 
 
 @numba.njit(**_serial)
@@ -77,28 +78,28 @@ def gather_pair_loads(index, rows, force, moment):
 @numba.njit(**_serial)
 def wall_contact_range(first, last, wall_start, wall_pairs, walls, particles, grains,
                        materials, law, linear_stiffness, use_rolling, triangles, rows, dt,
-                       moved_dt, force, moment):
+                       moved_dt, force, moment, musen):
     """``loops.wall_contacts_of`` for particles first to last - 1, then their wall loads
     added to force (N) and moment (N m)."""
     for p in range(first, last):
         wall_contacts_of(p, wall_start, wall_pairs, walls, particles, grains, materials, law,
-                         linear_stiffness, use_rolling, triangles, rows, dt, moved_dt)
+                         linear_stiffness, use_rolling, triangles, rows, dt, moved_dt, musen)
         add_wall_rows(p, wall_start, rows, force, moment)
 
 
 @numba.njit(**_jit)
 def wall_contacts(wall_start, wall_pairs, walls, particles, grains, materials, law,
                   linear_stiffness, use_rolling, triangles, rows, dt, moved_dt, force,
-                  moment):
+                  moment, musen):
     """Loads of every particle-wall candidate (``loops.wall_contacts_of``; rows sorted by
     particle, ``wall_start`` their CSR offsets), added to force (N) and moment (N m).
     triangles: None when every wall element is a plane (the triangle code is then not
-    compiled), else True."""
+    compiled), else True. musen: None for the SPEC's law, True for MUSEN's."""
     n = wall_start.shape[0] - 1
     for c in prange(chunks(n)):
         wall_contact_range(c * CHUNK, min(n, (c + 1) * CHUNK), wall_start, wall_pairs, walls,
                            particles, grains, materials, law, linear_stiffness, use_rolling,
-                           triangles, rows, dt, moved_dt, force, moment)
+                           triangles, rows, dt, moved_dt, force, moment, musen)
 
 
 @numba.njit(cache=True, nogil=True)
@@ -135,7 +136,7 @@ def pair_rows(extra, dissipated):
     ``loops.PairRows``."""
     return loops.PairRows(extra["contact_spring"], extra["contact_force"],
                           extra["contact_moment_i"], extra["contact_moment_j"],
-                          extra["contact_energy"], dissipated)
+                          extra["contact_energy"], dissipated, extra["contact_tangential"])
 
 
 def csr_by(index, n):
@@ -155,6 +156,8 @@ class ContactLaw:
     """
 
     name = "contacts"
+    # True: MUSEN's Hertz-Mindlin (contact_hertz_musen), set by Simulation(musen_compat=True).
+    musen_compat = False
 
     def __init__(self, model, settings=None, walls=()):
         self.settings = settings if settings is not None else ContactSettings()
@@ -189,6 +192,7 @@ class ContactLaw:
         self._bond_order = np.argsort(self._bond_key, kind="stable")
         self._derived_for = None
         self._last_state = None
+        self._t_wall = 0.0   # s, where the walls stand for the step being evaluated
         self.wall_force = np.zeros((self.walls.n_walls, 3))
         self.wall_torque = np.zeros((self.walls.n_walls, 3))
 
@@ -207,7 +211,7 @@ class ContactLaw:
             extra[name] = carry_history(old_pairs, extra.get(name, np.zeros((0,) + shape)),
                                         pairs, model.n_particles)
         extra["contact_pairs"] = pairs
-        rows = self.walls.elements(state.time)
+        rows = self.walls.elements(self._t_wall)
         wall_pairs = build_wall_pairs(position, model.radius, self.skin, rows,
                                       self.walls.element_type)
         old_wall_pairs = extra.get("wall_pairs", empty2)
@@ -217,8 +221,8 @@ class ContactLaw:
                                         max(1, self.walls.n_elements))
         extra["wall_pairs"] = wall_pairs
         extra["contact_reference_position"] = position.copy()
-        extra["contact_reference_time"] = np.array([state.time])
-        self.walls.mark(state.time)
+        extra["contact_reference_time"] = np.array([self._t_wall])
+        self.walls.mark(self._t_wall)
         counters = extra.setdefault("contact_counters", np.array([0.0, 0.0, 0.0, state.time]))
         counters[2] += 1.0
 
@@ -228,8 +232,8 @@ class ContactLaw:
             return True
         moved = max_displacement(state.position, extra["contact_reference_position"],
                                  self._box_length, model.periodic)
-        moved += self.walls.max_displacement(state.time,
-                                             state.time - extra["contact_reference_time"][0])
+        moved += self.walls.max_displacement(
+            self._t_wall, self._t_wall - extra["contact_reference_time"][0])
         return moved > 0.5 * self.skin
 
     def _derive_live(self, model, state):
@@ -279,10 +283,20 @@ class ContactLaw:
         self._derived_for = key
 
     # -- the law ----------------------------------------------------------------------
+    def wall_time(self, state, increment_dt):
+        """The time (s) at which the walls are placed for this step's loads: the state's
+        time; in MUSEN-compatible runs one step later after the start-up, since MUSEN moves
+        its walls in its prediction step too (BaseSimulator::MoveObjectsStep), so that
+        they lead its particles by one step from then on."""
+        if self.musen_compat and state.started:
+            return state.time + increment_dt
+        return state.time
+
     def accumulate(self, model, state, force, moment, increment_dt):
         """Add contact and wall loads (N, N m) for the state at the start of the step;
         advance the tangential springs by ``increment_dt`` (s)."""
         self._last_state = state
+        self._t_wall = self.wall_time(state, increment_dt)
         if self._needs_rebuild(model, state):
             self._rebuild(model, state)
         self._derive(model, state)
@@ -298,7 +312,8 @@ class ContactLaw:
             particle_contacts(
                 self._live, extra["contact_pairs"], self._pair_bond, state.bond_active,
                 particles, grains, self._materials, self.pair_law, self._linear_stiffness,
-                use_rolling, cpu.box(model), rows, increment_dt, moved_dt)
+                use_rolling, cpu.box(model), rows, increment_dt, moved_dt,
+                True if self.musen_compat else None)
             gather_pair_loads(
                 loops.PairIndex(self._i_start, self._i_order, self._j_start, self._j_order),
                 rows, force, moment)
@@ -307,19 +322,20 @@ class ContactLaw:
             wall_pairs = extra["wall_pairs"]
             if wall_pairs.shape[0]:
                 wall_contacts(
-                    self._wall_start, wall_pairs, self.wall_tuple(state.time), particles,
+                    self._wall_start, wall_pairs, self.wall_tuple(self._t_wall), particles,
                     grains, self._materials, self.wall_law, self._wall_stiffness,
                     use_rolling, self._triangles,
                     loops.WallRows(extra["wall_spring"], extra["wall_force_rows"],
                                    extra["wall_moment_rows"], extra["wall_energy_rows"],
                                    self._w_dissipated, self._w_work, self._w_distance,
-                                   self._w_point, self._w_feature),
-                    increment_dt, moved_dt, force, moment)
+                                   self._w_point, self._w_feature, extra["wall_tangential"]),
+                    increment_dt, moved_dt, force, moment,
+                    True if self.musen_compat else None)
                 counters[0] += float(self._w_dissipated.sum())
                 counters[1] += float(self._w_work.sum())
             wall_totals(wall_pairs, self.walls.element_wall, self._w_point,
                                 extra["wall_force_rows"], extra["wall_moment_rows"],
-                                state.position, model.radius, self.walls.positions(state.time),
+                                state.position, model.radius, self.walls.positions(self._t_wall),
                                 self.wall_force, self.wall_torque)
 
     def grains(self, model, put=lambda a: a):

@@ -64,7 +64,7 @@ def gather_bond_loads_kernel(index, loads, force, moment, assign):
     """``loops.bond_ends_sum`` for every particle, stored (``assign``) or added to force
     (N) and moment (N m)."""
     for p in range(cuda.grid(1), index.offsets.shape[0] - 1, cuda.gridsize(1)):
-        f, m = bond_ends_sum(p, index, loads)
+        f, m = bond_ends_sum(p, index, loads, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
         for k in range(3):
             if assign:
                 force[p, k] = f[k]
@@ -85,7 +85,7 @@ def integrate_kernel(index, loads, use_loads, particles, bodies, force, moment, 
     ``dissipated[p]``, summed on the host when the state is copied back; sets status[0]
     on a NaN or a particle out of the domain."""
     for p in range(cuda.grid(1), particles.position.shape[0], cuda.gridsize(1)):
-        f, m = bond_ends_sum(p, index, loads)
+        f, m = bond_ends_sum(p, index, loads, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
         if use_loads:
             f = add(f, row3(force, p))
             m = add(m, row3(moment, p))

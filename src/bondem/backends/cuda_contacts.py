@@ -68,12 +68,13 @@ def displacement_flag_kernel(position, reference, box_length, periodic, limit_sq
 
 @cuda.jit
 def particle_contacts_kernel(pairs, pair_bond, bond_active, particles, grains, materials,
-                             law, linear_stiffness, use_rolling, box, rows, dt, moved_dt):
+                             law, linear_stiffness, use_rolling, box, rows, dt, moved_dt,
+                             musen):
     """``loops.pair_contact`` for every listed pair (the CPU visits only the rows no
     intact bond holds; a held row stays zero either way)."""
     for c in range(cuda.grid(1), pairs.shape[0], cuda.gridsize(1)):
         pair_contact(c, pairs, pair_bond, bond_active, particles, grains, materials, law,
-                     linear_stiffness, use_rolling, box, rows, dt, moved_dt)
+                     linear_stiffness, use_rolling, box, rows, dt, moved_dt, musen)
 
 
 @cuda.jit
@@ -95,7 +96,7 @@ def gather_pairs_kernel(index, rows, force, moment, dissipated):
 @cuda.jit
 def wall_contacts_kernel(wall_start, wall_pairs, walls, particles, grains, materials, law,
                          linear_stiffness, use_rolling, rows, dt, moved_dt, force, moment,
-                         dissipated, work_walls, evaluated_position):
+                         dissipated, work_walls, evaluated_position, musen):
     """``loops.wall_contacts_of`` for every particle, its wall loads added to force (N)
     and moment (N m) after the pair loads, in list order; the J its rows dissipated and
     the walls' work on it added to dissipated[p] and work_walls[p]; the position it used
@@ -104,7 +105,7 @@ def wall_contacts_kernel(wall_start, wall_pairs, walls, particles, grains, mater
         for k in range(3):
             evaluated_position[p, k] = particles.position[p, k]
         wall_contacts_of(p, wall_start, wall_pairs, walls, particles, grains, materials, law,
-                         linear_stiffness, use_rolling, True, rows, dt, moved_dt)
+                         linear_stiffness, use_rolling, True, rows, dt, moved_dt, musen)
         add_wall_rows(p, wall_start, rows, force, moment)
         lost = 0.0
         done = 0.0
@@ -218,7 +219,7 @@ class ContactLawGpu(ContactLaw):
             dev["wall_energy_rows"], cuda.device_array(max(k, 1)),
             cuda.device_array(max(k, 1)), cuda.device_array(max(k, 1)),
             cuda.to_device(np.zeros((max(k, 1), 3))),
-            cuda.device_array(max(k, 1), dtype=np.int64))
+            cuda.device_array(max(k, 1), dtype=np.int64), dev["wall_tangential"])
         self._counts = (pairs.shape[0], k)
         self._dev = dev
 
@@ -232,7 +233,7 @@ class ContactLawGpu(ContactLaw):
     def _device_needs_rebuild(self, model, state):
         extra = state.extra
         limit = 0.5 * self.skin - self.walls.max_displacement(
-            state.time, state.time - extra["contact_reference_time"][0])
+            self._t_wall, self._t_wall - extra["contact_reference_time"][0])
         if not limit > 0.0:
             return True
         self._flag.copy_to_device(np.zeros(1, dtype=np.int64))
@@ -247,6 +248,7 @@ class ContactLawGpu(ContactLaw):
         """Add contact and wall loads (N, N m) into the device force and moment, for the
         device state at the start of the step; springs advance by ``increment_dt`` (s)."""
         self._last_state = state
+        self._t_wall = self.wall_time(state, increment_dt)
         if self._dev is None:
             # The host state is current here (just uploaded by the backend).
             if self._needs_rebuild(model, state):
@@ -268,18 +270,19 @@ class ContactLawGpu(ContactLaw):
             particle_contacts_kernel[_blocks(self._counts[0]), THREADS](
                 dev["pairs"], dev["pair_bond"], d.bond_active, particles(d), self._d_grains,
                 self._d_materials, self.pair_law, self._k_linear, use_rolling, g.box,
-                dev["pair_rows"], increment_dt, moved_dt)
+                dev["pair_rows"], increment_dt, moved_dt, bool(self.musen_compat))
             gather_pairs_kernel[_blocks(n), THREADS](dev["index"], dev["pair_rows"], force,
                                                      moment, self._d_lost)
         if self.walls.n_walls:
-            rows = self.walls.elements(state.time)
+            rows = self.walls.elements(self._t_wall)
             if rows is not self._rows_host:   # static walls: the same rows object
                 self._d_rows = cuda.to_device(rows)
                 self._rows_host = rows
             wall_contacts_kernel[_blocks(n), THREADS](
                 dev["wall_start"], dev["wall_pairs"],
-                self.wall_tuple(state.time, self._put_walls, self._d_rows), particles(d),
+                self.wall_tuple(self._t_wall, self._put_walls, self._d_rows), particles(d),
                 self._d_grains, self._d_materials, self.wall_law, self._k_linear,
                 use_rolling, dev["wall_rows"], increment_dt, moved_dt, force, moment,
-                self._d_lost, self._d_work, self._evaluated_position)
-            self._evaluated_time = state.time
+                self._d_lost, self._d_work, self._evaluated_position,
+                bool(self.musen_compat))
+            self._evaluated_time = self._t_wall

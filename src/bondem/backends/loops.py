@@ -53,12 +53,15 @@ BondIndex = namedtuple("BondIndex", "offsets ends")
 Grains = namedtuple("Grains", "radius mass inertia material")
 ContactMaterials = namedtuple("ContactMaterials",
                               "young poisson restitution friction rolling")
-PairRows = namedtuple("PairRows", "spring force moment_i moment_j energy dissipated")
+# tangential: the tangential force of the last sticking step (N), which MUSEN's law applies
+# while a contact slides (musen_compat only; untouched by the SPEC's law)
+PairRows = namedtuple("PairRows", "spring force moment_i moment_j energy dissipated "
+                      "tangential")
 PairIndex = namedtuple("PairIndex", "i_start i_order j_start j_order")
 Walls = namedtuple("Walls", "rows types element_wall velocity omega center young poisson "
                    "restitution friction rolling")
 WallRows = namedtuple("WallRows", "spring force moment energy dissipated work distance "
-                      "point feature")
+                      "point feature tangential")
 
 _BODIES = []
 
@@ -219,10 +222,13 @@ def advance_bond(b, bonds, materials, state, particles, box, time, dt, musen, lo
 
 
 @body
-def bond_ends_sum(p, index, loads):
-    """Force (N) and moment (N m) of particle p's bonds, summed over its CSR bond ends in
-    a fixed order (end = 2 bond + side; side 1 is j, which gets -F and its own moment)."""
-    fx = fy = fz = mx = my = mz = 0.0
+def bond_ends_sum(p, index, loads, start_f, start_m):
+    """start_f (N) and start_m (N m) plus the force and moment of particle p's bonds, added
+    one bond end at a time in a fixed CSR order (end = 2 bond + side; side 1 is j, which
+    gets -F and its own moment). Starting from the loads already there adds the bonds
+    after the contacts, in MUSEN's order (CPUSimulator::CalculateForcesSB)."""
+    fx, fy, fz = start_f
+    mx, my, mz = start_m
     for k in range(index.offsets[p], index.offsets[p + 1]):
         b = index.ends[k] >> 1
         if index.ends[k] & 1:
@@ -338,15 +344,44 @@ def pair_law(law, linear_stiffness, n, overlap, v_rel, w_rel, spring, young_i, p
 
 
 @body
+def spec_pair_loads(r, distance, overlap, i, j, vi, vj, wi, wj, grains, materials, law,
+                    linear_stiffness, use_rolling, spring, dt):
+    """The SPEC's loads of the touching pair i, j (r = x_j - x_i in m, overlap m): (force
+    on i N, moment on i N m, moment on j N m, new spring m, elastic energy J)."""
+    radius = grains.radius
+    n = (r[0] / distance, r[1] / distance, r[2] / distance)
+    arm_i = radius[i] - 0.5 * overlap
+    arm_j = radius[j] - 0.5 * overlap
+    v_rel = contact_relative_velocity(n, vi, vj, wi, wj, arm_i, arm_j)
+    w_rel = (wi[0] - wj[0], wi[1] - wj[1], wi[2] - wj[2])
+    a = grains.material[i]
+    b = grains.material[j]
+    mu_r = 0.5 * (materials.rolling[a] + materials.rolling[b]) if use_rolling else 0.0
+    mass = grains.mass
+    inertia = grains.inertia
+    force_i, torque, f_t, xi, energy = pair_law(
+        law, linear_stiffness, n, overlap, v_rel, w_rel, spring,
+        materials.young[a], materials.poisson[a], materials.young[b], materials.poisson[b],
+        0.5 * (materials.restitution[a] + materials.restitution[b]),
+        0.5 * (materials.friction[a] + materials.friction[b]), mu_r,
+        radius[i] * radius[j] / (radius[i] + radius[j]), mass[i] * mass[j] / (mass[i] + mass[j]),
+        inertia[i] * inertia[j] / (inertia[i] + inertia[j]), dt)
+    moment_i, moment_j = contact_moments(n, f_t, torque, arm_i, arm_j)
+    return force_i, moment_i, moment_j, xi, energy
+
+
+@body
 def pair_contact(c, pairs, pair_bond, bond_active, particles, grains, materials, law,
-                 linear_stiffness, use_rolling, box, rows, dt, moved_dt):
+                 linear_stiffness, use_rolling, box, rows, dt, moved_dt, musen):
     """Contact row c (pair pairs[c]): its loads (force on i, moments on i and j), stored
     energy and tangential spring, written over the previous step's row, which is read
     first for the work balance. A pair not touching or joined by an intact bond
     (pair_bond[c] >= 0) gets zero loads and its spring is reset. rows.dissipated[c]: J
     removed by the contact since the previous evaluation, moved_dt (s) ago: minus the work
     of its loads on the particles (trapezoidal in the loads, with the velocities that
-    moved the particles) minus the change of its stored energy."""
+    moved the particles) minus the change of its stored energy. musen: None (CPU) or
+    False for the SPEC's law, True for MUSEN's Hertz-Mindlin
+    (physics/contact_hertz_musen.py)."""
     i = pairs[c, 0]
     j = pairs[c, 1]
     vi = row3(particles.velocity, i)
@@ -370,27 +405,31 @@ def pair_contact(c, pairs, pair_bond, bond_active, particles, grains, materials,
             rows.force[c, k] = 0.0
             rows.moment_i[c, k] = 0.0
             rows.moment_j[c, k] = 0.0
+            if musen is not None:
+                rows.tangential[c, k] = 0.0
         rows.energy[c] = 0.0
         rows.dissipated[c] = -0.5 * moved_dt * work + previous_energy
         return
-    n = (r[0] / distance, r[1] / distance, r[2] / distance)
-    arm_i = radius[i] - 0.5 * overlap
-    arm_j = radius[j] - 0.5 * overlap
-    v_rel = contact_relative_velocity(n, vi, vj, wi, wj, arm_i, arm_j)
-    w_rel = (wi[0] - wj[0], wi[1] - wj[1], wi[2] - wj[2])
-    a = grains.material[i]
-    b = grains.material[j]
-    mu_r = 0.5 * (materials.rolling[a] + materials.rolling[b]) if use_rolling else 0.0
-    mass = grains.mass
-    inertia = grains.inertia
-    force_i, torque, f_t, xi, energy = pair_law(
-        law, linear_stiffness, n, overlap, v_rel, w_rel, row3(rows.spring, c),
-        materials.young[a], materials.poisson[a], materials.young[b], materials.poisson[b],
-        0.5 * (materials.restitution[a] + materials.restitution[b]),
-        0.5 * (materials.friction[a] + materials.friction[b]), mu_r,
-        radius[i] * radius[j] / (radius[i] + radius[j]), mass[i] * mass[j] / (mass[i] + mass[j]),
-        inertia[i] * inertia[j] / (inertia[i] + inertia[j]), dt)
-    moment_i, moment_j = contact_moments(n, f_t, torque, arm_i, arm_j)
+    if musen is not None and musen:
+        a = grains.material[i]
+        b = grains.material[j]
+        force_i, moment_i, moment_j, xi, f_t, energy = hertz_mindlin_musen_pp(
+            r, overlap, radius[i], radius[j], vi, vj, wi, wj, row3(rows.spring, c),
+            row3(rows.tangential, c), effective_young_modulus(
+                materials.young[a], materials.poisson[a], materials.young[b],
+                materials.poisson[b]),
+            musen_shear_modulus(materials.young[a], materials.poisson[a], materials.young[b],
+                                materials.poisson[b]),
+            musen_alpha(0.5 * (materials.restitution[a] + materials.restitution[b])),
+            0.5 * (materials.friction[a] + materials.friction[b]),
+            0.5 * (materials.rolling[a] + materials.rolling[b]) if use_rolling else 0.0,
+            radius[i] * radius[j] / (radius[i] + radius[j]),
+            grains.mass[i] * grains.mass[j] / (grains.mass[i] + grains.mass[j]), dt)
+        store3(rows.tangential, c, f_t)
+    else:
+        force_i, moment_i, moment_j, xi, energy = spec_pair_loads(
+            r, distance, overlap, i, j, vi, vj, wi, wj, grains, materials, law,
+            linear_stiffness, use_rolling, row3(rows.spring, c), dt)
     for k in range(3):
         rows.spring[c, k] = xi[k]
         rows.force[c, k] = force_i[k]
@@ -453,8 +492,27 @@ def element_contact(x, rows, e, etype, triangles):
 
 
 @body
+def element_normal(rows, e, etype, x, q):
+    """Unit normal of wall element e turned towards the particle at x (m) touching it at q
+    (m): a plane's own normal, a triangle's (v2 - v1) x (v3 - v1) normalised (MUSEN's)."""
+    if etype == PLANE:
+        n = (rows[e, 1, 0], rows[e, 1, 1], rows[e, 1, 2])
+    else:
+        a = (rows[e, 1, 0] - rows[e, 0, 0], rows[e, 1, 1] - rows[e, 0, 1],
+             rows[e, 1, 2] - rows[e, 0, 2])
+        b = (rows[e, 2, 0] - rows[e, 0, 0], rows[e, 2, 1] - rows[e, 0, 1],
+             rows[e, 2, 2] - rows[e, 0, 2])
+        t = cross(a, b)
+        size = norm(t)
+        n = (t[0] / size, t[1] / size, t[2] / size)
+    if (x[0] - q[0]) * n[0] + (x[1] - q[1]) * n[1] + (x[2] - q[2]) * n[2] < 0.0:
+        return (-n[0], -n[1], -n[2])
+    return n
+
+
+@body
 def wall_contacts_of(p, wall_start, wall_pairs, walls, particles, grains, materials, law,
-                     linear_stiffness, use_rolling, triangles, rows, dt, moved_dt):
+                     linear_stiffness, use_rolling, triangles, rows, dt, moved_dt, musen):
     """Loads on particle p of each of its wall candidates (rows wall_start[p] to
     wall_start[p+1] of ``rows``: force and moment on the particle, stored energy, spring),
     written over the previous step's rows (read first); rows.work[c]: J done by the moving
@@ -466,6 +524,10 @@ def wall_contacts_of(p, wall_start, wall_pairs, walls, particles, grains, materi
     closer: q is no local minimum of the distance to the mesh), or at q too and comes
     earlier in the list (a shared edge or vertex counted once). No distance comparison,
     so a centre just beside an edge is not counted twice.
+
+    musen: None (CPU) or False for the SPEC's law, True for MUSEN's particle-wall
+    Hertz-Mindlin (physics/contact_hertz_musen.py), which pushes along the element's own
+    normal (a plane's, or a triangle's (v2 - v1) x (v3 - v1)), turned towards the particle.
     """
     first = wall_start[p]
     last = wall_start[p + 1]
@@ -547,25 +609,41 @@ def wall_contacts_of(p, wall_start, wall_pairs, walls, particles, grains, materi
                 spring[c, k] = 0.0
                 rows.force[c, k] = 0.0
                 rows.moment[c, k] = 0.0
+                if musen is not None:
+                    rows.tangential[c, k] = 0.0
             rows.energy[c] = 0.0
             rows.work[c] = 0.5 * moved_dt * by_wall
             rows.dissipated[c] = 0.5 * moved_dt * (by_wall - on_particle) + previous_energy
             continue
-        if types[e] == PLANE:
-            n = (-walls.rows[e, 1, 0], -walls.rows[e, 1, 1], -walls.rows[e, 1, 2])
-        else:
-            n = ((q[0] - x[0]) / d, (q[1] - x[1]) / d, (q[2] - x[2]) / d)
-        overlap = radius - d
-        v_rel = contact_relative_velocity(n, vi, v_wall, wi, (0.0, 0.0, 0.0), d, 0.0)
-        w_rel = (wi[0] - om[0], wi[1] - om[1], wi[2] - om[2])
         mu_r = 0.5 * (materials.rolling[a] + walls.rolling[w]) if use_rolling else 0.0
-        force_i, torque, f_t, xi, energy = pair_law(
-            law, linear_stiffness, n, overlap, v_rel, w_rel, row3(spring, c),
-            materials.young[a], materials.poisson[a], walls.young[w], walls.poisson[w],
-            0.5 * (materials.restitution[a] + walls.restitution[w]),
-            0.5 * (materials.friction[a] + walls.friction[w]), mu_r, radius,
-            grains.mass[p], grains.inertia[p], dt)
-        moment_i, _ = contact_moments(n, f_t, torque, d, 0.0)
+        if musen is not None and musen:
+            n_wall = element_normal(walls.rows, e, types[e], x, q)
+            force_i, moment_i, torque, xi, f_t, energy = hertz_mindlin_musen_pw(
+                x, q, n_wall, radius, vi, wi, row3(walls.velocity, w), om,
+                row3(walls.center, w), row3(spring, c), row3(rows.tangential, c),
+                effective_young_modulus(materials.young[a], materials.poisson[a],
+                                        walls.young[w], walls.poisson[w]),
+                musen_shear_modulus(materials.young[a], materials.poisson[a],
+                                    walls.young[w], walls.poisson[w]),
+                musen_alpha(0.5 * (materials.restitution[a] + walls.restitution[w])),
+                0.5 * (materials.friction[a] + walls.friction[w]), mu_r, grains.mass[p],
+                dt)
+            store3(rows.tangential, c, f_t)
+        else:
+            if types[e] == PLANE:
+                n = (-walls.rows[e, 1, 0], -walls.rows[e, 1, 1], -walls.rows[e, 1, 2])
+            else:
+                n = ((q[0] - x[0]) / d, (q[1] - x[1]) / d, (q[2] - x[2]) / d)
+            overlap = radius - d
+            v_rel = contact_relative_velocity(n, vi, v_wall, wi, (0.0, 0.0, 0.0), d, 0.0)
+            w_rel = (wi[0] - om[0], wi[1] - om[1], wi[2] - om[2])
+            force_i, torque, f_t, xi, energy = pair_law(
+                law, linear_stiffness, n, overlap, v_rel, w_rel, row3(spring, c),
+                materials.young[a], materials.poisson[a], walls.young[w], walls.poisson[w],
+                0.5 * (materials.restitution[a] + walls.restitution[w]),
+                0.5 * (materials.friction[a] + walls.friction[w]), mu_r, radius,
+                grains.mass[p], grains.inertia[p], dt)
+            moment_i, _ = contact_moments(n, f_t, torque, d, 0.0)
         for k in range(3):
             spring[c, k] = xi[k]
             rows.force[c, k] = force_i[k]

@@ -138,7 +138,9 @@ def compare_run(run, compat, compat_only=False):
         index = tuple(item["index"])
         item_times = data[item["time_column"]]
         values = np.array([snapshots[float(t)][item["quantity"]][index] for t in item_times])
-        scale = np.abs(reference).max() or 1.0
+        # an item's own "scale" (the quantity's largest value in the run): a column that
+        # stays near zero by symmetry would otherwise magnify round-off
+        scale = item.get("scale") or np.abs(reference).max() or 1.0
         deviation = np.abs(values - reference) / scale
         k = int(np.argmax(deviation))
         ratio = float(deviation[k]) / item["tolerance"]
@@ -208,6 +210,11 @@ def run(p, compat, quick=False):
                 rows.append(skipped(f"refdata:{r.name}", r.title,
                                     f"no compare.toml (needs a runner); data: "
                                     f"{', '.join(r.data_files) or 'none'}"))
+                continue
+            if quick and not r.spec.get("quick", True):
+                rows.append(skipped(f"refdata:{r.name}", r.title,
+                                    "a long run (compare.toml: quick = false): left out of "
+                                    "--quick"))
                 continue
             try:
                 rows.extend(compare_run(r, compat, compat_only))

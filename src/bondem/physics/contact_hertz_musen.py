@@ -1,0 +1,167 @@
+"""MUSEN's own Hertz-Mindlin contact numerics (``Simulation(musen_compat=True)``).
+
+The same springs as ``contact_hertz`` (Hertz normal, Mindlin tangential, restitution
+damping, Coulomb limit, rolling friction), with the choices read from MUSEN 1.70.0
+(github.com/msolids/musen, commit 1547403: ModelPPHertzMindlin.cpp,
+ModelPWHertzMindlin.cpp, SimplifiedScene.cpp ``CalculateInteractionProperty``,
+CPUSimulator.cpp ``CalculateForcesPP/PW``; docs/musen_compat.md lists them):
+- the damping constant is the literal 1.8257, not 2 sqrt(5/6) = 1.825742;
+- the slip test takes the spring force k_t xi alone, without its dashpot;
+- while sliding, the tangential force applied is the one of the previous step (MUSEN
+  keeps ``vTangForce`` from the last sticking step; 0 for a contact that slides from its
+  first step), and the spring is set to the Coulomb force over k_t;
+- the lever arm of the tangential force is the particle's full radius r, not r - delta/2;
+- rolling friction acts on each particle against its own spin, -mu_r |f_n| r w / |w|,
+  with no cap, and only when |w| is not zero;
+- the particle-particle contact point splits the centre distance in the ratio of the radii;
+- particle-wall: the normal is the wall's own (plane or triangle) normal, the normal force
+  is scaled by |n_rc . n_wall| (n_rc from the contact point to the centre: 1 on a face,
+  less on an edge or vertex), the reduced mass is the particle's mass and R* its radius;
+- G* = 1 / ((2 - nu_1)/G_1 + (2 - nu_2)/G_2) with G = E / (2 (1 + nu)) (the same value as
+  ``contact_hertz.effective_shear_modulus``; written as MUSEN writes it for its round-off).
+
+Every expression keeps MUSEN's order of operations, so that the results agree with MUSEN's
+to round-off. Signs: MUSEN's contact vector is x_j - x_i (j the higher index), the force
+returned is the one on i; MUSEN's alpha = ln e / sqrt(pi^2 + ln^2 e) is <= 0.
+"""
+import math
+
+from ._registry import physics
+from .vector import add, cross, dot, norm, scale, sub
+
+# ModelPPHertzMindlin.cpp / ModelPWHertzMindlin.cpp write 2 sqrt(5/6) as this literal.
+MUSEN_DAMPING = 1.8257
+
+
+@physics
+def musen_alpha(restitution):
+    """MUSEN's damping factor ln e / sqrt(pi^2 + ln^2 e) (dimensionless, <= 0)."""
+    log_e = math.log(restitution)
+    return log_e / math.sqrt(math.pi * math.pi + log_e * log_e)
+
+
+@physics
+def musen_shear_modulus(young_i, poisson_i, young_j, poisson_j):
+    """G* (Pa) as MUSEN computes it: 1 / ((2 - nu_i)/G_i + (2 - nu_j)/G_j)."""
+    g_i = young_i / (2.0 * (1.0 + poisson_i))
+    g_j = young_j / (2.0 * (1.0 + poisson_j))
+    return 1.0 / ((2.0 - poisson_i) / g_i + (2.0 - poisson_j) / g_j)
+
+
+@physics
+def musen_significant(v):
+    """MUSEN's CVector3::IsSignificant: some component larger than 1e-100 in size."""
+    return abs(v[0]) > 1e-100 or abs(v[1]) > 1e-100 or abs(v[2]) > 1e-100
+
+
+@physics
+def musen_rolling_torque(w, rolling, f_n, radius):
+    """-mu_r |f_n| r w / |w| (N m), 0 when w is not significant (MUSEN's rolling friction
+    on one particle; w in rad/s, f_n in N, r in m)."""
+    if not musen_significant(w):
+        return (0.0, 0.0, 0.0)
+    return scale(w, -rolling * abs(f_n) * radius / norm(w))
+
+
+@physics
+def musen_carry_overlap(overlap_t, n, pp):
+    """The tangential overlap (m) projected onto the plane normal to n and rescaled to its
+    old length; pp: True for the particle-particle test (squared length > 0), False for
+    the wall's (IsSignificant)."""
+    d = dot(n, overlap_t)
+    projected = sub(overlap_t, scale(n, d))
+    if pp:
+        squared = dot(projected, projected)
+        if squared > 0.0:
+            old = norm(overlap_t)
+            root = math.sqrt(squared)
+            return (projected[0] * old / root, projected[1] * old / root,
+                    projected[2] * old / root)
+        return projected
+    if musen_significant(projected):
+        old = norm(overlap_t)
+        new = norm(projected)
+        return (projected[0] * old / new, projected[1] * old / new, projected[2] * old / new)
+    return projected
+
+
+@physics
+def hertz_mindlin_musen_pp(cv, overlap, r_i, r_j, vi, vj, wi, wj, overlap_t, f_t_prev,
+                           e_star, g_star, alpha, friction, rolling, r_star, m_star, dt):
+    """One step of MUSEN's ModelPPHertzMindlin for particles i < j touching with overlap
+    (m) > 0; cv = x_j - x_i (m); overlap_t: tangential overlap (m); f_t_prev: the
+    tangential force (N) of the last sticking step; alpha from ``musen_alpha``.
+
+    Returns (force on i N, moment on i N m, moment on j N m, new overlap_t m, new
+    tangential force N, elastic energy J). The force on j is minus the force on i."""
+    total = r_i + r_j
+    rc_i = scale(cv, r_i / total)
+    rc_j = scale(cv, -r_j / total)
+    length = norm(cv)
+    n = (cv[0] / length, cv[1] / length, cv[2] / length) if length != 0.0 else (0.0, 0.0, 0.0)
+    rel = sub(add(vj, cross(wj, rc_j)), add(vi, cross(wi, rc_i)))
+    v_n = dot(n, rel)
+    rel_t = sub(rel, scale(n, v_n))
+    root = math.sqrt(r_star * overlap)
+    k_n = 2.0 * e_star * root
+    damping = -MUSEN_DAMPING * alpha * v_n * math.sqrt(k_n * m_star)
+    f_n = -overlap * k_n * 2.0 / 3.0
+    k_t = 8.0 * g_star * root
+    damping_t = scale(rel_t, -MUSEN_DAMPING * alpha * math.sqrt(k_t * m_star))
+    xi = add(musen_carry_overlap(overlap_t, n, True), scale(rel_t, dt))
+    f_t = scale(xi, k_t)
+    magnitude = norm(f_t)
+    f_t_new = f_t_prev
+    if magnitude > friction * abs(f_n):
+        f_t = scale(f_t, friction * abs(f_n) / magnitude)
+        xi = (f_t[0] / k_t, f_t[1] / k_t, f_t[2] / k_t)
+    else:
+        f_t_new = add(f_t, damping_t)
+    lever = cross(n, f_t_new)
+    moment_i = add(scale(lever, r_i), musen_rolling_torque(wi, rolling, f_n, r_i))
+    moment_j = add(scale(lever, r_j), musen_rolling_torque(wj, rolling, f_n, r_j))
+    force_i = add(scale(n, f_n + damping), f_t_new)
+    energy = 0.4 * (2.0 / 3.0) * k_n * overlap * overlap + 0.5 * k_t * dot(xi, xi)
+    return force_i, moment_i, moment_j, xi, f_t_new, energy
+
+
+@physics
+def hertz_mindlin_musen_pw(x, q, n_wall, radius, v, w, v_wall, omega_wall, center,
+                           overlap_t, f_t_prev, e_star, g_star, alpha, friction, rolling,
+                           mass, dt):
+    """One step of MUSEN's ModelPWHertzMindlin for a particle at x (m) touching a wall at
+    its point q (m), |x - q| < radius; n_wall: the wall element's unit normal towards the
+    particle; v_wall, omega_wall, center: the wall's velocity (m/s), spin (rad/s) and
+    centre of rotation (m); v, w, mass: the particle's (m/s, rad/s, kg).
+
+    Returns (force on the particle N, moment N m, its rolling torque N m, new overlap_t m,
+    new tangential force N, elastic energy J)."""
+    rc = sub(x, q)
+    d_rc = norm(rc)
+    n_rc = (rc[0] / d_rc, rc[1] / d_rc, rc[2] / d_rc)
+    spin_velocity = (0.0, 0.0, 0.0)
+    if omega_wall[0] != 0.0 or omega_wall[1] != 0.0 or omega_wall[2] != 0.0:
+        spin_velocity = cross(sub(q, center), omega_wall)
+    overlap = radius - d_rc
+    rel = add(add(sub(v, v_wall), spin_velocity), scale(cross(n_rc, w), radius))
+    v_n = dot(n_wall, rel)
+    rel_t = sub(rel, scale(n_wall, v_n))
+    k_n = 2.0 * e_star * math.sqrt(radius * overlap)
+    damping = MUSEN_DAMPING * alpha * v_n * math.sqrt(k_n * mass)
+    f_n = 2.0 / 3.0 * overlap * k_n * abs(dot(n_rc, n_wall))
+    k_t = 8.0 * g_star * math.sqrt(radius * overlap)
+    damping_t = scale(rel_t, MUSEN_DAMPING * alpha * math.sqrt(k_t * mass))
+    xi = add(musen_carry_overlap(overlap_t, n_wall, False), scale(rel_t, dt))
+    f_t = scale(xi, -k_t)
+    magnitude = norm(f_t)
+    f_t_new = f_t_prev
+    if magnitude > friction * abs(f_n):
+        f_t = scale(f_t, friction * abs(f_n) / magnitude)
+        xi = (f_t[0] / -k_t, f_t[1] / -k_t, f_t[2] / -k_t)
+    else:
+        f_t_new = add(f_t, damping_t)
+    force = add(f_t_new, scale(n_wall, f_n + damping))
+    torque = musen_rolling_torque(w, rolling, f_n, radius)
+    moment = add(scale(cross(n_wall, f_t_new), -radius), torque)
+    energy = 0.4 * (2.0 / 3.0) * k_n * overlap * overlap + 0.5 * k_t * dot(xi, xi)
+    return force, moment, torque, xi, f_t_new, energy
