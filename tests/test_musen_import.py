@@ -72,6 +72,35 @@ def test_imported_shared_runs_reproduce_the_real_musen(tmp_path, run):
     assert int(np.sum(~sim.state.bond_active)) == sum(1 for b in breaks if b.strip())
 
 
+@pytest.mark.parametrize("run", ["contacts", "moving_wall"])
+def test_imported_contact_scenes_reproduce_the_real_musen(tmp_path, run):
+    """MUSEN's text scenes with contacts: the plane becomes a two-triangle mesh wall (the
+    moving one with its velocity), the contacts MUSEN's Hertz-Mindlin; trajectories to
+    round-off (docs/musen_compat.md, Contacts)."""
+    sim, worst_x, worst_v, notes = run_imported(KELVIN.parent / run, tmp_path)
+    assert worst_x < 1e-11 and worst_v < 1e-10, (worst_x, worst_v)
+    assert sim.walls and sim.contacts.musen_compat
+    assert not any("Hertz-Mindlin" in note or "motion" in note for note in notes), notes
+    if run == "moving_wall":
+        assert sim.walls[0].position(1e-3)[2] == pytest.approx(0.5e-3)
+
+
+def test_geometry_motion_is_mapped_or_named():
+    from bondem.io.musen_text import wall_motion
+    interval = "0 1 0 0 0.5 0 0 0 0 0 0"
+    assert wall_motion(f"1 1 {interval}", 1e-3) == ({"velocity": [0.0, 0.0, 0.5]}, None)
+    keys, note = wall_motion("1 2 0 1e-3 0 0 1 0 0 0 0 0 0 2e-3 3e-3 0 0 -1 0 0 0 0 0 0",
+                             5e-3)
+    assert note is None and keys["velocity_profile"] == [
+        [0.0, 0, 0, 0], [0.0, 0, 0, 0], [0.0, 0, 0, 1], [1e-3, 0, 0, 1], [1e-3, 0, 0, 0],
+        [2e-3, 0, 0, 0], [2e-3, 0, 0, -1], [3e-3, 0, 0, -1], [3e-3, 0, 0, 0]]
+    keys, note = wall_motion("1 1 0 1 0 0 0 1 2 3 0 0 10", 1e-3)
+    assert keys == {"angular_velocity": [0.0, 0.0, 10.0], "rotation_center": [1.0, 2.0, 3.0]}
+    assert "not checked" in note
+    assert wall_motion("2 1 5 0 0 0 1 0 0 0 0 0 0", 1.0)[1].startswith("its force")
+    assert wall_motion("0 0", 1.0) == ({}, None)
+
+
 def test_export_then_import_gives_the_same_scene(tmp_path):
     scene_path, _ = import_musen(KELVIN / "musen_scene.txt", tmp_path / "a",
                                  KELVIN / "musen_script.txt")

@@ -250,12 +250,16 @@ class GpuBackend:
         increment_dt, kick, drift, advances = step_plan(state.started, dt, musen_compat)
         bonds = laws[0] if laws and isinstance(laws[0], ElasticBondsGpu) else None
         others = laws[1:] if bonds is not None else laws
-        if bonds is not None:
+        # MUSEN evaluates contacts before bonds (integrate.step): a pair whose bond breaks
+        # in this step touches from the next one
+        if bonds is not None and not musen_compat:
             bonds.compute(model, state, increment_dt)
         if others:
             _zero_kernel[_blocks(force.shape[0]), THREADS](force, moment)
             for law in others:
                 law.accumulate(model, state, force, moment, increment_dt)
+        if bonds is not None and musen_compat:
+            bonds.compute(model, state, increment_dt)
         integrator.advance(model, state, force, moment, kick, drift, bonds=bonds,
                            use_loads=bool(others))
         state.started = True

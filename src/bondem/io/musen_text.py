@@ -215,6 +215,46 @@ def _params(text):
     return {words[k].upper(): float(words[k + 1]) for k in range(0, len(words) - 1, 2)}
 
 
+def wall_motion(motion, end_time):
+    """(scene keys, note or None) of a MUSEN geometry motion (key 26: type, intervals,
+    then per interval t_begin t_end (s), velocity (m/s), rotation centre (m), rotation
+    velocity (rad/s)), for a run ending at end_time (s). One translation interval over the
+    whole run is a constant ``velocity``; several, a ``velocity_profile`` that jumps at the
+    interval bounds and is 0 outside them; a single rotation over the whole run without
+    translation, ``angular_velocity`` about ``rotation_center``. Anything else (force-
+    dependent motion, rotation with translation) stays static and is named."""
+    tokens = motion.split()
+    if not tokens or not all(_is_number(t) for t in tokens):
+        return {}, None
+    values = [float(t) for t in tokens]
+    kind, count = int(values[0]), int(values[1]) if len(values) > 1 else 0
+    if kind == 0 or count == 0:
+        return {}, None
+    if kind != 1 or len(values) < 2 + 11 * count:
+        return {}, "its force-dependent motion is not mapped (the wall is static)"
+    intervals = [values[2 + 11 * k: 13 + 11 * k] for k in range(count)]
+    moving = [iv for iv in intervals if any(iv[2:5]) or any(iv[8:11])]
+    if not moving:
+        return {}, None
+    whole = len(moving) == 1 and moving[0][0] <= 0.0 and moving[0][1] >= end_time
+    if any(any(iv[8:11]) for iv in moving):
+        if whole and not any(moving[0][2:5]):
+            return {"angular_velocity": moving[0][8:11],
+                    "rotation_center": moving[0][5:8]}, (
+                "its rotation is mapped (angular_velocity, rotation_center); MUSEN turns "
+                "its vertices by one quaternion per step, not checked against a MUSEN run")
+        return {}, "its rotation is not mapped (the wall is static)"
+    if whole:
+        return {"velocity": moving[0][2:5]}, None
+    profile, now = [[0.0, 0.0, 0.0, 0.0]], 0.0
+    for begin, end, vx, vy, vz, *_ in sorted(moving):
+        begin = max(begin, now)
+        profile += [[begin, 0.0, 0.0, 0.0], [begin, vx, vy, vz], [end, vx, vy, vz],
+                    [end, 0.0, 0.0, 0.0]]
+        now = end
+    return {"velocity_profile": profile}, None
+
+
 def to_bondem(scene: MusenScene, script: dict | None, out_dir, *, end_time=None):
     """Write scene.toml, particles.csv, bonds.csv (and walls_N.stl) in ``out_dir``;
     returns the notes: every MUSEN setting that was not mapped, or mapped with a loss."""
@@ -340,9 +380,6 @@ def to_bondem(scene: MusenScene, script: dict | None, out_dir, *, end_time=None)
     for model in (pp[:1] + pw[:1]):
         if model not in CONTACT_MODELS:
             notes.append(f"contact model {model}: not available; Hertz-Mindlin is used")
-    if pp or pw:
-        notes.append("contacts: bondem's Hertz-Mindlin (SPEC section 3), not MUSEN's "
-                     "(docs/musen_migration.md)")
     if "CONNECTED_PP_CONTACT" in script:
         simulation["bonded_contacts"] = bool(int(float(script["CONNECTED_PP_CONTACT"])))
     if scene.periodic and scene.periodic[0]:
@@ -378,8 +415,9 @@ def to_bondem(scene: MusenScene, script: dict | None, out_dir, *, end_time=None)
             triangles = [scene.objects[i] for i in ids if i in scene.objects]
             if not triangles:
                 continue
-            if motion and any(float(v) != 0.0 for v in motion.split()[1:] if _is_number(v)):
-                notes.append(f"geometry {name}: its motion is not mapped (the wall is static)")
+            keys, note = wall_motion(motion, simulation.get("end_time", math.inf))
+            if note:
+                notes.append(f"geometry {name}: {note}")
             vertices = np.array([[t.coordinates, t.quaternion[:3], t.angular_velocity]
                                  for t in triangles]).reshape(-1, 3)
             faces = np.arange(len(vertices)).reshape(-1, 3)
@@ -387,7 +425,8 @@ def to_bondem(scene: MusenScene, script: dict | None, out_dir, *, end_time=None)
             file = f"walls_{k}.stl"
             mesh.export(out / file)
             compound = triangles[0].compound
-            data["walls"].append({"type": "mesh", "file": file, "material": compound})
+            data["walls"].append({"type": "mesh", "file": file, "material": compound,
+                                  **keys})
     (out / "scene.toml").write_bytes(tomli_w.dumps(data).encode())
     return notes
 
