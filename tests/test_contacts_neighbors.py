@@ -189,3 +189,32 @@ def test_same_bits_with_one_and_two_threads(tmp_path):
     assert one.files == two.files
     for name in one.files:
         assert np.array_equal(one[name], two[name]), name
+
+
+def test_bonds_breaking_join_the_live_rows_as_a_full_derivation_puts_them():
+    """The rows of bonds that break between steps are inserted into the live rows and the
+    CSR indices (ContactLaw._add_broken) exactly where deriving everything again puts
+    them, over several rounds of random breaks."""
+    from bondem.backends.cpu_contacts import ContactLaw
+    rng = np.random.default_rng(5)
+    position = rng.uniform(0.0, 8e-3, (300, 3))
+    glass = bondem.Material(density=2500.0, young_modulus=1e8, poisson_ratio=0.3)
+    binder = bondem.BondMaterial(young_modulus=1e8, poisson_ratio=0.3)
+    pairs = build_pairs(position, np.full(300, 5e-4), 2e-4, np.zeros(3, bool),
+                        np.full(3, -np.inf), np.full(3, np.inf))
+    bonds = pairs[rng.random(len(pairs)) < 0.6]
+    model, state = bondem.make_system(position, 5e-4, glass, bonds=bonds,
+                                      bond_diameter=5e-4, bond_material=binder)
+    law = ContactLaw(model, ContactSettings(skin=2e-4))
+    law.accumulate(model, state, np.zeros((300, 3)), np.zeros((300, 3)), 1e-8)
+    assert law._live.size < state.extra["contact_pairs"].shape[0]
+    for _ in range(4):
+        intact = np.flatnonzero(state.bond_active)
+        state.bond_active[rng.choice(intact, size=max(1, intact.size // 5),
+                                     replace=False)] = False
+        law._derive(model, state)           # incremental
+        got = [law._live.copy(), law._i_start.copy(), law._j_start.copy(),
+               law._j_order.copy()]
+        law._derive_live(model, state)      # everything again
+        for a, b in zip(got, (law._live, law._i_start, law._j_start, law._j_order)):
+            np.testing.assert_array_equal(a, b)

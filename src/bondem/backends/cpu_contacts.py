@@ -10,7 +10,7 @@ from numba import prange
 import numpy as np
 
 from ..contacts import MODELS, PAIR_HISTORY, WALL_HISTORY, ContactSettings, contact_cutoff
-from ..neighbors import build_pairs, carry_history, max_displacement
+from ..neighbors import build_pairs, carry_history, history_map, max_displacement
 from ..physics.contact_linear import MODEL_HERTZ
 from ..walls import PLANE, WallSet, build_wall_pairs
 from . import cpu, loops
@@ -76,30 +76,32 @@ def gather_pair_loads(index, rows, force, moment):
 
 
 @numba.njit(**_serial)
-def wall_contact_range(first, last, wall_start, wall_pairs, walls, particles, grains,
+def wall_contact_range(first, last, near, wall_start, wall_pairs, walls, particles, grains,
                        materials, law, linear_stiffness, use_rolling, triangles, rows, dt,
                        moved_dt, force, moment, musen):
-    """``loops.wall_contacts_of`` for particles first to last - 1, then their wall loads
+    """``loops.wall_contacts_of`` for particles near[first:last], then their wall loads
     added to force (N) and moment (N m)."""
-    for p in range(first, last):
+    for s in range(first, last):
+        p = near[s]
         wall_contacts_of(p, wall_start, wall_pairs, walls, particles, grains, materials, law,
                          linear_stiffness, use_rolling, triangles, rows, dt, moved_dt, musen)
         add_wall_rows(p, wall_start, rows, force, moment)
 
 
 @numba.njit(**_jit)
-def wall_contacts(wall_start, wall_pairs, walls, particles, grains, materials, law,
+def wall_contacts(near, wall_start, wall_pairs, walls, particles, grains, materials, law,
                   linear_stiffness, use_rolling, triangles, rows, dt, moved_dt, force,
                   moment, musen):
     """Loads of every particle-wall candidate (``loops.wall_contacts_of``; rows sorted by
     particle, ``wall_start`` their CSR offsets), added to force (N) and moment (N m).
     triangles: None when every wall element is a plane (the triangle code is then not
-    compiled), else True. musen: None for the SPEC's law, True for MUSEN's."""
-    n = wall_start.shape[0] - 1
+    compiled), else True. musen: None for the SPEC's law, True for MUSEN's. near: the
+    particles that have wall candidates (the others have nothing to do)."""
+    n = near.shape[0]
     for c in prange(chunks(n)):
-        wall_contact_range(c * CHUNK, min(n, (c + 1) * CHUNK), wall_start, wall_pairs, walls,
-                           particles, grains, materials, law, linear_stiffness, use_rolling,
-                           triangles, rows, dt, moved_dt, force, moment, musen)
+        wall_contact_range(c * CHUNK, min(n, (c + 1) * CHUNK), near, wall_start, wall_pairs,
+                           walls, particles, grains, materials, law, linear_stiffness,
+                           use_rolling, triangles, rows, dt, moved_dt, force, moment, musen)
 
 
 @numba.njit(cache=True, nogil=True)
@@ -207,18 +209,20 @@ class ContactLaw:
         else:
             pairs = empty2
         old_pairs = extra.get("contact_pairs", empty2)
+        mapping = history_map(old_pairs, pairs, model.n_particles)
         for name, shape in PAIR_HISTORY.items():
             extra[name] = carry_history(old_pairs, extra.get(name, np.zeros((0,) + shape)),
-                                        pairs, model.n_particles)
+                                        pairs, model.n_particles, mapping)
         extra["contact_pairs"] = pairs
         rows = self.walls.elements(self._t_wall)
         wall_pairs = build_wall_pairs(position, model.radius, self.skin, rows,
                                       self.walls.element_type)
         old_wall_pairs = extra.get("wall_pairs", empty2)
+        mapping = history_map(old_wall_pairs, wall_pairs, max(1, self.walls.n_elements))
         for name, shape in WALL_HISTORY.items():
             extra[name] = carry_history(old_wall_pairs,
                                         extra.get(name, np.zeros((0,) + shape)), wall_pairs,
-                                        max(1, self.walls.n_elements))
+                                        max(1, self.walls.n_elements), mapping)
         extra["wall_pairs"] = wall_pairs
         extra["contact_reference_position"] = position.copy()
         extra["contact_reference_time"] = np.array([self._t_wall])
@@ -251,6 +255,32 @@ class ContactLaw:
         j_start, j_order = csr_by(pairs[self._live, 1], n)
         self._j_start, self._j_order = j_start, self._live[j_order]
         self._active_bonds = int(np.count_nonzero(state.bond_active))
+        self._bond_was_active = state.bond_active.copy()
+
+    def _add_broken(self, model, state):
+        """The rows of bonds broken since the last derivation join the live rows and the
+        CSR indices where ``_derive_live`` would put them (live rows ascending, j's rows
+        grouped by j in row order): O(rows + particles) per step in which bonds break,
+        instead of a sort of every row."""
+        active = state.bond_active
+        newly = self._bond_was_active & ~active
+        self._bond_was_active = active.copy()
+        self._active_bonds = int(np.count_nonzero(active))
+        rows = self._bond_row[np.flatnonzero(newly)]
+        rows = np.sort(rows[rows >= 0])
+        if rows.size == 0:
+            return
+        pairs = state.extra["contact_pairs"]
+        n = model.n_particles
+        self._live = np.insert(self._live, np.searchsorted(self._live, rows), rows)
+        self._i_order = self._live
+        self._i_start[1:] += np.cumsum(np.bincount(pairs[rows, 0], minlength=n))
+        size = np.int64(pairs.shape[0])
+        key = pairs[self._j_order, 1] * size + self._j_order
+        new_key = np.sort(pairs[rows, 1] * size + rows)
+        self._j_order = np.insert(self._j_order, np.searchsorted(key, new_key),
+                                  new_key % size)
+        self._j_start[1:] += np.cumsum(np.bincount(pairs[rows, 1], minlength=n))
 
     def _derive(self, model, state):
         """CSR indices and bond lookup for the current lists (cached per list object)."""
@@ -258,7 +288,7 @@ class ContactLaw:
         key = (extra["contact_pairs"], extra["wall_pairs"])
         if self._derived_for is not None and all(a is b for a, b in zip(key, self._derived_for)):
             if int(np.count_nonzero(state.bond_active)) != self._active_bonds:
-                self._derive_live(model, state)
+                self._add_broken(model, state)
             return
         n = model.n_particles
         pairs = extra["contact_pairs"]
@@ -269,12 +299,16 @@ class ContactLaw:
             where = np.minimum(np.searchsorted(sorted_keys, key_pairs), sorted_keys.size - 1)
             hit = sorted_keys[where] == key_pairs
             self._pair_bond[hit] = self._bond_order[where[hit]]
+        self._bond_row = np.full(model.n_bonds, -1, dtype=np.int64)
+        held = np.flatnonzero(self._pair_bond >= 0)
+        self._bond_row[self._pair_bond[held]] = held
         self._derive_live(model, state)
         self._dissipated = np.zeros(pairs.shape[0])
         wall_pairs = extra["wall_pairs"]
         k = wall_pairs.shape[0]
         self._wall_start = np.zeros(n + 1, dtype=np.int64)
         np.cumsum(np.bincount(wall_pairs[:, 0], minlength=n), out=self._wall_start[1:])
+        self._wall_near = np.flatnonzero(np.diff(self._wall_start)).astype(np.int64)
         self._w_distance = np.zeros(k)
         self._w_point = np.zeros((k, 3))
         self._w_feature = np.zeros(k, dtype=np.int64)
@@ -322,7 +356,7 @@ class ContactLaw:
             wall_pairs = extra["wall_pairs"]
             if wall_pairs.shape[0]:
                 wall_contacts(
-                    self._wall_start, wall_pairs, self.wall_tuple(self._t_wall), particles,
+                    self._wall_near, self._wall_start, wall_pairs, self.wall_tuple(self._t_wall), particles,
                     grains, self._materials, self.wall_law, self._wall_stiffness,
                     use_rolling, self._triangles,
                     loops.WallRows(extra["wall_spring"], extra["wall_force_rows"],

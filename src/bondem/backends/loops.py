@@ -384,6 +384,20 @@ def pair_contact(c, pairs, pair_bond, bond_active, particles, grains, materials,
     (physics/contact_hertz_musen.py)."""
     i = pairs[c, 0]
     j = pairs[c, 1]
+    r = separation(particles.position, i, j, box)
+    distance = math.sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2])
+    radius = grains.radius
+    overlap = radius[i] + radius[j] - distance
+    bonded = pair_bond[c] >= 0 and bond_active[pair_bond[c]]
+    apart = overlap <= 0.0 or bonded or distance == 0.0
+    previous_energy = rows.energy[c]
+    if apart and previous_energy == 0.0 and rows.force[c, 0] == 0.0 \
+            and rows.force[c, 1] == 0.0 and rows.force[c, 2] == 0.0:
+        # Apart now and a reset row before (a touching row stores a positive energy and
+        # a force; with neither, its spring and moments are zero too): nothing to read,
+        # nothing to write but its 0 J. Most listed pairs are such rows in a packing.
+        rows.dissipated[c] = 0.0
+        return
     vi = row3(particles.velocity, i)
     vj = row3(particles.velocity, j)
     wi = row3(particles.angular_velocity, i)
@@ -393,13 +407,7 @@ def pair_contact(c, pairs, pair_bond, bond_active, particles, grains, materials,
     for k in range(3):
         work += (rows.force[c, k] * (vi[k] - vj[k]) + rows.moment_i[c, k] * wi[k]
                  + rows.moment_j[c, k] * wj[k])
-    previous_energy = rows.energy[c]
-    r = separation(particles.position, i, j, box)
-    distance = math.sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2])
-    radius = grains.radius
-    overlap = radius[i] + radius[j] - distance
-    bonded = pair_bond[c] >= 0 and bond_active[pair_bond[c]]
-    if overlap <= 0.0 or bonded or distance == 0.0:
+    if apart:
         for k in range(3):
             rows.spring[c, k] = 0.0
             rows.force[c, k] = 0.0

@@ -1,4 +1,5 @@
-"""``bondem bench [lattice|impact]``: particle-steps/s and bond-updates/s of the bench scenes.
+"""``bondem bench [lattice|impact|bed]``: particle-steps/s and bond-updates/s of the bench
+scenes.
 
 Thin: parses, calls ``bondem.bench``, prints a table (and writes JSON with --json).
 """
@@ -11,21 +12,34 @@ import click
 from ..errors import InputError
 
 
-def _sizes(text):
+def _sizes(text, scene="lattice"):
     try:
-        sizes = [int(s) for s in text.split(",") if s.strip()]
+        sizes = [int(float(s)) for s in text.split(",") if s.strip()]
     except ValueError:
         raise InputError(f"--sizes = {text!r}: expected integers separated by commas, "
                          "e.g. 22,47") from None
-    if not sizes or any(n < 2 or n > 400 for n in sizes):
-        raise InputError(f"--sizes = {text!r}: each lattice size n must lie in [2, 400]")
+    low, high, what = ((2, 400, "each lattice size n") if scene == "lattice" else
+                       (100, 10_000_000, f"each {scene} size (particles)"))
+    if not sizes or any(n < low or n > high for n in sizes):
+        raise InputError(f"--sizes = {text!r}: {what} must lie in [{low}, {high}]")
     return sizes
 
 
+def _ranks(text):
+    try:
+        ranks = [int(s) for s in text.split(",") if s.strip()]
+    except ValueError:
+        ranks = []
+    if not ranks or any(r < 1 or r > 64 for r in ranks):
+        raise InputError(f"--ranks = {text!r}: MPI rank counts in [1, 64], e.g. 1,2")
+    return ranks
+
+
 @click.command(name="bench")
-@click.argument("scene", type=click.Choice(["lattice", "impact"]), default="lattice")
-@click.option("--sizes", default="22", show_default=True,
-              help="Lattice sizes n (n^3 particles), comma separated, e.g. 22,47,74.")
+@click.argument("scene", type=click.Choice(["lattice", "impact", "bed"]), default="lattice")
+@click.option("--sizes", default=None,
+              help="Lattice sizes n (n^3 particles), e.g. 22,47,74 [default 22]; for impact "
+                   "and bed the particle counts, e.g. 1e4,1e5 [default 1e4].")
 @click.option("--steps", type=click.IntRange(min=1), default=None,
               help="Timed steps after warm-up [default: 1000 for n <= 22, else 200].")
 @click.option("--variant", type=click.Choice(["intact", "breaking"]), default="intact",
@@ -40,25 +54,29 @@ def _sizes(text):
 @click.option("--peer", type=click.Choice(["lammps"]), default=None,
               help="Also run the same scene in LAMMPS (benchmarks/lammps) and compare.")
 @click.option("--peer-steps", type=click.IntRange(min=1), default=None,
-              help="Timed steps for the peer [default: same as --steps].")
+              help="Timed steps for the lattice peer [default: same as --steps].")
+@click.option("--ranks", default="1,2", show_default=True,
+              help="MPI ranks of the LAMMPS peer for impact and bed (each a run).")
 @click.option("--profile", is_flag=True,
               help="Also time each part of the CPU step (bonds, gather, integrate...).")
 @click.option("--triad", is_flag=True,
               help="Also measure memory bandwidth (STREAM-like triad).")
 def command(scene, sizes, steps, variant, backend, order, json_path, peer, peer_steps,
-            profile, triad):
-    """Time SCENE (the bench scenes of docs/performance.md) and print a table."""
+            ranks, profile, triad):
+    """Time SCENE (the bench scenes of docs/performance.md) and print a table: lattice (a
+    bonded cubic lattice), impact (a dense random bonded agglomerate hitting a plane,
+    contacts live, bonds breaking) or bed (an unbonded bed resting on a plane)."""
     from .. import bench
 
-    if scene == "impact":
-        raise InputError("bench impact: the impact scene needs the demo agglomerate and "
-                         "walls, which this build's bench does not drive yet; use lattice")
     results = []
     extra = {}
     if triad:
         extra["triad_bytes_per_s"] = bench.stream_triad()
         click.echo(f"memory bandwidth (triad): {extra['triad_bytes_per_s'] / 1e9:.1f} GB/s")
-    for n in _sizes(sizes):
+    if scene != "lattice":
+        _scenes(bench, scene, _sizes(sizes or "1e4", scene), steps, backend, peer,
+                _ranks(ranks), profile, results)
+    for n in (_sizes(sizes or "22") if scene == "lattice" else []):
         n_steps = steps or (1000 if n <= 22 else 200)
         click.echo(f"bench lattice n={n}: {n ** 3:,} particles, building the scene, "
                    f"warming up (compiles kernels on a first run), then {n_steps} timed "
@@ -84,11 +102,13 @@ def command(scene, sizes, steps, variant, backend, order, json_path, peer, peer_
     click.echo(bench.format_table(results))
     for r in results:
         if "ratio_bondem_over_lammps" in r:
-            click.echo(f"n={r['n']}: bondem / LAMMPS particle-steps/s = "
-                       f"{r['ratio_bondem_over_lammps']:.2f}")
+            click.echo(f"{r['scene']} n={r['n']}: bondem / {r['backend']} particle-steps/s "
+                       f"= {r['ratio_bondem_over_lammps']:.2f}")
         if r.get("profile"):
             parts = ", ".join(f"{k} {v * 1e3:.3f}" for k, v in r["profile"].items())
-            click.echo(f"n={r['n']} ms per step (median): {parts}")
+            click.echo(f"{r['scene']} n={r['n']} ms per step (median): {parts}")
+            if not r["bonds"]:
+                continue
             bond_s = r["profile_best"]["bond kernel"]
             line = (f"n={r['n']} bond kernel (best step of the profile): "
                     f"{bond_s / r['bonds'] * 1e9:.1f} ns per bond")
@@ -105,6 +125,37 @@ def command(scene, sizes, steps, variant, backend, order, json_path, peer, peer_
         estimate = bench.memory_estimate(cpu_runs[-1])
         click.echo(f"arrays for 10^6 particles with 3 bonds each: {estimate / 1e9:.2f} GB")
     if json_path is not None:
-        json_path.write_text(json.dumps({"results": results, **extra}, indent=2) + "\n")
+        clean = [{k: v for k, v in r.items() if not k.startswith("_")} for r in results]
+        json_path.write_text(json.dumps({"results": clean, **extra}, indent=2) + "\n")
         click.echo(f"json: {json_path}")
     sys.stdout.flush()
+
+
+def _scenes(bench, scene, sizes, steps, backend, peer, ranks, profile, results):
+    """The impact or bed scene at each size, and its LAMMPS peer on each rank count (the
+    same initial state, time step and steps, through ``bondem export lammps``'s writer)."""
+    for n in sizes:
+        n_steps = steps or (500 if n <= 20_000 else 100)
+        click.echo(f"bench {scene} {n:,} particles: packing and bonding the scene, warming up "
+                   f"(compiles kernels on a first run), then {n_steps} timed steps ...",
+                   err=True)
+        try:
+            result = bench.scene_run(scene, n, n_steps, backend=backend, profile=profile)
+        except ValueError as error:
+            raise InputError(f"bench: {error}") from None
+        results.append(result)
+        for note in result["notes"]:
+            click.echo(f"{scene} {n}: {note}")
+        if peer != "lammps":
+            continue
+        for count in ranks:
+            click.echo(f"bench {scene} {n:,} particles: the same in LAMMPS on {count} MPI "
+                       f"rank{'s' if count > 1 else ''} ...", err=True)
+            try:
+                other = bench.lammps_scene_run(result, count)
+            except (RuntimeError, OSError) as error:
+                click.echo(f"bondem: lammps peer failed: {error}", err=True)
+                continue
+            other["ratio_bondem_over_lammps"] = (result["particle_steps_per_s"]
+                                                 / other["particle_steps_per_s"])
+            results.append(other)

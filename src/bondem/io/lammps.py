@@ -1,0 +1,239 @@
+"""A bondem scene as a LAMMPS data file and input deck (BPM and GRANULAR packages).
+
+``export_lammps(scene_path, out_dir)`` writes ``data.lammps`` (atom style bpm/sphere: one
+atom type per particle material, diameter, density, position; velocities and spins; one
+bond type per distinct set of bond coefficients), ``bond_coeffs.lammps`` (those sets) and
+``in.lammps`` (the models, walls, gravity, time step and run). The translation (docs/lammps.md):
+
+- bond_style bpm/rotational, smooth no, no bond damping: k_r = E A/L0, k_s = G A/L0,
+  k_t = G J/L0, k_b = E I/L0 (SPEC section 2's springs; ``bond_elastic.bond_stiffnesses``);
+  limits f_r,c = sigma_n A, f_s,c = tau_max A, tau_b,c = sigma_n I/R, tau_t,c = tau_max J/R:
+  the load at which each of bondem's four stresses alone reaches its strength. LAMMPS
+  breaks a bond when the four ratios summed reach 1 (f_r signed: compression delays it);
+  bondem's "combined" criterion adds the normal and bending stresses against sigma_n and
+  the shear and torsion stresses against tau_max separately, so breakage agrees only where
+  one stress dominates.
+- pair_style granular: hertz/material E e nu (e: the restitution, which LAMMPS's tsuji
+  damping takes in place of a damping constant), tangential mindlin NULL x mu with
+  x = 2 sqrt(G*/E*) (bondem's tangential dashpot over its normal one), damping tsuji.
+  Bonded pairs carry no contact (special_bonds lj 0 1 1); a broken bond hands its pair to
+  the granular law (the BPM bond styles update the special lists themselves).
+- plane walls: fix wall/gran/region on a plane region, moving with a constant velocity.
+- fix nve/bpm/sphere, fix gravity, the scene's time step and end time.
+What has no counterpart is returned as notes (rolling friction, local damping, mesh walls,
+velocity profiles and servos, Kelvin bonds, the linear contact law, musen_compat).
+"""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+from ..physics.bond_elastic import bond_stiffnesses
+
+BIG = 1e300   # a limit that never breaks: LAMMPS has no infinity in its coefficients
+
+
+def _number(x):
+    """A float as the shortest text that reads back to the same double."""
+    return repr(float(x))
+
+
+def bond_coefficients(model):
+    """(B, 12) bpm/rotational coefficients of every bond (SI): k_r, k_s, k_t, k_b, the four
+    limits, and four zero damping prefactors; and whether any bond can break."""
+    table = model.bond_material_table()
+    m = model.bond_material
+    young, poisson = table["young_modulus"][m], table["poisson_ratio"][m]
+    sigma, tau = table["normal_strength"][m], table["tangential_strength"][m]
+    breaks = table["breakage"][m] != 0          # 0: "none"
+    d, l0 = model.bond_diameter, model.bond_initial_length
+    k = np.array(bond_stiffnesses(young, poisson, d, l0)).T
+    radius = 0.5 * d
+    area = math.pi * radius ** 2
+    second = 0.25 * area * radius ** 2
+    limits = np.stack([sigma * area, tau * area, sigma * second / radius,
+                       tau * 2.0 * second / radius], axis=1)
+    limits[~breaks] = BIG
+    limits = np.where(np.isfinite(limits), limits, BIG)
+    coefficients = np.hstack([k, limits, np.zeros((model.n_bonds, 4))])
+    return coefficients, bool(np.any(limits < BIG))
+
+
+def _notes(model, options):
+    """What the export leaves out or changes (lines for the user); options: the
+    Simulation keyword arguments of the scene."""
+    notes = []
+    table = model.material_table()
+    if np.any(table["rolling_friction"] > 0.0):
+        notes.append("rolling friction: not exported (LAMMPS's rolling sds is a spring-"
+                     "dashpot-slider, bondem's a constant torque)")
+    if model.damping > 0.0:
+        notes.append(f"local damping {model.damping:g}: LAMMPS has no counterpart")
+    if np.any(model.fixed) or np.any(model.external_force) or np.any(model.external_moment):
+        notes.append("fixed particles and external loads: not exported")
+    if model.n_bonds:
+        codes = model.bond_material_table()["model"]
+        if np.any(codes[model.bond_material] != 0):
+            notes.append("Kelvin bonds: exported as elastic bonds (no dashpots)")
+        criteria = model.bond_material_table()["breakage"]
+        if np.any(criteria[model.bond_material] != 0):
+            notes.append("breakage: LAMMPS sums the four load ratios (normal, shear, "
+                         "bending, twisting), bondem compares each stress pair with its "
+                         "strength (docs/lammps.md)")
+    if options.get("musen_compat"):
+        notes.append("musen_compat: LAMMPS runs its own laws")
+    contact = options.get("contact")
+    if contact is not None and contact.model == "linear":
+        notes.append("contact model 'linear': exported as Hertz-Mindlin")
+    if contact is not None and contact.bonded_pairs:
+        notes.append("bonded_contacts: not exported (bonded pairs carry no contact)")
+    return notes
+
+
+def export_lammps(scene_path, out_dir, overrides=None):
+    """Write ``out_dir/data.lammps``, ``bond_coeffs.lammps`` and ``in.lammps`` for the
+    scene file ``scene_path`` (with ``overrides`` as for ``load_scene``). Returns (data
+    path, input path, notes): what has no LAMMPS counterpart."""
+    from ..scene import load_scene
+
+    scene = load_scene(scene_path, overrides)
+    return write_lammps(scene.model, scene.state, scene.simulation_options, out_dir,
+                        end_time=scene.end_time, save_every=scene.save_every,
+                        title=Path(scene_path).name)
+
+
+def write_lammps(model, state, options, out_dir, *, end_time, save_every, title="bondem"):
+    """``export_lammps`` for a model and state with ``options`` (Simulation keyword
+    arguments: time_step, contact, walls, musen_compat); end_time and save_every in s.
+    The deck's run length is the variable ``steps`` (index style: ``lmp -var steps N``
+    replaces it)."""
+    from ..walls import ConstantVelocity, PlaneWall
+
+    out = Path(out_dir)
+    out.mkdir(parents=True, exist_ok=True)
+    notes = _notes(model, options)
+    n, nb = model.n_particles, model.n_bonds
+    table = model.material_table()
+    types = len(model.materials)
+
+    coefficients, breakable = bond_coefficients(model) if nb else (np.zeros((0, 12)), False)
+    unique, bond_type = (np.unique(coefficients, axis=0, return_inverse=True) if nb
+                         else (np.zeros((0, 12)), np.zeros(0, int)))
+    bond_type = np.asarray(bond_type).reshape(-1)
+
+    position = state.position
+    radius = model.radius
+    reach = float(radius.max()) if n else 0.0
+    low = np.where(model.periodic, model.box_low, position.min(axis=0) - 2 * reach)
+    high = np.where(model.periodic, model.box_high, position.max(axis=0) + 2 * reach)
+    density = table["density"][model.material]
+
+    lines = ["LAMMPS data file written by bondem export lammps (SI units)", "",
+             f"{n} atoms", f"{types} atom types"]
+    if nb:
+        lines += [f"{nb} bonds", f"{len(unique)} bond types"]
+    lines += ["", *(f"{_number(low[k])} {_number(high[k])} {a}lo {a}hi"
+                    for k, a in enumerate("xyz")), ""]
+    lines += ["Atoms # bpm/sphere", ""]
+    lines += [f"{p + 1} 0 {model.material[p] + 1} {_number(2 * radius[p])} "
+              f"{_number(density[p])} " + " ".join(_number(c) for c in position[p])
+              for p in range(n)]
+    lines += ["", "Velocities", ""]
+    lines += [f"{p + 1} " + " ".join(_number(c) for c in (*state.velocity[p],
+                                                           *state.angular_velocity[p]))
+              for p in range(n)]
+    if nb:
+        lines += ["", "Bonds", ""]
+        lines += [f"{b + 1} {bond_type[b] + 1} {model.bond_pairs[b, 0] + 1} "
+                  f"{model.bond_pairs[b, 1] + 1}" for b in range(nb) if state.bond_active[b]]
+        dropped = int(np.count_nonzero(~state.bond_active))
+        if dropped:
+            notes.append(f"{dropped} bonds already broken: left out")
+            lines[lines.index(f"{nb} bonds")] = f"{nb - dropped} bonds"
+    data_path = out / "data.lammps"
+    data_path.write_text("\n".join(lines) + "\n")
+    if nb:   # bond_style needs the box, so the coefficients follow read_data
+        (out / "bond_coeffs.lammps").write_text("".join(
+            f"bond_coeff {t + 1} " + " ".join(_number(v) for v in row) + "\n"
+            for t, row in enumerate(unique)))
+
+    # the deck
+    contact = options.get("contact")
+    dt = float(options["time_step"]) if not isinstance(options["time_step"], str) else None
+    if dt is None:
+        from .. import Simulation
+        dt = Simulation(model, state.copy(), **options).time_step
+    steps = max(1, int(round(end_time / dt)))
+    save = max(1, int(round(save_every / dt)))
+    skin = (contact.skin if contact is not None and contact.skin else 0.2 * float(radius.mean()))
+    longest = float(model.bond_initial_length.max()) if nb else 0.0
+    ghost = max(2.0 * reach + skin, 1.5 * longest + skin)
+    boundary = " ".join("p" if model.periodic[k] else "m" for k in range(3))
+    deck = [f"# {title} exported by bondem (docs/lammps.md)",
+            "units           si", "atom_style      bpm/sphere", f"boundary        {boundary}",
+            "newton          on off", f"comm_modify     vel yes cutoff {_number(ghost)}",
+            "special_bonds   lj 0 1 1 coul 1 1 1",
+            f"read_data       {data_path.name} extra/bond/per/atom 12 "
+            "extra/special/per/atom 60"]
+    if nb:
+        deck += [f"bond_style      bpm/rotational break {'yes' if breakable else 'no'} "
+                 "smooth no", "include         bond_coeffs.lammps"]
+    if contact is None or contact.model == "none":
+        deck += [f"pair_style      zero {_number(2 * reach + skin)}", "pair_coeff      * *"]
+    else:
+        deck.append("pair_style      granular")
+        young, poisson = table["young_modulus"], table["poisson_ratio"]
+        for t in range(types):
+            e_star = young[t] / (2.0 * (1.0 - poisson[t] ** 2))
+            g_star = young[t] / (4.0 * (2.0 - poisson[t]) * (1.0 + poisson[t]))
+            ratio = 2.0 * math.sqrt(g_star / e_star)
+            deck.append(f"pair_coeff      {t + 1} {t + 1} hertz/material "
+                        f"{_number(young[t])} {_number(table['restitution'][t])} "
+                        f"{_number(poisson[t])} tangential mindlin NULL {ratio:.6f} "
+                        f"{_number(table['friction'][t])} damping tsuji")
+        if types > 1:
+            notes.append("mixed materials: LAMMPS mixes restitution and friction its own "
+                         "way (bondem takes the mean)")
+    deck += [f"neighbor        {_number(skin)} bin", "neigh_modify    every 1 delay 0 check yes"]
+    for k, wall in enumerate(options.get("walls", [])):
+        if not isinstance(wall, PlaneWall):
+            notes.append(f"walls[{k}]: a mesh wall, not exported")
+            continue
+        if isinstance(wall.motion, ConstantVelocity):
+            velocity = wall.motion.constant
+        else:
+            notes.append(f"walls[{k}]: its velocity profile or servo is not exported "
+                         "(static)")
+            velocity = (0.0, 0.0, 0.0)
+        move = ""
+        if any(velocity):
+            for a, v in zip("xyz", velocity):
+                deck.append(f"variable        wall{k}{a} equal {_number(v)}*time")
+            move = f" move v_wall{k}x v_wall{k}y v_wall{k}z"
+        deck.append(f"region          wall{k} plane "
+                    + " ".join(_number(c) for c in (*wall.point, *wall.normal))
+                    + f" side in{move}")
+        m = wall.material
+        e_star = m.young_modulus / (2.0 * (1.0 - m.poisson_ratio ** 2))
+        g_star = m.young_modulus / (4.0 * (2.0 - m.poisson_ratio) * (1.0 + m.poisson_ratio))
+        deck.append(f"fix             wall{k} all wall/gran/region granular hertz/material "
+                    f"{_number(m.young_modulus)} {_number(m.restitution)} "
+                    f"{_number(m.poisson_ratio)} tangential mindlin NULL "
+                    f"{2.0 * math.sqrt(g_star / e_star):.6f} {_number(m.friction)} "
+                    f"damping tsuji region wall{k}")
+    deck.append("fix             integrate all nve/bpm/sphere")
+    g = np.asarray(model.gravity, dtype=float)
+    if np.any(g):
+        size = float(np.linalg.norm(g))
+        deck.append(f"fix             gravity all gravity {_number(size)} vector "
+                    + " ".join(_number(c / size) for c in g))
+    deck += [f"timestep        {_number(dt)}",
+             "thermo_style    custom step time ke",
+             f"thermo          {save}",
+             f"variable        steps index {steps}",
+             "run             ${steps}"]
+    input_path = out / "in.lammps"
+    input_path.write_text("\n".join(deck) + "\n")
+    return data_path, input_path, notes
