@@ -164,22 +164,7 @@ def lattice_run(n, steps, *, variant="intact", backend="cpu", order="morton", wa
         model, state = reorder_system(model, state, spatial_order(state.position, 2 * RADIUS))
     sim, notes = make_simulation(model, state, backend=backend, contacts=contacts)
     setup = time.perf_counter() - t0
-    t0 = time.perf_counter()
-    sim.step(1)
-    _synchronize(sim)
-    first = time.perf_counter() - t0
-    t0 = time.perf_counter()
-    sim.step(warmup)
-    _synchronize(sim)
-    per_warm = (time.perf_counter() - t0) / max(warmup, 1)
-    active0 = int(np.count_nonzero(sim.state.bond_active))
-    t0 = time.perf_counter()
-    c0 = time.process_time()
-    sim.step(steps)
-    _synchronize(sim)
-    wall = time.perf_counter() - t0
-    cpu_time = time.process_time() - c0
-    active1 = int(np.count_nonzero(sim.state.bond_active))
+    first, per_warm, wall, cpu_time, active0, active1 = timed_steps(sim, steps, warmup)
     n_p, n_b = model.n_particles, model.n_bonds
     per_particle, per_bond, other = array_bytes(sim)
     parts, best_parts = (profile_step(sim) if profile and backend == "cpu"
@@ -200,6 +185,29 @@ def lattice_run(n, steps, *, variant="intact", backend="cpu", order="morton", wa
         "peak_rss_bytes": peak_rss_bytes(),
         "profile": parts, "profile_best": best_parts,
     }
+
+
+def timed_steps(sim, steps, warmup):
+    """Run ``sim`` one step (compilation or cache load), ``warmup`` steps, then ``steps``
+    timed steps. Returns (first step s, s per warm-up step, wall s, process CPU s of the
+    timed steps, intact bonds before and after them)."""
+    t0 = time.perf_counter()
+    sim.step(1)
+    _synchronize(sim)
+    first = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    sim.step(warmup)
+    _synchronize(sim)
+    per_warm = (time.perf_counter() - t0) / max(warmup, 1)
+    active0 = int(np.count_nonzero(sim.state.bond_active))
+    t0 = time.perf_counter()
+    c0 = time.process_time()
+    sim.step(steps)
+    _synchronize(sim)
+    wall = time.perf_counter() - t0
+    cpu_time = time.process_time() - c0
+    return first, per_warm, wall, cpu_time, active0, int(np.count_nonzero(
+        sim.state.bond_active))
 
 
 def _threads():
@@ -414,22 +422,7 @@ def scene_run(scene, particles, steps, *, backend="cpu", warmup=5, profile=False
     initial = state.copy()
     sim, options = scene_simulation(model, state, walls, backend)
     setup = time.perf_counter() - t0
-    t0 = time.perf_counter()
-    sim.step(1)
-    _synchronize(sim)
-    first = time.perf_counter() - t0
-    t0 = time.perf_counter()
-    sim.step(warmup)
-    _synchronize(sim)
-    per_warm = (time.perf_counter() - t0) / max(warmup, 1)
-    active0 = int(np.count_nonzero(sim.state.bond_active))
-    t0 = time.perf_counter()
-    c0 = time.process_time()
-    sim.step(steps)
-    _synchronize(sim)
-    wall = time.perf_counter() - t0
-    cpu_time = time.process_time() - c0
-    active1 = int(np.count_nonzero(sim.state.bond_active))
+    first, per_warm, wall, cpu_time, active0, active1 = timed_steps(sim, steps, warmup)
     n_p, n_b = model.n_particles, model.n_bonds
     per_particle, per_bond, other = array_bytes(sim)
     touching = sim.contacts.touching() if sim.contacts is not None else (0, 0)

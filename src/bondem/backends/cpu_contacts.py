@@ -356,9 +356,9 @@ class ContactLaw:
             wall_pairs = extra["wall_pairs"]
             if wall_pairs.shape[0]:
                 wall_contacts(
-                    self._wall_near, self._wall_start, wall_pairs, self.wall_tuple(self._t_wall), particles,
-                    grains, self._materials, self.wall_law, self._wall_stiffness,
-                    use_rolling, self._triangles,
+                    self._wall_near, self._wall_start, wall_pairs,
+                    self.wall_tuple(self._t_wall), particles, grains, self._materials,
+                    self.wall_law, self._wall_stiffness, use_rolling, self._triangles,
                     loops.WallRows(extra["wall_spring"], extra["wall_force_rows"],
                                    extra["wall_moment_rows"], extra["wall_energy_rows"],
                                    self._w_dissipated, self._w_work, self._w_distance,
