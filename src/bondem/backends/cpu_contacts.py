@@ -326,6 +326,11 @@ class ContactLaw:
             return state.time + increment_dt
         return state.time
 
+    def _walls_still(self, state):
+        """MUSEN's walls have no velocity in its prediction step: their motion is set by
+        the first MoveWalls, after it (CSimplifiedScene::InitializeGeometricalObjects)."""
+        return self.musen_compat and not state.started
+
     def accumulate(self, model, state, force, moment, increment_dt):
         """Add contact and wall loads (N, N m) for the state at the start of the step;
         advance the tangential springs by ``increment_dt`` (s)."""
@@ -357,7 +362,8 @@ class ContactLaw:
             if wall_pairs.shape[0]:
                 wall_contacts(
                     self._wall_near, self._wall_start, wall_pairs,
-                    self.wall_tuple(self._t_wall), particles, grains, self._materials,
+                    self.wall_tuple(self._t_wall, still=self._walls_still(state)),
+                    particles, grains, self._materials,
                     self.wall_law, self._wall_stiffness, use_rolling, self._triangles,
                     loops.WallRows(extra["wall_spring"], extra["wall_force_rows"],
                                    extra["wall_moment_rows"], extra["wall_energy_rows"],
@@ -377,13 +383,17 @@ class ContactLaw:
         return loops.Grains(put(model.radius), put(model.mass), put(model.inertia),
                             put(model.material))
 
-    def wall_tuple(self, time, put=lambda a: a, rows=None):
+    def wall_tuple(self, time, put=lambda a: a, rows=None, still=False):
         """The walls at ``time`` (s) as a ``loops.Walls``; rows: their element rows if
-        already placed."""
+        already placed; still: with zero velocities and spins (MUSEN's walls in its
+        prediction step, before its first MoveWalls sets their motion)."""
         w = self.walls
+        velocity, spin = w.velocities(time), w.angular_velocity
+        if still:
+            velocity, spin = np.zeros_like(velocity), np.zeros_like(spin)
         return loops.Walls(put(w.elements(time)) if rows is None else rows,
-                           put(w.element_type), put(w.element_wall), put(w.velocities(time)),
-                           put(w.angular_velocity), put(w.centers(time)),
+                           put(w.element_type), put(w.element_wall), put(velocity),
+                           put(spin), put(w.centers(time)),
                            *(put(a) for a in self._wall_materials))
 
     def touching(self):

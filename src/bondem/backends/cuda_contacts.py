@@ -280,7 +280,8 @@ class ContactLawGpu(ContactLaw):
                 self._rows_host = rows
             wall_contacts_kernel[_blocks(n), THREADS](
                 dev["wall_start"], dev["wall_pairs"],
-                self.wall_tuple(self._t_wall, self._put_walls, self._d_rows), particles(d),
+                self.wall_tuple(self._t_wall, self._put_walls, self._d_rows,
+                                self._walls_still(state)), particles(d),
                 self._d_grains, self._d_materials, self.wall_law, self._k_linear,
                 use_rolling, dev["wall_rows"], increment_dt, moved_dt, force, moment,
                 self._d_lost, self._d_work, self._evaluated_position,

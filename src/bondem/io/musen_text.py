@@ -221,8 +221,9 @@ def wall_motion(motion, end_time):
     velocity (rad/s)), for a run ending at end_time (s). One translation interval over the
     whole run is a constant ``velocity``; several, a ``velocity_profile`` that jumps at the
     interval bounds and is 0 outside them; a single rotation over the whole run without
-    translation, ``angular_velocity`` about ``rotation_center``. Anything else (force-
-    dependent motion, rotation with translation) stays static and is named."""
+    translation, ``angular_velocity`` about ``rotation_center`` (named when its axis is
+    skew). Anything else (force-dependent motion, rotation with translation) stays static
+    and is named."""
     tokens = motion.split()
     if not tokens or not all(_is_number(t) for t in tokens):
         return {}, None
@@ -239,10 +240,13 @@ def wall_motion(motion, end_time):
     whole = len(moving) == 1 and moving[0][0] <= 0.0 and moving[0][1] >= end_time
     if any(any(iv[8:11]) for iv in moving):
         if whole and not any(moving[0][2:5]):
-            return {"angular_velocity": moving[0][8:11],
-                    "rotation_center": moving[0][5:8]}, (
-                "its rotation is mapped (angular_velocity, rotation_center); MUSEN turns "
-                "its vertices by one quaternion per step, not checked against a MUSEN run")
+            spin = moving[0][8:11]
+            keys = {"angular_velocity": spin, "rotation_center": moving[0][5:8]}
+            if sum(1 for w in spin if w) == 1:
+                return keys, None     # about one axis: MUSEN's per-step turn is exact
+            return keys, ("its rotation about a skew axis is mapped (angular_velocity, "
+                          "rotation_center); MUSEN turns it each step by Euler angles "
+                          "x, y, z of w dt, not about the axis: O(dt^2) apart per step")
         return {}, "its rotation is not mapped (the wall is static)"
     if whole:
         return {"velocity": moving[0][2:5]}, None
