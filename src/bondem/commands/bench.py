@@ -57,12 +57,15 @@ def _ranks(text):
               help="Timed steps for the lattice peer [default: same as --steps].")
 @click.option("--ranks", default="1,2", show_default=True,
               help="MPI ranks of the LAMMPS peer for impact and bed (each a run).")
+@click.option("--warmup", type=click.IntRange(min=0), default=5, show_default=True,
+              help="Untimed steps before the timed ones, for impact and bed (both codes): "
+                   "e.g. 1500 to time the impact well under way.")
 @click.option("--profile", is_flag=True,
               help="Also time each part of the CPU step (bonds, gather, integrate...).")
 @click.option("--triad", is_flag=True,
               help="Also measure memory bandwidth (STREAM-like triad).")
 def command(scene, sizes, steps, variant, backend, order, json_path, peer, peer_steps,
-            ranks, profile, triad):
+            ranks, warmup, profile, triad):
     """Time SCENE (the bench scenes of docs/performance.md) and print a table: lattice (a
     bonded cubic lattice), impact (a dense random bonded agglomerate hitting a plane,
     contacts live, bonds breaking) or bed (an unbonded bed resting on a plane)."""
@@ -75,7 +78,7 @@ def command(scene, sizes, steps, variant, backend, order, json_path, peer, peer_
         click.echo(f"memory bandwidth (triad): {extra['triad_bytes_per_s'] / 1e9:.1f} GB/s")
     if scene != "lattice":
         _scenes(bench, scene, _sizes(sizes or "1e4", scene), steps, backend, peer,
-                _ranks(ranks), profile, results)
+                _ranks(ranks), profile, results, warmup)
     for n in (_sizes(sizes or "22") if scene == "lattice" else []):
         n_steps = steps or (1000 if n <= 22 else 200)
         click.echo(f"bench lattice n={n}: {n ** 3:,} particles, building the scene, "
@@ -131,16 +134,17 @@ def command(scene, sizes, steps, variant, backend, order, json_path, peer, peer_
     sys.stdout.flush()
 
 
-def _scenes(bench, scene, sizes, steps, backend, peer, ranks, profile, results):
+def _scenes(bench, scene, sizes, steps, backend, peer, ranks, profile, results, warmup=5):
     """The impact or bed scene at each size, and its LAMMPS peer on each rank count (the
     same initial state, time step and steps, through ``bondem export lammps``'s writer)."""
     for n in sizes:
         n_steps = steps or (500 if n <= 20_000 else 100)
         click.echo(f"bench {scene} {n:,} particles: packing and bonding the scene, warming up "
-                   f"(compiles kernels on a first run), then {n_steps} timed steps ...",
-                   err=True)
+                   f"(compiles kernels on a first run) and {warmup} more steps, then "
+                   f"{n_steps} timed steps ...", err=True)
         try:
-            result = bench.scene_run(scene, n, n_steps, backend=backend, profile=profile)
+            result = bench.scene_run(scene, n, n_steps, backend=backend, profile=profile,
+                                     warmup=warmup)
         except ValueError as error:
             raise InputError(f"bench: {error}") from None
         results.append(result)
