@@ -20,9 +20,10 @@ All contact history lives in ``state.extra`` as NumPy arrays, so a checkpoint of
     wall_pairs (K,2) int64           (particle, wall element) candidates, sorted
     wall_spring (K,3) m              tangential spring of each wall candidate
     wall_force_rows, wall_moment_rows (K,3), wall_energy_rows (K,)  as for pairs
-    contact_tangential (M,3), wall_tangential (K,3) N  MUSEN-compatible runs only: the
-                                     tangential force of the last sticking step, which
-                                     MUSEN's law applies while a contact slides
+    contact_tangential (M,3), wall_tangential (K,3) N  MUSEN-compatible runs only
+                                     (MUSEN_*_HISTORY): the tangential force of the last
+                                     sticking step, which MUSEN's law applies while a
+                                     contact slides
 The last loads and energies serve the work balance that books the dissipated energy:
 per contact, minus the work of its loads over the step (trapezoidal) minus the change of
 its stored energy; with the leapfrog this closes the energy balance to O(dt^2).
@@ -38,9 +39,12 @@ import numpy as np
 from .physics.contact_linear import LINEAR_REFERENCE_OVERLAP, MODEL_HERTZ, MODEL_LINEAR
 
 PAIR_HISTORY = {"contact_spring": (3,), "contact_force": (3,), "contact_moment_i": (3,),
-                "contact_moment_j": (3,), "contact_energy": (), "contact_tangential": (3,)}
+                "contact_moment_j": (3,), "contact_energy": ()}
 WALL_HISTORY = {"wall_spring": (3,), "wall_force_rows": (3,), "wall_moment_rows": (3,),
-                "wall_energy_rows": (), "wall_tangential": (3,)}
+                "wall_energy_rows": ()}
+# Kept by MUSEN-compatible runs only (ContactLaw.history): no SPEC run carries them.
+MUSEN_PAIR_HISTORY = {"contact_tangential": (3,)}
+MUSEN_WALL_HISTORY = {"wall_tangential": (3,)}
 MODELS = {"hertz_mindlin": MODEL_HERTZ, "linear": MODEL_LINEAR, "none": -1}
 
 

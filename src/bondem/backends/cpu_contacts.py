@@ -9,7 +9,8 @@ from numba import prange
 
 import numpy as np
 
-from ..contacts import MODELS, PAIR_HISTORY, WALL_HISTORY, ContactSettings, contact_cutoff
+from ..contacts import (MODELS, MUSEN_PAIR_HISTORY, MUSEN_WALL_HISTORY, PAIR_HISTORY,
+                        WALL_HISTORY, ContactSettings, contact_cutoff)
 from ..neighbors import build_pairs, carry_history, history_map, max_displacement
 from ..physics.contact_linear import MODEL_HERTZ
 from ..walls import PLANE, WallSet, build_wall_pairs
@@ -133,12 +134,17 @@ def wall_totals(wall_pairs, element_wall, scratch_point, force_c, moment_c, posi
         out_torque[w, 2] += r[0] * f[1] - r[1] * f[0] - m_part[2]
 
 
+# The tangential-force rows of a SPEC run: one row, never read or written.
+NO_TANGENTIAL = np.zeros((1, 3))
+
+
 def pair_rows(extra, dissipated):
     """The contact history rows of ``state.extra`` and ``dissipated`` (J per row) as a
     ``loops.PairRows``."""
     return loops.PairRows(extra["contact_spring"], extra["contact_force"],
                           extra["contact_moment_i"], extra["contact_moment_j"],
-                          extra["contact_energy"], dissipated, extra["contact_tangential"])
+                          extra["contact_energy"], dissipated,
+                          extra.get("contact_tangential", NO_TANGENTIAL))
 
 
 def csr_by(index, n):
@@ -199,6 +205,14 @@ class ContactLaw:
         self.wall_torque = np.zeros((self.walls.n_walls, 3))
 
     # -- lists ------------------------------------------------------------------------
+    def history(self):
+        """(pair, wall) history arrays this law keeps in ``state.extra``: name -> row
+        shape; MUSEN-compatible runs add the stored tangential forces."""
+        if self.musen_compat:
+            return ({**PAIR_HISTORY, **MUSEN_PAIR_HISTORY},
+                    {**WALL_HISTORY, **MUSEN_WALL_HISTORY})
+        return PAIR_HISTORY, WALL_HISTORY
+
     def _rebuild(self, model, state):
         extra = state.extra
         position = state.position
@@ -208,9 +222,13 @@ class ContactLaw:
                                 model.box_low, model.box_high)
         else:
             pairs = empty2
+        pair_history, wall_history = self.history()
+        if not self.musen_compat:   # a MUSEN-compatible checkpoint resumed in SPEC mode
+            for name in (*MUSEN_PAIR_HISTORY, *MUSEN_WALL_HISTORY):
+                extra.pop(name, None)
         old_pairs = extra.get("contact_pairs", empty2)
         mapping = history_map(old_pairs, pairs, model.n_particles)
-        for name, shape in PAIR_HISTORY.items():
+        for name, shape in pair_history.items():
             extra[name] = carry_history(old_pairs, extra.get(name, np.zeros((0,) + shape)),
                                         pairs, model.n_particles, mapping)
         extra["contact_pairs"] = pairs
@@ -219,7 +237,7 @@ class ContactLaw:
                                       self.walls.element_type)
         old_wall_pairs = extra.get("wall_pairs", empty2)
         mapping = history_map(old_wall_pairs, wall_pairs, max(1, self.walls.n_elements))
-        for name, shape in WALL_HISTORY.items():
+        for name, shape in wall_history.items():
             extra[name] = carry_history(old_wall_pairs,
                                         extra.get(name, np.zeros((0,) + shape)), wall_pairs,
                                         max(1, self.walls.n_elements), mapping)
@@ -368,7 +386,8 @@ class ContactLaw:
                     loops.WallRows(extra["wall_spring"], extra["wall_force_rows"],
                                    extra["wall_moment_rows"], extra["wall_energy_rows"],
                                    self._w_dissipated, self._w_work, self._w_distance,
-                                   self._w_point, self._w_feature, extra["wall_tangential"]),
+                                   self._w_point, self._w_feature,
+                                   extra.get("wall_tangential", NO_TANGENTIAL)),
                     increment_dt, moved_dt, force, moment,
                     True if self.musen_compat else None)
                 counters[0] += float(self._w_dissipated.sum())

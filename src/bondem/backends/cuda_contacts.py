@@ -31,8 +31,8 @@ import math
 import numpy as np
 from numba import cuda
 
-from ..contacts import PAIR_HISTORY, WALL_HISTORY
-from .cpu_contacts import ContactLaw, csr_by, pair_rows
+from ..contacts import MUSEN_PAIR_HISTORY, MUSEN_WALL_HISTORY
+from .cpu_contacts import NO_TANGENTIAL, ContactLaw, csr_by, pair_rows
 from . import cpu_contacts, loops
 from .cpu import particles
 from .cuda import THREADS, K, _blocks
@@ -165,8 +165,9 @@ class ContactLawGpu(ContactLaw):
 
     def _pull_history(self, state):
         """Copy the device history rows into ``state.extra`` (new host arrays)."""
-        for name in (*PAIR_HISTORY, *WALL_HISTORY):
-            count = self._counts[0] if name in PAIR_HISTORY else self._counts[1]
+        pair_history, wall_history = self.history()
+        for name in (*pair_history, *wall_history):
+            count = self._counts[0] if name in pair_history else self._counts[1]
             state.extra[name] = self._dev[name].copy_to_host()[:count]
 
     def to_host(self, state):
@@ -211,8 +212,12 @@ class ContactLawGpu(ContactLaw):
                "wall_pairs": put(_at_least_one(wall_pairs)),
                "wall_start": put(self._wall_start),
                "reference": put(extra["contact_reference_position"])}
-        for name in (*PAIR_HISTORY, *WALL_HISTORY):
+        pair_history, wall_history = self.history()
+        for name in (*pair_history, *wall_history):
             dev[name] = put(_at_least_one(np.ascontiguousarray(extra[name])))
+        for name in (*MUSEN_PAIR_HISTORY, *MUSEN_WALL_HISTORY):   # a SPEC run's unused row
+            if name not in dev:
+                dev[name] = put(NO_TANGENTIAL)
         dev["pair_rows"] = pair_rows(dev, cuda.device_array(max(pairs.shape[0], 1)))
         dev["wall_rows"] = loops.WallRows(
             dev["wall_spring"], dev["wall_force_rows"], dev["wall_moment_rows"],

@@ -54,7 +54,7 @@ Grains = namedtuple("Grains", "radius mass inertia material")
 ContactMaterials = namedtuple("ContactMaterials",
                               "young poisson restitution friction rolling")
 # tangential: the tangential force of the last sticking step (N), which MUSEN's law applies
-# while a contact slides (musen_compat only; untouched by the SPEC's law)
+# while a contact slides (musen_compat only; SPEC runs pass one unused row)
 PairRows = namedtuple("PairRows", "spring force moment_i moment_j energy dissipated "
                       "tangential")
 PairIndex = namedtuple("PairIndex", "i_start i_order j_start j_order")
@@ -413,7 +413,7 @@ def pair_contact(c, pairs, pair_bond, bond_active, particles, grains, materials,
             rows.force[c, k] = 0.0
             rows.moment_i[c, k] = 0.0
             rows.moment_j[c, k] = 0.0
-            if musen is not None:
+            if musen is not None and musen:
                 rows.tangential[c, k] = 0.0
         rows.energy[c] = 0.0
         rows.dissipated[c] = -0.5 * moved_dt * work + previous_energy
@@ -617,7 +617,7 @@ def wall_contacts_of(p, wall_start, wall_pairs, walls, particles, grains, materi
                 spring[c, k] = 0.0
                 rows.force[c, k] = 0.0
                 rows.moment[c, k] = 0.0
-                if musen is not None:
+                if musen is not None and musen:
                     rows.tangential[c, k] = 0.0
             rows.energy[c] = 0.0
             rows.work[c] = 0.5 * moved_dt * by_wall
