@@ -163,28 +163,35 @@ def lattice_run(n, steps, *, variant="intact", backend="cpu", order="morton", wa
     elif order == "morton":
         model, state = reorder_system(model, state, spatial_order(state.position, 2 * RADIUS))
     sim, notes = make_simulation(model, state, backend=backend, contacts=contacts)
-    setup = time.perf_counter() - t0
-    first, per_warm, wall, cpu_time, active0, active1 = timed_steps(sim, steps, warmup)
-    n_p, n_b = model.n_particles, model.n_bonds
-    per_particle, per_bond, other = array_bytes(sim)
+    figures, _ = timed_figures(sim, steps, warmup, time.perf_counter() - t0)
     parts, best_parts = (profile_step(sim) if profile and backend == "cpu"
                          else (None, None))
+    return {"scene": "lattice", "n": n, "variant": variant, "backend": backend,
+            "order": order, "notes": notes, **figures,
+            "profile": parts, "profile_best": best_parts}
+
+
+def timed_figures(sim, steps, warmup, setup):
+    """``timed_steps`` of ``sim`` and the figures every bench run reports: counts, the
+    setup (s, given), compile and step times (s), particle-steps and bond-updates per
+    second, bytes per particle and per bond, peak RSS (bytes). Returns (figures, intact
+    bonds before and after the timed steps)."""
+    first, per_warm, wall, cpu_time, active0, active1 = timed_steps(sim, steps, warmup)
+    n_p, n_b = sim.model.n_particles, sim.model.n_bonds
+    per_particle, per_bond, other = array_bytes(sim)
     return {
-        "scene": "lattice", "n": n, "variant": variant, "backend": backend, "order": order,
-        "particles": n_p, "bonds": n_b, "steps": steps,
-        "threads": _threads(), "notes": notes,
+        "particles": n_p, "bonds": n_b, "steps": steps, "threads": _threads(),
         "setup_s": setup, "compile_s": max(first - per_warm, 0.0), "first_step_s": first,
         "wall_s": wall, "cpu_s": cpu_time, "s_per_step": wall / steps,
         "particle_steps_per_s": n_p * steps / wall,
         "particle_steps_per_cpu_s": n_p * steps / cpu_time,
-        "bond_updates_per_s": 0.5 * (active0 + active1) * steps / wall,
+        "bond_updates_per_s": (0.5 * (active0 + active1) * steps / wall if n_b
+                               else float("nan")),
         "intact_fraction": active1 / n_b if n_b else float("nan"),
         "bytes_per_particle": per_particle / n_p,
         "bytes_per_bond": per_bond / n_b if n_b else 0.0,
-        "bytes_other": other,
-        "peak_rss_bytes": peak_rss_bytes(),
-        "profile": parts, "profile_best": best_parts,
-    }
+        "bytes_other": other, "peak_rss_bytes": peak_rss_bytes(),
+    }, (active0, active1)
 
 
 def timed_steps(sim, steps, warmup):
@@ -299,14 +306,11 @@ def lammps_deck_dir():
 def lammps_run(n, steps):
     """Run the LAMMPS BPM deck (benchmarks/lammps/run.sh n steps); returns its figures.
 
-    Uses an ``lmp`` on PATH when there is one (LMP_VENV is then left alone), else the
-    script's own venv. Returns a dict, or raises RuntimeError with LAMMPS's output.
+    LAMMPS from ``lammps_venv()`` (run.sh installs it there on first use). Returns a dict,
+    or raises RuntimeError with LAMMPS's output.
     """
     script = lammps_deck_dir() / "run.sh"
-    env = dict(os.environ)
-    lmp = shutil.which("lmp")
-    if lmp and "LMP_VENV" not in env:
-        env["LMP_VENV"] = str(Path(lmp).resolve().parents[1])
+    env = dict(os.environ, LMP_VENV=str(lammps_venv()))
     proc = subprocess.run(["bash", str(script), str(n), str(steps)], capture_output=True,
                           text=True, env=env)
     line = [w for w in proc.stdout.splitlines() if w.startswith("lammps ")]
@@ -349,6 +353,19 @@ def _pack(container, fraction, seed):
                 raise
 
 
+def _on_plane(position, radii, material, **system):
+    """(model, state, walls) of spheres set on the plane z = 0 (the lowest one touching
+    it) under gravity, Morton-ordered, with that plane as their wall; ``system``: more
+    ``make_system`` arguments (velocities, bonds)."""
+    from .walls import PlaneWall
+    position[:, 2] -= (position[:, 2] - radii).min()
+    model, state = make_system(position, radii, material, gravity=(0.0, 0.0, -9.81),
+                               **system)
+    model, state = reorder_system(model, state, spatial_order(state.position,
+                                                              2 * GRAIN_RADIUS))
+    return model, state, [PlaneWall((0.0, 0.0, 0.0), (0.0, 0.0, 1.0), material)]
+
+
 def _grain_material():
     return Material(density=2500.0, young_modulus=1e8, poisson_ratio=0.3, restitution=0.5,
                     friction=0.3, name="glass")
@@ -363,23 +380,16 @@ def impact_system(particles, seed=1):
     Unbonded neighbours touch (live contacts) and bonds break from the first steps.
     Returns (model, state, walls), particles in Morton order."""
     from .generate import Sphere, bonds_from_gap
-    from .walls import PlaneWall
     radius = (particles * GRAIN_RADIUS ** 3 / SOLIDS) ** (1.0 / 3.0)
     position, radii = _pack(Sphere((0.0, 0.0, 0.0), radius), SOLIDS, seed)
     pairs, diameter = bonds_from_gap(position, radii, max_gap=0.02 * GRAIN_RADIUS,
                                      diameter_ratio=0.5)
-    position[:, 2] -= (position[:, 2] - radii).min()       # the lowest sphere on the plane
     velocity = np.zeros_like(position)
     velocity[:, 2] = -IMPACT_SPEED
-    glass = _grain_material()
     binder = BondMaterial(young_modulus=1e8, poisson_ratio=0.3, normal_strength=1e6,
                           tangential_strength=1e6, name="binder")
-    model, state = make_system(position, radii, glass, velocity=velocity, bonds=pairs,
-                               bond_diameter=diameter, bond_material=binder,
-                               gravity=(0.0, 0.0, -9.81))
-    model, state = reorder_system(model, state, spatial_order(state.position,
-                                                              2 * GRAIN_RADIUS))
-    return model, state, [PlaneWall((0.0, 0.0, 0.0), (0.0, 0.0, 1.0), glass)]
+    return _on_plane(position, radii, _grain_material(), velocity=velocity, bonds=pairs,
+                     bond_diameter=diameter, bond_material=binder)
 
 
 def bed_system(particles, seed=1):
@@ -388,16 +398,10 @@ def bed_system(particles, seed=1):
     rest on the plane z = 0 under gravity: contacts only, all of them live. Returns
     (model, state, walls)."""
     from .generate import Box
-    from .walls import PlaneWall
     height = (particles * 4.0 / 3.0 * math.pi * GRAIN_RADIUS ** 3 / BED_SOLIDS / 4.0) ** (1 / 3)
     position, radii = _pack(Box((0.0, 0.0, 0.0), (2 * height, 2 * height, height)),
                             BED_SOLIDS, seed)
-    position[:, 2] -= (position[:, 2] - radii).min()       # the lowest sphere on the plane
-    glass = _grain_material()
-    model, state = make_system(position, radii, glass, gravity=(0.0, 0.0, -9.81))
-    model, state = reorder_system(model, state, spatial_order(state.position,
-                                                              2 * GRAIN_RADIUS))
-    return model, state, [PlaneWall((0.0, 0.0, 0.0), (0.0, 0.0, 1.0), glass)]
+    return _on_plane(position, radii, _grain_material())
 
 
 def scene_simulation(model, state, walls, backend="cpu"):
@@ -421,30 +425,16 @@ def scene_run(scene, particles, steps, *, backend="cpu", warmup=5, profile=False
     model, state, walls = (impact_system if scene == "impact" else bed_system)(particles)
     initial = state.copy()
     sim, options = scene_simulation(model, state, walls, backend)
-    setup = time.perf_counter() - t0
-    first, per_warm, wall, cpu_time, active0, active1 = timed_steps(sim, steps, warmup)
-    n_p, n_b = model.n_particles, model.n_bonds
-    per_particle, per_bond, other = array_bytes(sim)
+    figures, (active0, active1) = timed_figures(sim, steps, warmup, time.perf_counter() - t0)
     touching = sim.contacts.touching() if sim.contacts is not None else (0, 0)
     parts, best_parts = (profile_step(sim) if profile and backend == "cpu"
                          else (None, None))
     return {
-        "scene": scene, "n": n_p, "backend": backend, "particles": n_p, "bonds": n_b,
-        "steps": steps, "warmup": warmup, "time_step": sim.time_step,
-        "threads": _threads(), "notes": [f"contacts touching at the end (pairs, walls): "
-                                         f"{touching}; bonds broken in the timed steps: "
-                                         f"{active0 - active1}"],
-        "setup_s": setup, "compile_s": max(first - per_warm, 0.0), "first_step_s": first,
-        "wall_s": wall, "cpu_s": cpu_time, "s_per_step": wall / steps,
-        "particle_steps_per_s": n_p * steps / wall,
-        "particle_steps_per_cpu_s": n_p * steps / cpu_time,
-        "bond_updates_per_s": (0.5 * (active0 + active1) * steps / wall if n_b
-                               else float("nan")),
-        "intact_fraction": active1 / n_b if n_b else float("nan"),
+        "scene": scene, "n": model.n_particles, "backend": backend, **figures,
+        "warmup": warmup, "time_step": sim.time_step,
+        "notes": [f"contacts touching at the end (pairs, walls): {touching}; bonds broken "
+                  f"in the timed steps: {active0 - active1}"],
         "touching_pairs": touching[0], "touching_walls": touching[1],
-        "bytes_per_particle": per_particle / n_p,
-        "bytes_per_bond": per_bond / n_b if n_b else 0.0,
-        "bytes_other": other, "peak_rss_bytes": peak_rss_bytes(),
         "profile": parts, "profile_best": best_parts,
         "_system": (model, initial, options),
     }

@@ -76,32 +76,12 @@ def command(scene, sizes, steps, variant, backend, order, json_path, peer, peer_
     if triad:
         extra["triad_bytes_per_s"] = bench.stream_triad()
         click.echo(f"memory bandwidth (triad): {extra['triad_bytes_per_s'] / 1e9:.1f} GB/s")
-    if scene != "lattice":
+    if scene == "lattice":
+        _lattices(bench, _sizes(sizes or "22"), steps, variant, backend, order, peer,
+                  peer_steps, profile, results)
+    else:
         _scenes(bench, scene, _sizes(sizes or "1e4", scene), steps, backend, peer,
                 _ranks(ranks), profile, results, warmup)
-    for n in (_sizes(sizes or "22") if scene == "lattice" else []):
-        n_steps = steps or (1000 if n <= 22 else 200)
-        click.echo(f"bench lattice n={n}: {n ** 3:,} particles, building the scene, "
-                   f"warming up (compiles kernels on a first run), then {n_steps} timed "
-                   "steps ...", err=True)
-        try:
-            result = bench.lattice_run(n, n_steps, variant=variant, backend=backend,
-                                       order=order, profile=profile)
-        except ValueError as error:
-            raise InputError(f"bench: {error}") from None
-        results.append(result)
-        for note in result["notes"]:
-            click.echo(f"n={n}: {note}")
-        if peer == "lammps":
-            click.echo(f"bench lattice n={n}: the same scene in LAMMPS ...", err=True)
-            try:
-                other = bench.lammps_run(n, peer_steps or n_steps)
-            except (RuntimeError, OSError) as error:
-                click.echo(f"bondem: lammps peer failed: {error}", err=True)
-            else:
-                other["ratio_bondem_over_lammps"] = (result["particle_steps_per_s"]
-                                                     / other["particle_steps_per_s"])
-                results.append(other)
     click.echo(bench.format_table(results))
     for r in results:
         if "ratio_bondem_over_lammps" in r:
@@ -134,6 +114,40 @@ def command(scene, sizes, steps, variant, backend, order, json_path, peer, peer_
     sys.stdout.flush()
 
 
+def _add_peer(results, result, run):
+    """Run a peer (``run()``: its figures) beside ``result`` and add it with the ratio of
+    particle-steps/s; a peer that fails is reported, not fatal."""
+    try:
+        other = run()
+    except (RuntimeError, OSError) as error:
+        click.echo(f"bondem: lammps peer failed: {error}", err=True)
+        return
+    other["ratio_bondem_over_lammps"] = (result["particle_steps_per_s"]
+                                         / other["particle_steps_per_s"])
+    results.append(other)
+
+
+def _lattices(bench, sizes, steps, variant, backend, order, peer, peer_steps, profile,
+              results):
+    """The lattice scene at each size n, and its LAMMPS peer (benchmarks/lammps)."""
+    for n in sizes:
+        n_steps = steps or (1000 if n <= 22 else 200)
+        click.echo(f"bench lattice n={n}: {n ** 3:,} particles, building the scene, "
+                   f"warming up (compiles kernels on a first run), then {n_steps} timed "
+                   "steps ...", err=True)
+        try:
+            result = bench.lattice_run(n, n_steps, variant=variant, backend=backend,
+                                       order=order, profile=profile)
+        except ValueError as error:
+            raise InputError(f"bench: {error}") from None
+        results.append(result)
+        for note in result["notes"]:
+            click.echo(f"n={n}: {note}")
+        if peer == "lammps":
+            click.echo(f"bench lattice n={n}: the same scene in LAMMPS ...", err=True)
+            _add_peer(results, result, lambda: bench.lammps_run(n, peer_steps or n_steps))
+
+
 def _scenes(bench, scene, sizes, steps, backend, peer, ranks, profile, results, warmup=5):
     """The impact or bed scene at each size, and its LAMMPS peer on each rank count (the
     same initial state, time step and steps, through ``bondem export lammps``'s writer)."""
@@ -155,11 +169,4 @@ def _scenes(bench, scene, sizes, steps, backend, peer, ranks, profile, results, 
         for count in ranks:
             click.echo(f"bench {scene} {n:,} particles: the same in LAMMPS on {count} MPI "
                        f"rank{'s' if count > 1 else ''} ...", err=True)
-            try:
-                other = bench.lammps_scene_run(result, count)
-            except (RuntimeError, OSError) as error:
-                click.echo(f"bondem: lammps peer failed: {error}", err=True)
-                continue
-            other["ratio_bondem_over_lammps"] = (result["particle_steps_per_s"]
-                                                 / other["particle_steps_per_s"])
-            results.append(other)
+            _add_peer(results, result, lambda: bench.lammps_scene_run(result, count))

@@ -31,6 +31,7 @@ from pathlib import Path
 import numpy as np
 
 from ..physics.bond_elastic import bond_stiffnesses
+from ..physics.contact_hertz import effective_shear_modulus, effective_young_modulus
 
 BIG = 1e300   # a limit that never breaks: LAMMPS has no infinity in its coefficients
 
@@ -61,6 +62,19 @@ def bond_coefficients(model):
     return coefficients, bool(np.any(limits < BIG))
 
 
+def _granular(material):
+    """The granular model of LAMMPS for ``material`` (E Pa, restitution, nu, friction):
+    hertz/material with Tsuji damping (the restitution in place of a damping constant) and
+    Mindlin's tangential spring, its dashpot x = 2 sqrt(G*/E*) times the normal one (the
+    ratio of bondem's tangential dashpot to its normal one)."""
+    young, poisson = material.young_modulus, material.poisson_ratio
+    ratio = 2.0 * math.sqrt(effective_shear_modulus(young, poisson, young, poisson)
+                            / effective_young_modulus(young, poisson, young, poisson))
+    return (f"hertz/material {_number(young)} {_number(material.restitution)} "
+            f"{_number(poisson)} tangential mindlin NULL {ratio:.6f} "
+            f"{_number(material.friction)} damping tsuji")
+
+
 def _notes(model, options):
     """What the export leaves out or changes (lines for the user); options: the
     Simulation keyword arguments of the scene."""
@@ -74,11 +88,10 @@ def _notes(model, options):
     if np.any(model.fixed) or np.any(model.external_force) or np.any(model.external_moment):
         notes.append("fixed particles and external loads: not exported")
     if model.n_bonds:
-        codes = model.bond_material_table()["model"]
-        if np.any(codes[model.bond_material] != 0):
+        bond_table = model.bond_material_table()
+        if np.any(bond_table["model"][model.bond_material] != 0):
             notes.append("Kelvin bonds: exported as elastic bonds (no dashpots)")
-        criteria = model.bond_material_table()["breakage"]
-        if np.any(criteria[model.bond_material] != 0):
+        if np.any(bond_table["breakage"][model.bond_material] != 0):
             notes.append("breakage: LAMMPS sums the four load ratios (normal, shear, "
                          "bending, twisting), bondem compares each stress pair with its "
                          "strength (docs/lammps.md)")
@@ -130,10 +143,13 @@ def write_lammps(model, state, options, out_dir, *, end_time, save_every, title=
     high = np.where(model.periodic, model.box_high, position.max(axis=0) + 2 * reach)
     density = table["density"][model.material]
 
+    intact = np.flatnonzero(state.bond_active)
+    if intact.size < nb:
+        notes.append(f"{nb - intact.size} bonds already broken: left out")
     lines = ["LAMMPS data file written by bondem export lammps (SI units)", "",
              f"{n} atoms", f"{types} atom types"]
     if nb:
-        lines += [f"{nb} bonds", f"{len(unique)} bond types"]
+        lines += [f"{intact.size} bonds", f"{len(unique)} bond types"]
     lines += ["", *(f"{_number(low[k])} {_number(high[k])} {a}lo {a}hi"
                     for k, a in enumerate("xyz")), ""]
     lines += ["Atoms # bpm/sphere", ""]
@@ -147,11 +163,7 @@ def write_lammps(model, state, options, out_dir, *, end_time, save_every, title=
     if nb:
         lines += ["", "Bonds", ""]
         lines += [f"{b + 1} {bond_type[b] + 1} {model.bond_pairs[b, 0] + 1} "
-                  f"{model.bond_pairs[b, 1] + 1}" for b in range(nb) if state.bond_active[b]]
-        dropped = int(np.count_nonzero(~state.bond_active))
-        if dropped:
-            notes.append(f"{dropped} bonds already broken: left out")
-            lines[lines.index(f"{nb} bonds")] = f"{nb - dropped} bonds"
+                  f"{model.bond_pairs[b, 1] + 1}" for b in intact]
     data_path = out / "data.lammps"
     data_path.write_text("\n".join(lines) + "\n")
     if nb:   # bond_style needs the box, so the coefficients follow read_data
@@ -184,15 +196,8 @@ def write_lammps(model, state, options, out_dir, *, end_time, save_every, title=
         deck += [f"pair_style      zero {_number(2 * reach + skin)}", "pair_coeff      * *"]
     else:
         deck.append("pair_style      granular")
-        young, poisson = table["young_modulus"], table["poisson_ratio"]
-        for t in range(types):
-            e_star = young[t] / (2.0 * (1.0 - poisson[t] ** 2))
-            g_star = young[t] / (4.0 * (2.0 - poisson[t]) * (1.0 + poisson[t]))
-            ratio = 2.0 * math.sqrt(g_star / e_star)
-            deck.append(f"pair_coeff      {t + 1} {t + 1} hertz/material "
-                        f"{_number(young[t])} {_number(table['restitution'][t])} "
-                        f"{_number(poisson[t])} tangential mindlin NULL {ratio:.6f} "
-                        f"{_number(table['friction'][t])} damping tsuji")
+        deck += [f"pair_coeff      {t + 1} {t + 1} {_granular(material)}"
+                 for t, material in enumerate(model.materials)]
         if types > 1:
             notes.append("mixed materials: LAMMPS mixes restitution and friction its own "
                          "way (bondem takes the mean)")
@@ -215,14 +220,8 @@ def write_lammps(model, state, options, out_dir, *, end_time, save_every, title=
         deck.append(f"region          wall{k} plane "
                     + " ".join(_number(c) for c in (*wall.point, *wall.normal))
                     + f" side in{move}")
-        m = wall.material
-        e_star = m.young_modulus / (2.0 * (1.0 - m.poisson_ratio ** 2))
-        g_star = m.young_modulus / (4.0 * (2.0 - m.poisson_ratio) * (1.0 + m.poisson_ratio))
-        deck.append(f"fix             wall{k} all wall/gran/region granular hertz/material "
-                    f"{_number(m.young_modulus)} {_number(m.restitution)} "
-                    f"{_number(m.poisson_ratio)} tangential mindlin NULL "
-                    f"{2.0 * math.sqrt(g_star / e_star):.6f} {_number(m.friction)} "
-                    f"damping tsuji region wall{k}")
+        deck.append(f"fix             wall{k} all wall/gran/region granular "
+                    f"{_granular(wall.material)} region wall{k}")
     deck.append("fix             integrate all nve/bpm/sphere")
     g = np.asarray(model.gravity, dtype=float)
     if np.any(g):

@@ -68,21 +68,13 @@ def musen_carry_overlap(overlap_t, n, pp):
     """The tangential overlap (m) projected onto the plane normal to n and rescaled to its
     old length; pp: True for the particle-particle test (squared length > 0), False for
     the wall's (IsSignificant)."""
-    d = dot(n, overlap_t)
-    projected = sub(overlap_t, scale(n, d))
-    if pp:
-        squared = dot(projected, projected)
-        if squared > 0.0:
-            old = norm(overlap_t)
-            root = math.sqrt(squared)
-            return (projected[0] * old / root, projected[1] * old / root,
-                    projected[2] * old / root)
+    projected = sub(overlap_t, scale(n, dot(n, overlap_t)))
+    rescale = dot(projected, projected) > 0.0 if pp else musen_significant(projected)
+    if not rescale:
         return projected
-    if musen_significant(projected):
-        old = norm(overlap_t)
-        new = norm(projected)
-        return (projected[0] * old / new, projected[1] * old / new, projected[2] * old / new)
-    return projected
+    old = norm(overlap_t)
+    new = norm(projected)     # MUSEN's sqrt of the squared length: the same operations
+    return (projected[0] * old / new, projected[1] * old / new, projected[2] * old / new)
 
 
 @physics

@@ -98,7 +98,7 @@ PACKAGED_RUNS = Path(__file__).resolve().parents[1] / "data" / "validation" / "m
 QUANTITIES = ("particles/position", "particles/velocity", "particles/angular_velocity")
 SPEC_NOTE = ("SPEC mode differs from MUSEN by design: exact rotations and SPEC section 1's "
              "start-up, where MUSEN re-orthogonalises nothing and starts with a prediction "
-             "step, and the Hertz-Mindlin differences C1-C10 (docs/musen_compat.md); these "
+             "step, and the Hertz-Mindlin differences C1-C11 (docs/musen_compat.md); these "
              "tolerances hold for --compat musen")
 
 
