@@ -17,7 +17,11 @@ def test_physics_edit_changes_the_stamp_of_bondem_kernels(tmp_path):
     # the loop bodies are inlined too
     (tmp_path / "backends").mkdir()
     (tmp_path / "backends" / "loops.py").write_text("def g(): return 1\n")
-    assert physics_digest(tmp_path) != second
+    third = physics_digest(tmp_path)
+    assert third != second
+    # and the CPU backend's compile options, which the other kernel modules import
+    (tmp_path / "backends" / "cpu.py").write_text("_serial = {}\n")
+    assert physics_digest(tmp_path) != third
 
 
 def test_bondem_kernels_use_the_physics_aware_stamp():

@@ -18,8 +18,9 @@ from numba.core import caching
 PACKAGE = Path(__file__).resolve().parent
 
 
-# What the cached kernels inline besides their own file: the physics and the loop bodies.
-INLINED = ("physics/*.py", "backends/loops.py")
+# What the cached kernels inline besides their own file: the physics, the loop bodies,
+# and the CPU backend's compile options and helpers, which the other kernel modules import.
+INLINED = ("physics/*.py", "backends/loops.py", "backends/cpu.py")
 
 
 def physics_digest(package=PACKAGE):

@@ -47,7 +47,12 @@ bond_surely_intact_inline = V.bond_surely_intact
 
 
 _jit = dict(parallel=True, cache=True, fastmath=False, nogil=True)
-_serial = dict(cache=True, fastmath=False, nogil=True, error_model="numpy")
+# The serial loops run without Numba's reference counting (_nrt=False; they allocate
+# nothing): the bodies inlined into them read their arrays from named tuples, and each
+# read was an atomic increment and decrement of the array's count per item, ~20 per
+# contact row. Two threads sharing those counts bounced their cache lines: an apart
+# contact row cost 66 ns with the counts, 9 ns without.
+_serial = dict(cache=True, fastmath=False, nogil=True, error_model="numpy", _nrt=False)
 
 # Items per chunk of a parallel loop. Each chunk is one call of a serial loop with the
 # body inlined: a body inlined into the prange itself would read its arrays from named
