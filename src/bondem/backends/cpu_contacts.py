@@ -173,7 +173,7 @@ class ContactLaw:
         self.wall_law = self.pair_law if self.pair_law >= 0 else MODEL_HERTZ
         self.walls = WallSet(walls)
         table = model.material_table()
-        self._materials = loops.ContactMaterials(
+        self._materials = loops.contact_materials(
             table["young_modulus"], table["poisson_ratio"], table["restitution"],
             table["friction"], table["rolling_friction"])
         wm = [w.material for w in self.walls.walls]

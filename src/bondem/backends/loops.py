@@ -23,6 +23,8 @@ CUDA kernels cannot take None, so they pass a flag and compile both branches.
 import math
 from collections import namedtuple
 
+import numpy as np
+
 from ..physics import compile_physics
 from ..physics._registry import compile_functions
 from ..physics.bond_elastic import INTACT
@@ -51,8 +53,12 @@ BondState = namedtuple("BondState", "active axis previous_length tangential_forc
 BondLoads = namedtuple("BondLoads", "force_i moment_i moment_j")
 BondIndex = namedtuple("BondIndex", "offsets ends")
 Grains = namedtuple("Grains", "radius mass inertia material")
+# pair: one row per ordered pair of materials (a M + b, M materials) with columns PAIR_*,
+# the pair's properties the SPEC law needs, computed once (contact_materials) instead of
+# per contact and step (a log and five divisions).
 ContactMaterials = namedtuple("ContactMaterials",
-                              "young poisson restitution friction rolling")
+                              "young poisson restitution friction rolling pair")
+PAIR_E_STAR, PAIR_G_STAR, PAIR_BETA, PAIR_FRICTION, PAIR_ROLLING = range(5)
 # tangential: the tangential force of the last sticking step (N), which MUSEN's law applies
 # while a contact slides (musen_compat only; SPEC runs pass one unused row)
 PairRows = namedtuple("PairRows", "spring force moment_i moment_j energy dissipated "
@@ -64,6 +70,30 @@ WallRows = namedtuple("WallRows", "spring force moment energy dissipated work di
                       "point feature tangential")
 
 _BODIES = []
+
+
+def contact_materials(young, poisson, restitution, friction, rolling):
+    """The ``ContactMaterials`` of M materials (arrays of E in Pa, nu, e, mu, mu_r), with
+    the pair table: E* and G* (Pa), beta of the mean restitution, the mean friction and
+    mean rolling friction of each ordered pair, by the physics' own functions."""
+    from ..physics.contact_hertz import (effective_shear_modulus, effective_young_modulus,
+                                         restitution_beta)
+    young, poisson, restitution, friction, rolling = (
+        np.ascontiguousarray(a, dtype=np.float64)
+        for a in (young, poisson, restitution, friction, rolling))
+    m = young.shape[0]
+    pair = np.zeros((max(m * m, 1), 5))
+    for a in range(m):
+        for b in range(m):
+            q = a * m + b
+            pair[q, PAIR_E_STAR] = effective_young_modulus(young[a], poisson[a], young[b],
+                                                           poisson[b])
+            pair[q, PAIR_G_STAR] = effective_shear_modulus(young[a], poisson[a], young[b],
+                                                           poisson[b])
+            pair[q, PAIR_BETA] = restitution_beta(0.5 * (restitution[a] + restitution[b]))
+            pair[q, PAIR_FRICTION] = 0.5 * (friction[a] + friction[b])
+            pair[q, PAIR_ROLLING] = 0.5 * (rolling[a] + rolling[b])
+    return ContactMaterials(young, poisson, restitution, friction, rolling, pair)
 
 
 def body(function):
@@ -320,15 +350,12 @@ def integrate_particle(p, load_f, load_m, particles, bodies, gravity, damping, k
 # -- contacts -----------------------------------------------------------------------------
 
 @body
-def pair_law(law, linear_stiffness, n, overlap, v_rel, w_rel, spring, young_i, poisson_i,
-             young_j, poisson_j, restitution, friction, rolling, r_star, m_star, i_star, dt):
-    """Loads of one contact by the law ``law`` (MODEL_HERTZ or MODEL_LINEAR) from the two
-    materials' E (Pa), nu and the pair's restitution, friction and rolling friction;
+def pair_law(law, linear_stiffness, n, overlap, v_rel, w_rel, spring, e_star, g_star, beta,
+             friction, rolling, r_star, m_star, i_star, dt):
+    """Loads of one contact by the law ``law`` (MODEL_HERTZ or MODEL_LINEAR) from the
+    pair's E*, G* (Pa), beta (``restitution_beta``), friction and rolling friction;
     linear_stiffness: k_n (N/m; <= 0 for the default) of the linear law, or None (CPU,
     Hertz-Mindlin: the linear law is then not compiled)."""
-    e_star = effective_young_modulus(young_i, poisson_i, young_j, poisson_j)
-    g_star = effective_shear_modulus(young_i, poisson_i, young_j, poisson_j)
-    beta = restitution_beta(restitution)
     if linear_stiffness is None:
         return hertz_mindlin(n, overlap, v_rel, w_rel, spring, e_star, g_star, r_star,
                              m_star, i_star, beta, friction, rolling, dt)
@@ -354,16 +381,14 @@ def spec_pair_loads(r, distance, overlap, i, j, vi, vj, wi, wj, grains, material
     arm_j = radius[j] - 0.5 * overlap
     v_rel = contact_relative_velocity(n, vi, vj, wi, wj, arm_i, arm_j)
     w_rel = (wi[0] - wj[0], wi[1] - wj[1], wi[2] - wj[2])
-    a = grains.material[i]
-    b = grains.material[j]
-    mu_r = 0.5 * (materials.rolling[a] + materials.rolling[b]) if use_rolling else 0.0
+    q = grains.material[i] * materials.young.shape[0] + grains.material[j]
+    table = materials.pair
+    mu_r = table[q, PAIR_ROLLING] if use_rolling else 0.0
     mass = grains.mass
     inertia = grains.inertia
     force_i, torque, f_t, xi, energy = pair_law(
-        law, linear_stiffness, n, overlap, v_rel, w_rel, spring,
-        materials.young[a], materials.poisson[a], materials.young[b], materials.poisson[b],
-        0.5 * (materials.restitution[a] + materials.restitution[b]),
-        0.5 * (materials.friction[a] + materials.friction[b]), mu_r,
+        law, linear_stiffness, n, overlap, v_rel, w_rel, spring, table[q, PAIR_E_STAR],
+        table[q, PAIR_G_STAR], table[q, PAIR_BETA], table[q, PAIR_FRICTION], mu_r,
         radius[i] * radius[j] / (radius[i] + radius[j]), mass[i] * mass[j] / (mass[i] + mass[j]),
         inertia[i] * inertia[j] / (inertia[i] + inertia[j]), dt)
     moment_i, moment_j = contact_moments(n, f_t, torque, arm_i, arm_j)
@@ -647,8 +672,11 @@ def wall_contacts_of(p, wall_start, wall_pairs, walls, particles, grains, materi
             w_rel = (wi[0] - om[0], wi[1] - om[1], wi[2] - om[2])
             force_i, torque, f_t, xi, energy = pair_law(
                 law, linear_stiffness, n, overlap, v_rel, w_rel, row3(spring, c),
-                materials.young[a], materials.poisson[a], walls.young[w], walls.poisson[w],
-                0.5 * (materials.restitution[a] + walls.restitution[w]),
+                effective_young_modulus(materials.young[a], materials.poisson[a],
+                                        walls.young[w], walls.poisson[w]),
+                effective_shear_modulus(materials.young[a], materials.poisson[a],
+                                        walls.young[w], walls.poisson[w]),
+                restitution_beta(0.5 * (materials.restitution[a] + walls.restitution[w])),
                 0.5 * (materials.friction[a] + walls.friction[w]), mu_r, radius,
                 grains.mass[p], grains.inertia[p], dt)
             moment_i, _ = contact_moments(n, f_t, torque, d, 0.0)
