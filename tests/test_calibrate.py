@@ -81,12 +81,15 @@ def _file(folder, name, **values):
 def whole(truth):
     folder, modulus, strength = truth
     path = _file(folder, "calib.toml", budget=6, modulus=modulus, strength=strength)
-    summary = run_calibration(path, folder / "whole")
-    return path, summary
+    stages = []
+    summary = run_calibration(path, folder / "whole", stage=stages.append)
+    return path, summary, stages
 
 
 def test_recovers_the_identifiable_parameters_and_says_which_is_not(whole):
-    _, summary = whole
+    _, summary, stages = whole
+    # the runs after the trials are announced (the progress bar is full by then)
+    assert stages == ["identifiability: 3 runs, each parameter moved by 5 % of its range"]
     best = summary["best"]["parameters"]
     assert best["specimen.bond_material.young_modulus"] == pytest.approx(TRUE_MODULUS,
                                                                          rel=0.03)
@@ -102,7 +105,7 @@ def test_recovers_the_identifiable_parameters_and_says_which_is_not(whole):
 
 
 def test_a_killed_calibration_resumes_to_the_same_result(whole, truth):
-    path, summary = whole
+    path, summary, _ = whole
     folder = truth[0]
     out = folder / "cut"
     assert run_calibration(path, out, stop_after=3) is None     # mid-way through a batch

@@ -366,12 +366,14 @@ def _safe(spec, test, overrides):
 
 
 def run_calibration(calibration, out_dir, *, scheduler="serial", workers=None,
-                    resume=False, stop_after=None, progress=None):
+                    resume=False, stop_after=None, progress=None, stage=None):
     """Run a Calibration (or a calibration file) into ``out_dir``: calibration.csv (every
     trial), calibration.json (the best set, the consistent sets, identifiability,
     predictions over seeds) and figures. scheduler: "serial" (this process), None (a
     LocalCluster of ``workers`` processes) or a scheduler address; resume: continue from
-    the table there; stop_after: stop after this many trials (a planned interruption).
+    the table there; stop_after: stop after this many trials (a planned interruption);
+    progress(done, budget, misfit) after each trial; stage(text) when the runs after the
+    trials begin (identifiability, seeds).
     Returns the summary dict; raises CalibrationFailed when no trial meets the targets."""
     import optuna
     if not isinstance(calibration, Calibration):
@@ -437,7 +439,7 @@ def run_calibration(calibration, out_dir, *, scheduler="serial", workers=None,
         if not any(math.isfinite(r["misfit"]) for r in rows.values()):
             first = next(iter(evaluator.errors.values()), "no numbers came back")
             raise CalibrationFailed(f"every trial failed; the first: {first}")
-        summary = summarise(calibration, rows, evaluator)
+        summary = summarise(calibration, rows, evaluator, stage)
     finally:
         evaluator.close()
     (out_dir / "calibration.json").write_text(json.dumps(_clean(summary), indent=2) + "\n")
@@ -468,9 +470,10 @@ def _clean(value):
     return value
 
 
-def summarise(calibration, rows, evaluator):
+def summarise(calibration, rows, evaluator, stage=None):
     """Best set, consistent sets, identifiability (spread and linearised uncertainty) and
-    the best set's predictions over the check seeds."""
+    the best set's predictions over the check seeds; stage(text) is told each phase."""
+    stage = stage or (lambda text: None)
     names = [t.name for t in calibration.targets]
     order = sorted(rows.values(), key=lambda r: r["misfit"])
     best = order[0]
@@ -490,6 +493,9 @@ def summarise(calibration, rows, evaluator):
                         if p.log else p.low + (u + h) * (p.high - p.low))
         jobs[-(k + 1)] = moved
     base = {t.name: best[t.name] for t in calibration.targets}
+    tests = len(calibration.tests)
+    stage(f"identifiability: {len(jobs) * tests} runs, each parameter moved by 5 % of its "
+          f"range")
     moved = evaluator.run(jobs)
     jacobian = np.zeros((len(names), len(calibration.parameters)))
     for k, p in enumerate(calibration.parameters):
@@ -518,6 +524,8 @@ def summarise(calibration, rows, evaluator):
                 "weakly identified: +-{:.0%} of its range".format(sigma))}
     seeds = {}
     if calibration.check_seeds:
+        stage(f"seed scatter: {len(calibration.check_seeds) * tests} runs on specimen seeds "
+              f"{calibration.check_seeds}")
         runs = evaluator.run({-(100 + k): {**params, "specimen.seed": s}
                               for k, s in enumerate(calibration.check_seeds)})
         for t in calibration.targets:

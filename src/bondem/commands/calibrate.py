@@ -34,9 +34,13 @@ def command(calibration, out_dir, scheduler, workers, resume, overwrite):
         bar.set_postfix_str(f"misfit {value:.3g}")
         bar.refresh()
 
+    def stage(text):
+        bar.set_postfix_str(text)
+        bar.refresh()
+
     try:
         summary = run_calibration(loaded, out_dir, scheduler=scheduler, workers=workers,
-                                  resume=resume, progress=progress)
+                                  resume=resume, progress=progress, stage=stage)
     except CalibrationFailed as error:
         bar.close()
         click.echo(f"bondem: calibration failed: {error} (table: "
