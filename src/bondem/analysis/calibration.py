@@ -13,7 +13,9 @@ CAPTIONS = {
                            "target (1 = met), with the scatter over the check seeds and the "
                            "target's uncertainty (band).",
     "calibration_parameters": "Every trial's parameters (pairwise), coloured by log10 of the "
-                              "misfit; the sets consistent with all targets are circled.",
+                              "misfit (dark: far from the targets); the sets consistent with "
+                              "all targets are circled. Diagonal: trials per bin of each "
+                              "parameter's bounds, the consistent ones in green.",
 }
 
 
@@ -47,23 +49,31 @@ def write_figures(calibration, rows, summary, out_dir):
     colour = np.log10(np.clip(np.where(np.isfinite(misfit), misfit, 1e6), 1e-6, 1e6))
     good = {c["trial"] for c in summary["consistent"]}
     mask = np.array([int(r["trial"]) in good for r in rows.values()])
+    from matplotlib.ticker import NullFormatter
     for i, pi in enumerate(params):
         for j, pj in enumerate(params):
             ax = axes[i, j]
             if i == j:
-                ax.hist(values[pi.key], bins=12, color="0.6")
-                ax.hist(values[pi.key][mask], bins=12, color="C2")
+                # bins over the parameter's bounds, spaced as it is searched
+                bins = (np.geomspace(pi.low, pi.high, 13) if pi.log
+                        else np.linspace(pi.low, pi.high, 13))
+                ax.hist(values[pi.key], bins=bins, color="0.6", label="trials")
+                ax.hist(values[pi.key][mask], bins=bins, color="C2", label="consistent")
             else:
                 ax.scatter(values[pj.key], values[pi.key], c=colour, s=12, cmap="viridis_r")
                 ax.scatter(values[pj.key][mask], values[pi.key][mask], s=40,
                            facecolors="none", edgecolors="C3")
-            for p, setter in ((pj, ax.set_xscale), (pi, ax.set_yscale)):
-                if p.log and not (i == j and p is pi):
+            for p, axis, setter in ((pj, ax.xaxis, ax.set_xscale),
+                                    (pi, ax.yaxis, ax.set_yscale)):
+                if p.log and not (i == j and axis is ax.yaxis):
                     setter("log")
+                    axis.set_minor_formatter(NullFormatter())   # the decades only
+            ax.tick_params(labelsize=7)
             if i == n - 1:
                 ax.set_xlabel(pj.key.rsplit(".", 2)[-1], fontsize=8)
             if j == 0:
-                ax.set_ylabel(pi.key.rsplit(".", 2)[-1], fontsize=8)
+                ax.set_ylabel(pi.key.rsplit(".", 2)[-1] if i else
+                              f"{pi.key.rsplit('.', 2)[-1]}\n(trials)", fontsize=8)
     fig.tight_layout()
     fig.savefig(out_dir / "calibration_parameters.png", dpi=90)
     plt.close(fig)
