@@ -52,6 +52,30 @@ def test_sphere_sphere(restitution):
     assert np.allclose(model.mass @ state.velocity, 0.0, atol=1e-18)
 
 
+def test_two_materials_collide_with_their_pair_properties():
+    """Unlike spheres: E* = 1/((1 - nu_a^2)/E_a + (1 - nu_b^2)/E_b) (Hertz), the mean
+    restitution and m* of the two masses; a third material in the table, unused, must not
+    be read (the pair's row is a M + b)."""
+    soft = bondem.Material(density=2500.0, young_modulus=1e8, poisson_ratio=0.3,
+                           restitution=0.9, friction=0.3, name="soft")
+    stiff = bondem.Material(density=5000.0, young_modulus=4e8, poisson_ratio=0.2,
+                            restitution=0.5, friction=0.3, name="stiff")
+    unused = bondem.Material(density=1000.0, young_modulus=1e10, poisson_ratio=0.45,
+                             restitution=0.1, friction=0.9, name="unused")
+    model, state = bondem.make_system([[0, 0, 0], [2 * RADIUS + 1e-6, 0, 0]], RADIUS,
+                                      [unused, soft, stiff], material_index=[1, 2],
+                                      velocity=[[SPEED, 0, 0], [-SPEED, 0, 0]])
+    sim, steps = collide(model, state)
+    e_star = 1.0 / ((1 - 0.3 ** 2) / 1e8 + (1 - 0.2 ** 2) / 4e8)
+    m_star = model.mass[0] * model.mass[1] / (model.mass[0] + model.mass[1])
+    t_ref, e_ref = damped_hertz_reference(e_star, RADIUS / 2, m_star, 0.7, 2 * SPEED)
+    after = (state.velocity[1, 0] - state.velocity[0, 0]) / (2 * SPEED)
+    assert after == pytest.approx(0.7, rel=0.01) and e_ref == pytest.approx(0.7, abs=1e-4)
+    assert steps * sim.time_step == pytest.approx(t_ref, rel=0.02)
+    before = (model.mass[0] - model.mass[1]) * SPEED
+    assert np.allclose(model.mass @ state.velocity, [before, 0.0, 0.0], rtol=0, atol=1e-18)
+
+
 @pytest.mark.parametrize("restitution", [1.0, 0.5])
 @pytest.mark.parametrize("where", ["plane", "mesh_vertex", "mesh_edge"])
 def test_sphere_wall(restitution, where):
