@@ -17,7 +17,12 @@ from ..walls import PLANE, WallSet, build_wall_pairs
 from . import cpu, loops
 from .cpu import CHUNK, L, _jit, _serial, chunks
 
-pair_contact = L.pair_contact
+# The pair loop inlines its physics as well (Hertz-Mindlin, friction and rolling): a
+# touching row ~20 % cheaper (113 -> 92 ns, one thread, 10^4 bed), for a few seconds more
+# compile of this kernel alone; the other kernels call their physics (faster compile).
+_INLINED = loops.compile_loops(numba.njit(cache=False, inline="always"),
+                               numba.njit(cache=False, inline="always"))
+pair_contact = _INLINED.pair_contact
 pair_rows_sum = L.pair_rows_sum
 wall_contacts_of = L.wall_contacts_of
 add_wall_rows = L.add_wall_rows
