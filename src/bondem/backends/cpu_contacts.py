@@ -18,8 +18,9 @@ from . import cpu, loops
 from .cpu import CHUNK, L, _jit, _serial, chunks
 
 # The pair loop inlines its physics as well (Hertz-Mindlin, friction and rolling): a
-# touching row ~20 % cheaper (113 -> 92 ns, one thread, 10^4 bed), for a few seconds more
-# compile of this kernel alone; the other kernels call their physics (faster compile).
+# touching row costs half (113 -> 49-58 ns, one thread, 10^4 bed, the kernel alone), for
+# ~8 s more compile of this kernel alone. The other kernels call their physics: inlined
+# everywhere, the first compile took twice as long.
 _INLINED = loops.compile_loops(numba.njit(cache=False, inline="always"),
                                numba.njit(cache=False, inline="always"))
 pair_contact = _INLINED.pair_contact
