@@ -121,6 +121,25 @@ def test_a_killed_calibration_resumes_to_the_same_result(whole, truth):
         summary["best"]["trial"]
 
 
+def test_the_runs_after_the_trials_survive_a_kill(whole, truth, monkeypatch):
+    """The identifiability runs are kept as they finish (calibration_checks.json): a
+    calibration killed after them resumes without running anything again, and one whose
+    kept runs were lost runs exactly those again."""
+    import bondem.calibrate as calibrate
+    path, summary, _ = whole
+    out = truth[0] / "whole"
+    kept = json.loads((out / "calibration_checks.json").read_text())
+    assert len(kept) == 3     # one run per parameter, one test
+    calls = []
+    real = calibrate._safe
+    monkeypatch.setattr(calibrate, "_safe", lambda *a: calls.append(a) or real(*a))
+    again = run_calibration(path, out, resume=True)
+    assert calls == [] and again["identifiability"] == summary["identifiability"]
+    (out / "calibration_checks.json").unlink()
+    again = run_calibration(path, out, resume=True)
+    assert len(calls) == 3 and again["identifiability"] == summary["identifiability"]
+
+
 def test_unreachable_targets_fail_with_a_message(truth):
     folder, modulus, strength = truth
     path = _file(folder, "far.toml", budget=4, modulus=modulus * 100, strength=strength)

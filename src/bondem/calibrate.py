@@ -304,6 +304,11 @@ class _Evaluator:
         self.calibration = calibration
         self.client = self.cluster = None
         self.errors = {}    # trial: the first failure's message
+        # keep(path): from then on each finished run's numbers are kept in that JSON file,
+        # and a run already there is not run again (the runs after the trials, which the
+        # table does not hold, survive a kill)
+        self.kept_path = None
+        self.kept = {}
         if scheduler == "serial":
             return
         from distributed import Client, LocalCluster
@@ -324,20 +329,42 @@ class _Evaluator:
         else:
             self.client = scheduler
 
+    def keep(self, path):
+        """Keep finished runs in ``path`` (JSON) and take those already there."""
+        self.kept_path = Path(path)
+        try:
+            self.kept = json.loads(self.kept_path.read_text())
+        except (OSError, ValueError):
+            self.kept = {}   # none yet, or cut by a kill: those runs are simply redone
+
+    def _kept(self, key, numbers):
+        if self.kept_path is None or "error" in numbers:
+            return
+        names = {t.name for t in self.calibration.targets}
+        self.kept[key] = {k: v for k, v in numbers.items() if k in names}
+        partial = self.kept_path.with_suffix(".tmp")
+        partial.write_text(json.dumps(_clean(self.kept)))
+        partial.replace(self.kept_path)
+
     def run(self, jobs):
         """jobs: {trial: overrides}; returns {trial: predictions of the targets}."""
         cal = self.calibration
-        work = [(trial, test, overrides) for trial, overrides in jobs.items()
-                for test in cal.tests]
+        work = {(trial, test): {**cal.test_overrides.get(test, {}), **overrides}
+                for trial, overrides in jobs.items() for test in cal.tests}
+        keys = {item: json.dumps([item[1], sorted(merged.items())])
+                for item, merged in work.items()}
+        done = {item: self.kept[keys[item]] for item in work if keys[item] in self.kept}
+        todo = {item: merged for item, merged in work.items() if item not in done}
         if self.client is None:
-            done = {(trial, test): _safe(cal.spec, test,
-                                         {**cal.test_overrides.get(test, {}), **overrides})
-                    for trial, test, overrides in work}
+            for (trial, test), merged in todo.items():
+                done[(trial, test)] = _safe(cal.spec, test, merged)
+                self._kept(keys[(trial, test)], done[(trial, test)])
         else:
-            futures = {(trial, test): self.client.submit(
-                _safe, cal.spec, test, {**cal.test_overrides.get(test, {}), **overrides},
-                pure=False) for trial, test, overrides in work}
-            done = {key: future.result() for key, future in futures.items()}
+            futures = {item: self.client.submit(_safe, cal.spec, item[1], merged, pure=False)
+                       for item, merged in todo.items()}
+            for item, future in futures.items():
+                done[item] = future.result()
+                self._kept(keys[item], done[item])
         out = {}
         for trial in jobs:
             predictions = {}
@@ -439,6 +466,7 @@ def run_calibration(calibration, out_dir, *, scheduler="serial", workers=None,
         if not any(math.isfinite(r["misfit"]) for r in rows.values()):
             first = next(iter(evaluator.errors.values()), "no numbers came back")
             raise CalibrationFailed(f"every trial failed; the first: {first}")
+        evaluator.keep(out_dir / "calibration_checks.json")
         summary = summarise(calibration, rows, evaluator, stage)
     finally:
         evaluator.close()
