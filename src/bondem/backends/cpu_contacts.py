@@ -17,12 +17,19 @@ from ..walls import PLANE, WallSet, build_wall_pairs
 from . import cpu, loops
 from .cpu import CHUNK, L, _jit, _serial, chunks
 
-# The pair loop inlines its physics as well (Hertz-Mindlin, friction and rolling): a
-# touching row costs half (113 -> 49-58 ns, one thread, 10^4 bed, the kernel alone), for
-# ~8 s more compile of this kernel alone. The other kernels call their physics: inlined
-# everywhere, the first compile took twice as long.
-_INLINED = loops.compile_loops(numba.njit(cache=False, inline="always"),
-                               numba.njit(cache=False, inline="always"))
+# The pair loop inlines its contact law as well (Hertz-Mindlin, friction and rolling, at
+# Numba's IR level; the small vector helpers LLVM inlines anyway): a touching row costs
+# half (113 -> ~55 ns, one thread, 10^4 bed, the kernel alone). Only these: inlining
+# every physics function made the first compile of the demo 29 -> 52 s.
+_LAWS = {"hertz_mindlin", "friction_and_rolling", "hertz_mindlin_musen_pp"}
+
+
+def _law_inlined(function):
+    return numba.njit(cache=False, inline="always" if function.__name__ in _LAWS
+                      else "never")(function)
+
+
+_INLINED = loops.compile_loops(numba.njit(cache=False, inline="always"), _law_inlined)
 pair_contact = _INLINED.pair_contact
 pair_rows_sum = L.pair_rows_sum
 wall_contacts_of = L.wall_contacts_of
