@@ -446,16 +446,17 @@ def pair_contact(c, pairs, pair_bond, bond_active, particles, grains, materials,
     if musen is not None and musen:
         a = grains.material[i]
         b = grains.material[j]
+        q = a * materials.young.shape[0] + b
+        table = materials.pair
+        # E*, friction and rolling friction as the SPEC's (the pair table); G* and the
+        # damping are MUSEN's own
         force_i, moment_i, moment_j, xi, f_t, energy = hertz_mindlin_musen_pp(
             r, overlap, radius[i], radius[j], vi, vj, wi, wj, row3(rows.spring, c),
-            row3(rows.tangential, c), effective_young_modulus(
-                materials.young[a], materials.poisson[a], materials.young[b],
-                materials.poisson[b]),
+            row3(rows.tangential, c), table[q, PAIR_E_STAR],
             musen_shear_modulus(materials.young[a], materials.poisson[a], materials.young[b],
                                 materials.poisson[b]),
             musen_alpha(0.5 * (materials.restitution[a] + materials.restitution[b])),
-            0.5 * (materials.friction[a] + materials.friction[b]),
-            0.5 * (materials.rolling[a] + materials.rolling[b]) if use_rolling else 0.0,
+            table[q, PAIR_FRICTION], table[q, PAIR_ROLLING] if use_rolling else 0.0,
             radius[i] * radius[j] / (radius[i] + radius[j]),
             grains.mass[i] * grains.mass[j] / (grains.mass[i] + grains.mass[j]), dt)
         store3(rows.tangential, c, f_t)
