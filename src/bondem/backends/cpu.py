@@ -299,6 +299,18 @@ def integrate(particles, bodies, force, moment, gravity, damping, kick_dt, drift
             status[0] = code
 
 
+@numba.njit(cache=True, nogil=True)
+def column_sums(a):
+    """Sum of each column of a (N,K) array, row after row: numpy's ``a.sum(axis=0)`` to
+    the bit (which adds this layout's rows in order too), without its per-row overhead
+    (0.15 ms for the 10^4 x 2 energies, a tenth of a contact bed's step; here 0.01)."""
+    out = np.zeros(a.shape[1])
+    for p in range(a.shape[0]):
+        for k in range(a.shape[1]):
+            out[k] += a[p, k]
+    return out
+
+
 # Serial: called once per frame, not per step; a parallel loop would cost ~0.7 s more
 # compilation on a first run for no measurable gain.
 @numba.njit(cache=True, fastmath=False, nogil=True)
@@ -473,8 +485,8 @@ class Integrator:
                   model.damping, kick_dt, drift_dt, box(model), self.status, track,
                   self.energy)
         if track:
-            # numpy's sum in a fixed order: the same bits whatever the thread count.
-            work, dissipated = self.energy.sum(axis=0)
+            # a sum in a fixed order: the same bits whatever the thread count.
+            work, dissipated = column_sums(self.energy)
             state.work_external += float(work)
             state.dissipated_damping += float(dissipated)
         return int(self.status[0])
