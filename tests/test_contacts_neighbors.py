@@ -17,6 +17,7 @@ from scipy.spatial import cKDTree
 import bondem
 from bondem.contacts import ContactSettings
 from bondem.neighbors import build_pairs, carry_history
+from bondem.status import SimulationBlowUp
 
 
 def brute_pairs(position, radius, skin, periodic, low, high):
@@ -61,6 +62,24 @@ def test_history_follows_pairs_across_rebuilds():
     new = np.array([[0, 5], [1, 2], [4, 7], [6, 7]])
     carried = carry_history(old, values, new, 8)
     assert np.array_equal(carried, [[3, 4, 5], [0, 0, 0], [9, 10, 11], [0, 0, 0]])
+
+
+def test_history_of_scalar_rows_and_duplicated_keys():
+    # energies are (M,) arrays; a key listed twice in the old list (a bond given twice)
+    # maps to its first row, as a search for the leftmost match does
+    old = np.array([[0, 1], [2, 3], [2, 3], [4, 7]])
+    new = np.array([[0, 1], [2, 3], [3, 4], [4, 7]])
+    carried = carry_history(old, np.array([1.0, 2.0, 3.0, 4.0]), new, 8)
+    assert np.array_equal(carried, [1.0, 2.0, 0.0, 4.0])
+
+
+@pytest.mark.parametrize("row", [0, 7, 19])
+def test_a_nan_position_anywhere_stops_the_neighbour_grid(row):
+    position = np.random.default_rng(1).uniform(0.0, 0.01, (20, 3))
+    position[row, 1] = np.nan
+    with pytest.raises(SimulationBlowUp):
+        build_pairs(position, np.full(20, 1e-3), 1e-4, np.zeros(3, bool), np.zeros(3),
+                    np.full(3, 0.01))
 
 
 def gas(n_side=6, friction=0.3, rolling=0.05, seed=3):

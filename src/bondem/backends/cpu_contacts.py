@@ -160,12 +160,25 @@ def pair_rows(extra, dissipated):
                           extra.get("contact_tangential", NO_TANGENTIAL))
 
 
-def csr_by(index, n):
-    """(start (n+1,), order) grouping rows by ``index`` (stable)."""
-    order = np.argsort(index, kind="stable").astype(np.int64)
+@numba.njit(cache=True, nogil=True)
+def _counting_sort(index, n):
     start = np.zeros(n + 1, dtype=np.int64)
-    np.cumsum(np.bincount(index, minlength=n), out=start[1:])
+    for r in range(index.shape[0]):
+        start[index[r] + 1] += 1
+    for p in range(n):
+        start[p + 1] += start[p]
+    fill = start[:-1].copy()
+    order = np.empty(index.shape[0], dtype=np.int64)
+    for r in range(index.shape[0]):
+        order[fill[index[r]]] = r
+        fill[index[r]] += 1
     return start, order
+
+
+def csr_by(index, n):
+    """(start (n+1,), order) grouping rows by ``index`` (values in 0..n-1; stable: a
+    counting sort, O(rows + n))."""
+    return _counting_sort(np.ascontiguousarray(index, dtype=np.int64), n)
 
 
 class ContactLaw:
@@ -209,8 +222,8 @@ class ContactLaw:
             raise ValueError(f"periodic box lengths {self._box_length[model.periodic].tolist()} "
                              f"m must be at least twice the contact cut-off {cutoff:.3g} m")
         bonds = np.sort(model.bond_pairs, axis=1)
-        self._bond_key = bonds[:, 0] * np.int64(n) + bonds[:, 1]
-        self._bond_order = np.argsort(self._bond_key, kind="stable")
+        self._bond_order = np.argsort(bonds[:, 0] * np.int64(n) + bonds[:, 1], kind="stable")
+        self._bonds_sorted = np.ascontiguousarray(bonds[self._bond_order])
         self._derived_for = None
         self._last_state = None
         self._t_wall = 0.0   # s, where the walls stand for the step being evaluated
@@ -324,12 +337,10 @@ class ContactLaw:
         n = model.n_particles
         pairs = extra["contact_pairs"]
         self._pair_bond = np.full(pairs.shape[0], -1, dtype=np.int64)
-        if self._bond_key.size and pairs.shape[0] and not self.settings.bonded_pairs:
-            key_pairs = pairs[:, 0] * np.int64(n) + pairs[:, 1]
-            sorted_keys = self._bond_key[self._bond_order]
-            where = np.minimum(np.searchsorted(sorted_keys, key_pairs), sorted_keys.size - 1)
-            hit = sorted_keys[where] == key_pairs
-            self._pair_bond[hit] = self._bond_order[where[hit]]
+        if self._bonds_sorted.shape[0] and pairs.shape[0] and not self.settings.bonded_pairs:
+            # the bonds sorted by key, matched to the pairs like the rows of a rebuild
+            rows, where = history_map(self._bonds_sorted, pairs, n)
+            self._pair_bond[rows] = self._bond_order[where]
         self._bond_row = np.full(model.n_bonds, -1, dtype=np.int64)
         held = np.flatnonzero(self._pair_bond >= 0)
         self._bond_row[self._pair_bond[held]] = held
