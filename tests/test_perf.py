@@ -219,3 +219,27 @@ def test_bench_impact_and_bed_scenes(tmp_path, scene):
     assert abs((state.position[:, 2] - model.radius).min()) < 0.05 * model.radius[0]
     bad = CliRunner().invoke(main, ["bench", scene, "--sizes", "10"])
     assert bad.exit_code == 2 and "[100, 10000000]" in bad.output
+
+
+def test_profile_times_the_same_work_as_a_step():
+    """The profile's parts (lists, contacts, walls, integration timed one at a time) must
+    add up to the step it times: a bed profiled for 12 steps ends where 13 steps of
+    ``step`` do, to the bit, and every contact part took time."""
+    runs = []
+    for profiled in (True, False):
+        model, state, walls = bench.bed_system(400)
+        sim, _ = bench.scene_simulation(model, state, walls)
+        sim.step(20)
+        if profiled:
+            median, best, mean = bench.profile_step(sim, steps=12)
+            assert all(mean[k] > 0.0 for k in ("neighbour lists", "contacts", "walls",
+                                               "integrate"))
+            assert best["contacts"] <= median["contacts"]
+        else:
+            sim.step(13)
+        runs.append(sim.state)
+    assert runs[0].step == runs[1].step
+    for name in ("position", "velocity", "angular_velocity"):
+        np.testing.assert_array_equal(getattr(runs[0], name), getattr(runs[1], name))
+    np.testing.assert_array_equal(runs[0].extra["contact_spring"],
+                                  runs[1].extra["contact_spring"])

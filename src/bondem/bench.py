@@ -164,11 +164,11 @@ def lattice_run(n, steps, *, variant="intact", backend="cpu", order="morton", wa
         model, state = reorder_system(model, state, spatial_order(state.position, 2 * RADIUS))
     sim, notes = make_simulation(model, state, backend=backend, contacts=contacts)
     figures, _ = timed_figures(sim, steps, warmup, time.perf_counter() - t0)
-    parts, best_parts = (profile_step(sim) if profile and backend == "cpu"
-                         else (None, None))
+    parts, best_parts, mean_parts = (profile_step(sim) if profile and backend == "cpu"
+                                     else (None, None, None))
     return {"scene": "lattice", "n": n, "variant": variant, "backend": backend,
             "order": order, "notes": notes, **figures,
-            "profile": parts, "profile_best": best_parts}
+            "profile": parts, "profile_best": best_parts, "profile_mean": mean_parts}
 
 
 def timed_figures(sim, steps, warmup, setup):
@@ -229,41 +229,59 @@ def memory_estimate(result, particles=1_000_000, bonds_per_particle=3.0):
 
 
 def profile_step(sim, steps=40):
-    """Wall seconds per step of each part of the CPU step (zero, bonds, gather, other laws,
-    integrate), timed one kernel at a time over ``steps`` steps (same work as ``step``).
+    """Wall seconds per step of each part of the CPU step, timed one part at a time over
+    ``steps`` steps (the same work as ``step``): zeroing the loads, the bond kernel, the
+    bonds' gather, the contact law's neighbour lists (rebuild and derived indices),
+    particle contacts (kernel and gather) and walls, other laws, integration.
 
-    Returns (median, best): dicts of each part's median and minimum over the steps. On a
-    shared machine a step now and then waits for a preempted thread, which swings a mean
-    by tens of percent; the minimum is what the hardware can do (compare it with the
-    triad, itself a best of 5).
+    Returns (median, best, mean): dicts of each part's median, minimum and mean over the
+    steps. On a shared machine a step now and then waits for a preempted thread, which
+    swings a mean by tens of percent; the minimum is what the hardware can do (compare it
+    with the triad, itself a best of 5). The lists are rebuilt every few steps only, so
+    their median is the cost of a step without a rebuild and their mean the average.
     """
     model, state = sim.model, sim.state
     bonds = sim.bonds
-    names = ("zero loads", "bond kernel", "gather", "other laws", "integrate")
+    contacts = [law for law in sim.laws[1:] if hasattr(law, "update_lists")]
+    others = [law for law in sim.laws[1:] if not hasattr(law, "update_lists")]
+    names = ("zero loads", "bond kernel", "gather", "neighbour lists", "contacts", "walls",
+             "other laws", "integrate")
     samples = np.zeros((steps, len(names)))
     dt = sim.time_step
     sim.step(1)
     bonds.compute(model, state, dt)          # compile the kernels the step does not use
     bonds.gather(sim.force, sim.moment)
     for rep in range(steps):
-        t = time.perf_counter()
+        clock = [time.perf_counter()]
         sim.force.fill(0.0)
         sim.moment.fill(0.0)
-        t1 = time.perf_counter()
+        clock.append(time.perf_counter())
         bonds.compute(model, state, dt)
-        t2 = time.perf_counter()
+        clock.append(time.perf_counter())
         bonds.gather(sim.force, sim.moment)
-        t3 = time.perf_counter()
-        for law in sim.laws[1:]:
+        clock.append(time.perf_counter())
+        moved = [law.update_lists(model, state, dt) for law in contacts]
+        clock.append(time.perf_counter())
+        for law, moved_dt in zip(contacts, moved):
+            law.pair_loads(model, state, sim.force, sim.moment, dt, moved_dt)
+        clock.append(time.perf_counter())
+        for law, moved_dt in zip(contacts, moved):
+            law.wall_loads(model, state, sim.force, sim.moment, dt, moved_dt)
+        clock.append(time.perf_counter())
+        for law in others:
             law.accumulate(model, state, sim.force, sim.moment, dt)
-        t4 = time.perf_counter()
+        clock.append(time.perf_counter())
         sim.integrator.advance(model, state, sim.force, sim.moment, dt, dt)
         state.time += dt
         state.step += 1
-        t5 = time.perf_counter()
-        samples[rep] = (t1 - t, t2 - t1, t3 - t2, t4 - t3, t5 - t4)
-    return (dict(zip(names, (float(x) for x in np.median(samples, axis=0)))),
-            dict(zip(names, (float(x) for x in samples.min(axis=0)))))
+        clock.append(time.perf_counter())
+        samples[rep] = np.diff(clock)
+
+    def table(values):
+        return dict(zip(names, (float(x) for x in values)))
+
+    return (table(np.median(samples, axis=0)), table(samples.min(axis=0)),
+            table(samples.mean(axis=0)))
 
 
 def bond_roofline_share(bond_kernel_s_per_step, bonds, bandwidth):
@@ -427,15 +445,15 @@ def scene_run(scene, particles, steps, *, backend="cpu", warmup=5, profile=False
     sim, options = scene_simulation(model, state, walls, backend)
     figures, (active0, active1) = timed_figures(sim, steps, warmup, time.perf_counter() - t0)
     touching = sim.contacts.touching() if sim.contacts is not None else (0, 0)
-    parts, best_parts = (profile_step(sim) if profile and backend == "cpu"
-                         else (None, None))
+    parts, best_parts, mean_parts = (profile_step(sim) if profile and backend == "cpu"
+                                     else (None, None, None))
     return {
         "scene": scene, "n": model.n_particles, "backend": backend, **figures,
         "warmup": warmup, "time_step": sim.time_step,
         "notes": [f"contacts touching at the end (pairs, walls): {touching}; bonds broken "
                   f"in the timed steps: {active0 - active1}"],
         "touching_pairs": touching[0], "touching_walls": touching[1],
-        "profile": parts, "profile_best": best_parts,
+        "profile": parts, "profile_best": best_parts, "profile_mean": mean_parts,
         "_system": (model, initial, options),
     }
 

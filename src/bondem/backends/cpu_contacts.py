@@ -376,50 +376,68 @@ class ContactLaw:
     def accumulate(self, model, state, force, moment, increment_dt):
         """Add contact and wall loads (N, N m) for the state at the start of the step;
         advance the tangential springs by ``increment_dt`` (s)."""
+        moved_dt = self.update_lists(model, state, increment_dt)
+        self.pair_loads(model, state, force, moment, increment_dt, moved_dt)
+        self.wall_loads(model, state, force, moment, increment_dt, moved_dt)
+
+    def update_lists(self, model, state, increment_dt):
+        """The step's first part: rebuild the pair and wall lists if something moved more
+        than skin/2 and derive their indices; returns the time (s) since the last
+        evaluation (``pair_loads``, ``wall_loads``)."""
         self._last_state = state
         self._t_wall = self.wall_time(state, increment_dt)
         if self._needs_rebuild(model, state):
             self._rebuild(model, state)
         self._derive(model, state)
-        extra = state.extra
-        counters = extra["contact_counters"]
+        counters = state.extra["contact_counters"]
         moved_dt = state.time - counters[3]  # 0 after the start-up kick: nothing moved
         counters[3] = state.time
-        use_rolling = bool(self.settings.rolling_resistance)
-        particles = cpu.particles(state)
-        grains = self.grains(model)
-        if extra["contact_pairs"].shape[0]:
-            rows = pair_rows(extra, self._dissipated)
-            particle_contacts(
-                self._live, extra["contact_pairs"], self._pair_bond, state.bond_active,
-                particles, grains, self._materials, self.pair_law, self._linear_stiffness,
-                use_rolling, cpu.box(model), rows, increment_dt, moved_dt,
+        return moved_dt
+
+    def pair_loads(self, model, state, force, moment, increment_dt, moved_dt):
+        """Add the particle-particle contacts' loads (N, N m) after ``update_lists``."""
+        extra = state.extra
+        if not extra["contact_pairs"].shape[0]:
+            return
+        rows = pair_rows(extra, self._dissipated)
+        particle_contacts(
+            self._live, extra["contact_pairs"], self._pair_bond, state.bond_active,
+            cpu.particles(state), self.grains(model), self._materials, self.pair_law,
+            self._linear_stiffness, bool(self.settings.rolling_resistance), cpu.box(model),
+            rows, increment_dt, moved_dt, True if self.musen_compat else None)
+        gather_pair_loads(
+            loops.PairIndex(self._i_start, self._i_order, self._j_start, self._j_order),
+            rows, force, moment)
+        extra["contact_counters"][0] += float(self._dissipated.sum())
+
+    def wall_loads(self, model, state, force, moment, increment_dt, moved_dt):
+        """Add the particle-wall contacts' loads (N, N m) after ``update_lists``; the
+        walls' totals go to ``wall_force`` and ``wall_torque``."""
+        if not self.walls.n_walls:
+            return
+        extra = state.extra
+        counters = extra["contact_counters"]
+        wall_pairs = extra["wall_pairs"]
+        if wall_pairs.shape[0]:
+            wall_contacts(
+                self._wall_near, self._wall_start, wall_pairs,
+                self.wall_tuple(self._t_wall, still=self._walls_still(state)),
+                cpu.particles(state), self.grains(model), self._materials,
+                self.wall_law, self._wall_stiffness, bool(self.settings.rolling_resistance),
+                self._triangles,
+                loops.WallRows(extra["wall_spring"], extra["wall_force_rows"],
+                               extra["wall_moment_rows"], extra["wall_energy_rows"],
+                               self._w_dissipated, self._w_work, self._w_distance,
+                               self._w_point, self._w_feature,
+                               extra.get("wall_tangential", NO_TANGENTIAL)),
+                increment_dt, moved_dt, force, moment,
                 True if self.musen_compat else None)
-            gather_pair_loads(
-                loops.PairIndex(self._i_start, self._i_order, self._j_start, self._j_order),
-                rows, force, moment)
-            counters[0] += float(self._dissipated.sum())
-        if self.walls.n_walls:
-            wall_pairs = extra["wall_pairs"]
-            if wall_pairs.shape[0]:
-                wall_contacts(
-                    self._wall_near, self._wall_start, wall_pairs,
-                    self.wall_tuple(self._t_wall, still=self._walls_still(state)),
-                    particles, grains, self._materials,
-                    self.wall_law, self._wall_stiffness, use_rolling, self._triangles,
-                    loops.WallRows(extra["wall_spring"], extra["wall_force_rows"],
-                                   extra["wall_moment_rows"], extra["wall_energy_rows"],
-                                   self._w_dissipated, self._w_work, self._w_distance,
-                                   self._w_point, self._w_feature,
-                                   extra.get("wall_tangential", NO_TANGENTIAL)),
-                    increment_dt, moved_dt, force, moment,
-                    True if self.musen_compat else None)
-                counters[0] += float(self._w_dissipated.sum())
-                counters[1] += float(self._w_work.sum())
-            wall_totals(wall_pairs, self.walls.element_wall, self._w_point,
-                                extra["wall_force_rows"], extra["wall_moment_rows"],
-                                state.position, model.radius, self.walls.positions(self._t_wall),
-                                self.wall_force, self.wall_torque)
+            counters[0] += float(self._w_dissipated.sum())
+            counters[1] += float(self._w_work.sum())
+        wall_totals(wall_pairs, self.walls.element_wall, self._w_point,
+                    extra["wall_force_rows"], extra["wall_moment_rows"],
+                    state.position, model.radius, self.walls.positions(self._t_wall),
+                    self.wall_force, self.wall_torque)
 
     def grains(self, model, put=lambda a: a):
         """The particle constants the contact bodies read, as a ``loops.Grains``."""
