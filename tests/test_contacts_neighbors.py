@@ -54,6 +54,11 @@ def test_verlet_list_equals_brute_force(periodic, n, box):
     assert set(map(tuple, pairs.tolist())) == brute_pairs(position, radius, skin, periodic,
                                                           low, high)
     assert len(pairs) > (3 if n < 100 else 100)
+    # one pass into rows of a given room, with the two passes as fallback when a row is
+    # longer (room 1): the same list
+    for room in (1, 64):
+        np.testing.assert_array_equal(
+            build_pairs(position, radius, skin, periodic, low, high, row_room=room), pairs)
 
 
 def test_history_follows_pairs_across_rebuilds():

@@ -181,6 +181,46 @@ def csr_by(index, n):
     return _counting_sort(np.ascontiguousarray(index, dtype=np.int64), n)
 
 
+@numba.njit(cache=True, nogil=True)
+def _insert_rows(live, j_order, i_start, j_start, pairs, rows):
+    """``live`` (ascending) and ``j_order`` (grouped by j, ascending within) with the
+    ascending ``rows`` merged in where a full derivation would put them; the CSR offsets
+    i_start, j_start (n+1,) grow in place. Returns (live, j_order)."""
+    n = i_start.shape[0] - 1
+    merged = np.empty(live.shape[0] + rows.shape[0], dtype=np.int64)
+    a = 0
+    for b in range(merged.shape[0]):
+        if a < live.shape[0] and (b - a >= rows.shape[0] or live[a] < rows[b - a]):
+            merged[b] = live[a]
+            a += 1
+        else:
+            merged[b] = rows[b - a]
+    added_i = np.zeros(n + 1, dtype=np.int64)
+    added_j = np.zeros(n + 1, dtype=np.int64)
+    for r in rows:
+        added_i[pairs[r, 0] + 1] += 1
+        added_j[pairs[r, 1] + 1] += 1
+    for p in range(n):
+        added_i[p + 1] += added_i[p]
+        added_j[p + 1] += added_j[p]
+        i_start[p + 1] += added_i[p + 1]
+        j_start[p + 1] += added_j[p + 1]
+    # the new rows by (j, row), merged into j_order, which is sorted by the same key
+    size = pairs.shape[0]
+    new_key = np.sort(pairs[rows, 1] * size + rows)
+    grouped = np.empty(j_order.shape[0] + rows.shape[0], dtype=np.int64)
+    a = 0
+    for b in range(grouped.shape[0]):
+        taken = b - a
+        if a < j_order.shape[0] and (taken >= new_key.shape[0] or
+                                     pairs[j_order[a], 1] * size + j_order[a] < new_key[taken]):
+            grouped[b] = j_order[a]
+            a += 1
+        else:
+            grouped[b] = new_key[taken] % size
+    return merged, grouped
+
+
 class ContactLaw:
     """Particle-particle and particle-wall contacts on the CPU.
 
@@ -225,6 +265,7 @@ class ContactLaw:
         self._bond_order = np.argsort(bonds[:, 0] * np.int64(n) + bonds[:, 1], kind="stable")
         self._bonds_sorted = np.ascontiguousarray(bonds[self._bond_order])
         self._derived_for = None
+        self._row_room = 0      # room per row of the next pair search (build_pairs)
         self._last_state = None
         self._t_wall = 0.0   # s, where the walls stand for the step being evaluated
         self.wall_force = np.zeros((self.walls.n_walls, 3))
@@ -245,7 +286,11 @@ class ContactLaw:
         empty2 = np.zeros((0, 2), np.int64)
         if self.pair_law >= 0:
             pairs = build_pairs(position, model.radius, self.skin, model.periodic,
-                                model.box_low, model.box_high)
+                                model.box_low, model.box_high, self._row_room)
+            # the next search runs once if no row outgrows the longest of this one by
+            # more than a quarter (else it counts first, as this first one did)
+            longest = int(np.bincount(pairs[:, 0]).max()) if pairs.shape[0] else 0
+            self._row_room = longest + max(4, longest // 4)
         else:
             pairs = empty2
         pair_history, wall_history = self.history()
@@ -314,17 +359,10 @@ class ContactLaw:
         rows = np.sort(rows[rows >= 0])
         if rows.size == 0:
             return
-        pairs = state.extra["contact_pairs"]
-        n = model.n_particles
-        self._live = np.insert(self._live, np.searchsorted(self._live, rows), rows)
+        self._live, self._j_order = _insert_rows(
+            self._live, self._j_order, self._i_start, self._j_start,
+            state.extra["contact_pairs"], rows)
         self._i_order = self._live
-        self._i_start[1:] += np.cumsum(np.bincount(pairs[rows, 0], minlength=n))
-        size = np.int64(pairs.shape[0])
-        key = pairs[self._j_order, 1] * size + self._j_order
-        new_key = np.sort(pairs[rows, 1] * size + rows)
-        self._j_order = np.insert(self._j_order, np.searchsorted(key, new_key),
-                                  new_key % size)
-        self._j_start[1:] += np.cumsum(np.bincount(pairs[rows, 1], minlength=n))
 
     def _derive(self, model, state):
         """CSR indices and bond lookup for the current lists (cached per list object)."""
