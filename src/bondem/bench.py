@@ -164,11 +164,8 @@ def lattice_run(n, steps, *, variant="intact", backend="cpu", order="morton", wa
         model, state = reorder_system(model, state, spatial_order(state.position, 2 * RADIUS))
     sim, notes = make_simulation(model, state, backend=backend, contacts=contacts)
     figures, _ = timed_figures(sim, steps, warmup, time.perf_counter() - t0)
-    parts, best_parts, mean_parts = (profile_step(sim) if profile and backend == "cpu"
-                                     else (None, None, None))
     return {"scene": "lattice", "n": n, "variant": variant, "backend": backend,
-            "order": order, "notes": notes, **figures,
-            "profile": parts, "profile_best": best_parts, "profile_mean": mean_parts}
+            "order": order, "notes": notes, **figures, **_profiles(sim, profile, backend)}
 
 
 def timed_figures(sim, steps, warmup, setup):
@@ -282,6 +279,13 @@ def profile_step(sim, steps=40):
 
     return (table(np.median(samples, axis=0)), table(samples.min(axis=0)),
             table(samples.mean(axis=0)))
+
+
+def _profiles(sim, profile, backend):
+    """The figures' "profile", "profile_best" and "profile_mean" (``profile_step``, CPU
+    only; None otherwise)."""
+    parts = profile_step(sim) if profile and backend == "cpu" else (None, None, None)
+    return dict(zip(("profile", "profile_best", "profile_mean"), parts))
 
 
 def bond_roofline_share(bond_kernel_s_per_step, bonds, bandwidth):
@@ -445,16 +449,13 @@ def scene_run(scene, particles, steps, *, backend="cpu", warmup=5, profile=False
     sim, options = scene_simulation(model, state, walls, backend)
     figures, (active0, active1) = timed_figures(sim, steps, warmup, time.perf_counter() - t0)
     touching = sim.contacts.touching() if sim.contacts is not None else (0, 0)
-    parts, best_parts, mean_parts = (profile_step(sim) if profile and backend == "cpu"
-                                     else (None, None, None))
     return {
         "scene": scene, "n": model.n_particles, "backend": backend, **figures,
         "warmup": warmup, "time_step": sim.time_step,
         "notes": [f"contacts touching at the end (pairs, walls): {touching}; bonds broken "
                   f"in the timed steps: {active0 - active1}"],
         "touching_pairs": touching[0], "touching_walls": touching[1],
-        "profile": parts, "profile_best": best_parts, "profile_mean": mean_parts,
-        "_system": (model, initial, options),
+        **_profiles(sim, profile, backend), "_system": (model, initial, options),
     }
 
 

@@ -98,26 +98,33 @@ def _pick(q, a, b, c):
 
 
 @numba.njit(cache=True, nogil=True)
+def counting_sort(index, n):
+    """Rows grouped by ``index`` (int64 values in 0..n-1), stable: (start (n+1,), order),
+    the rows of group g being order[start[g]:start[g+1]], ascending. O(rows + n)."""
+    start = np.zeros(n + 1, dtype=np.int64)
+    for r in range(index.shape[0]):
+        start[index[r] + 1] += 1
+    for g in range(n):
+        start[g + 1] += start[g]
+    fill = start[:-1].copy()
+    order = np.empty(index.shape[0], dtype=np.int64)
+    for r in range(index.shape[0]):
+        order[fill[index[r]]] = r
+        fill[index[r]] += 1
+    return start, order
+
+
+@numba.njit(cache=True, nogil=True)
 def bin_particles(position, low, width, counts, periodic):
     """Counting sort of particles into cells: (cell_start (C+1,), particles by cell (N,))."""
     n = position.shape[0]
-    n_cells = counts[0] * counts[1] * counts[2]
     cell = np.empty(n, dtype=np.int64)
-    cell_start = np.zeros(n_cells + 1, dtype=np.int64)
     for p in range(n):
         c0 = _axis_cell(position[p, 0], low[0], width[0], counts[0], periodic[0])
         c1 = _axis_cell(position[p, 1], low[1], width[1], counts[1], periodic[1])
         c2 = _axis_cell(position[p, 2], low[2], width[2], counts[2], periodic[2])
         cell[p] = (c0 * counts[1] + c1) * counts[2] + c2
-        cell_start[cell[p] + 1] += 1
-    for c in range(n_cells):
-        cell_start[c + 1] += cell_start[c]
-    fill = cell_start[:-1].copy()
-    order = np.empty(n, dtype=np.int64)
-    for p in range(n):
-        order[fill[cell[p]]] = p
-        fill[cell[p]] += 1
-    return cell_start, order
+    return counting_sort(cell, counts[0] * counts[1] * counts[2])
 
 
 @numba.njit(cache=True, nogil=True)
@@ -239,7 +246,7 @@ def build_pairs(position, radius, skin, periodic, box_low, box_high, row_room=0)
             np.cumsum(found, out=row_start[1:])
             out_j = np.empty(row_start[-1], dtype=np.int64)
             _compact_rows(buffer, row_room, row_start, out_j)
-            return _pairs(row_start, out_j)
+            return csr_pairs(row_start, out_j)
     else:
         _pair_pass(position, radius, skin, low, width, counts, periodic, box_length,
                    cell_start, order, row_start, 0, np.zeros(0, dtype=np.int64), found)
@@ -247,10 +254,10 @@ def build_pairs(position, radius, skin, periodic, box_low, box_high, row_room=0)
     out_j = np.empty(row_start[-1], dtype=np.int64)
     _pair_pass(position, radius, skin, low, width, counts, periodic, box_length,
                cell_start, order, row_start, 0, out_j, found)
-    return _pairs(row_start, out_j)
+    return csr_pairs(row_start, out_j)
 
 
-def _pairs(row_start, out_j):
+def csr_pairs(row_start, out_j):
     """(M,2) pairs from CSR rows: i repeated over its row, j."""
     out_i = np.repeat(np.arange(row_start.shape[0] - 1, dtype=np.int64), np.diff(row_start))
     return np.ascontiguousarray(np.column_stack([out_i, out_j]))

@@ -24,7 +24,7 @@ import numpy as np
 from numba import prange
 
 from .model import Material
-from .neighbors import grid_shape, sort_row
+from .neighbors import csr_pairs, grid_shape, sort_row
 from .physics import compile_physics
 
 closest_point_on_triangle = compile_physics(numba.njit(cache=False)).closest_point_on_triangle
@@ -606,5 +606,4 @@ def build_wall_pairs(position, radius, skin, rows, types):
     out_e = np.empty(row_start[-1], dtype=np.int64)
     _wall_pass(position, radius, float(skin), rows, types, low, width, counts, cell_start,
                items, row_start, out_e, True)
-    out_p = np.repeat(np.arange(n, dtype=np.int64), np.diff(row_start))
-    return np.ascontiguousarray(np.column_stack([out_p, out_e]))
+    return csr_pairs(row_start, out_e)

@@ -11,7 +11,8 @@ import numpy as np
 
 from ..contacts import (MODELS, MUSEN_PAIR_HISTORY, MUSEN_WALL_HISTORY, PAIR_HISTORY,
                         WALL_HISTORY, ContactSettings, contact_cutoff)
-from ..neighbors import build_pairs, carry_history, history_map, max_displacement
+from ..neighbors import (build_pairs, carry_history, counting_sort, history_map,
+                         max_displacement)
 from ..physics.contact_linear import MODEL_HERTZ
 from ..walls import PLANE, WallSet, build_wall_pairs
 from . import cpu, loops
@@ -160,25 +161,10 @@ def pair_rows(extra, dissipated):
                           extra.get("contact_tangential", NO_TANGENTIAL))
 
 
-@numba.njit(cache=True, nogil=True)
-def _counting_sort(index, n):
-    start = np.zeros(n + 1, dtype=np.int64)
-    for r in range(index.shape[0]):
-        start[index[r] + 1] += 1
-    for p in range(n):
-        start[p + 1] += start[p]
-    fill = start[:-1].copy()
-    order = np.empty(index.shape[0], dtype=np.int64)
-    for r in range(index.shape[0]):
-        order[fill[index[r]]] = r
-        fill[index[r]] += 1
-    return start, order
-
-
 def csr_by(index, n):
     """(start (n+1,), order) grouping rows by ``index`` (values in 0..n-1; stable: a
     counting sort, O(rows + n))."""
-    return _counting_sort(np.ascontiguousarray(index, dtype=np.int64), n)
+    return counting_sort(np.ascontiguousarray(index, dtype=np.int64), n)
 
 
 @numba.njit(cache=True, nogil=True)

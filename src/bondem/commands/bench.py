@@ -61,7 +61,8 @@ def _ranks(text):
               help="Untimed steps before the timed ones, for impact and bed (both codes): "
                    "e.g. 1500 to time the impact well under way.")
 @click.option("--profile", is_flag=True,
-              help="Also time each part of the CPU step (bonds, gather, integrate...).")
+              help="Also time each part of the CPU step (bonds, gather, neighbour "
+                   "lists, contacts, walls, integrate).")
 @click.option("--triad", is_flag=True,
               help="Also measure memory bandwidth (STREAM-like triad).")
 def command(scene, sizes, steps, variant, backend, order, json_path, peer, peer_steps,
