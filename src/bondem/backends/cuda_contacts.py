@@ -208,7 +208,8 @@ class ContactLawGpu(ContactLaw):
                "pair_bond": put(_at_least_one(self._pair_bond)),
                "index": loops.PairIndex(put(i_start),
                                         put(np.arange(max(pairs.shape[0], 1))),
-                                        put(j_start), put(_at_least_one(j_order))),
+                                        put(j_start), put(_at_least_one(j_order)),
+                                        put(np.zeros(max(pairs.shape[0], 1), np.uint8))),
                "wall_pairs": put(_at_least_one(wall_pairs)),
                "wall_start": put(self._wall_start),
                "reference": put(extra["contact_reference_position"])}

@@ -63,7 +63,9 @@ PAIR_E_STAR, PAIR_G_STAR, PAIR_BETA, PAIR_FRICTION, PAIR_ROLLING = range(5)
 # while a contact slides (musen_compat only; SPEC runs pass one unused row)
 PairRows = namedtuple("PairRows", "spring force moment_i moment_j energy dissipated "
                       "tangential")
-PairIndex = namedtuple("PairIndex", "i_start i_order j_start j_order")
+# quiet: 1 for a row that holds no load (``row_quiet``): the gather skips a particle whose
+# rows are all quiet. The CPU keeps it per step, the GPU passes zeros (it reads every row).
+PairIndex = namedtuple("PairIndex", "i_start i_order j_start j_order quiet")
 Walls = namedtuple("Walls", "rows types element_wall velocity omega center young poisson "
                    "restitution friction rolling")
 WallRows = namedtuple("WallRows", "spring force moment energy dissipated work distance "
@@ -396,6 +398,33 @@ def spec_pair_loads(r, distance, overlap, i, j, vi, vj, wi, wj, grains, material
 
 
 @body
+def pair_geometry(c, pairs, pair_bond, bond_active, position, radius, box):
+    """(i, j, r = x_j - x_i in m, distance m, overlap m, apart) of contact row c; apart:
+    the pair carries no contact load (not overlapping, or joined by an intact bond)."""
+    i = pairs[c, 0]
+    j = pairs[c, 1]
+    r = separation(position, i, j, box)
+    distance = math.sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2])
+    overlap = radius[i] + radius[j] - distance
+    bonded = pair_bond[c] >= 0 and bond_active[pair_bond[c]]
+    apart = overlap <= 0.0 or bonded or distance == 0.0
+    return i, j, r, distance, overlap, apart
+
+
+@body
+def row_quiet(c, rows):
+    """1 when contact row c holds no load, no stored energy and no dissipation (a reset
+    row: ``pair_contact`` leaves it as it is while its pair stays apart), else 0."""
+    if rows.energy[c] != 0.0 or rows.dissipated[c] != 0.0:
+        return 0
+    for k in range(3):
+        if rows.force[c, k] != 0.0 or rows.moment_i[c, k] != 0.0 \
+                or rows.moment_j[c, k] != 0.0:
+            return 0
+    return 1
+
+
+@body
 def pair_contact(c, pairs, pair_bond, bond_active, particles, grains, materials, law,
                  linear_stiffness, use_rolling, box, rows, dt, moved_dt, musen):
     """Contact row c (pair pairs[c]): its loads (force on i, moments on i and j), stored
@@ -407,14 +436,10 @@ def pair_contact(c, pairs, pair_bond, bond_active, particles, grains, materials,
     moved the particles) minus the change of its stored energy. musen: None (CPU) or
     False for the SPEC's law, True for MUSEN's Hertz-Mindlin
     (physics/contact_hertz_musen.py)."""
-    i = pairs[c, 0]
-    j = pairs[c, 1]
-    r = separation(particles.position, i, j, box)
-    distance = math.sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2])
+    i, j, r, distance, overlap, apart = pair_geometry(c, pairs, pair_bond, bond_active,
+                                                      particles.position, grains.radius,
+                                                      box)
     radius = grains.radius
-    overlap = radius[i] + radius[j] - distance
-    bonded = pair_bond[c] >= 0 and bond_active[pair_bond[c]]
-    apart = overlap <= 0.0 or bonded or distance == 0.0
     previous_energy = rows.energy[c]
     if apart and previous_energy == 0.0 and rows.force[c, 0] == 0.0 \
             and rows.force[c, 1] == 0.0 and rows.force[c, 2] == 0.0:
@@ -478,8 +503,18 @@ def pair_contact(c, pairs, pair_bond, bond_active, particles, grains, materials,
 def pair_rows_sum(p, index, rows):
     """Force (N) and moment (N m) of particle p's contact rows: those where it is i
     (index.i_order[i_start[p]:i_start[p+1]]), then those where it is j, each in a fixed
-    order."""
+    order. When every one of p's rows is marked in index.quiet (they hold zeros), none is
+    read and the sums are +0, as summing them gives (they start at +0, and adding +-0 to
+    +0 gives +0). The test is branch-free per row: a branch per row, mispredicted
+    whenever touching and apart rows alternate, cost more than the reads it saved."""
     fx = fy = fz = mx = my = mz = 0.0
+    loaded = 0
+    for s in range(index.i_start[p], index.i_start[p + 1]):
+        loaded |= 1 - index.quiet[index.i_order[s]]
+    for s in range(index.j_start[p], index.j_start[p + 1]):
+        loaded |= 1 - index.quiet[index.j_order[s]]
+    if loaded == 0:
+        return (fx, fy, fz), (mx, my, mz)
     for s in range(index.i_start[p], index.i_start[p + 1]):
         c = index.i_order[s]
         fx += rows.force[c, 0]
