@@ -67,9 +67,9 @@ def particle_contacts(live, quiet, pairs, pair_bond, bond_active, particles, gra
     the previous evaluation.
 
     quiet (uint8 per row, ``row_quiet``, kept up to date here): a quiet row whose pair is
-    still apart is not visited. Its check reads the pair and the two positions only (17 B
-    of row data instead of the 72 B that ``pair_contact`` reads and writes to leave such a
-    row as it is); most listed pairs are such rows in a packing.
+    still apart is not visited. Its check reads the pair, its flag and the two positions
+    (17 B of row data, against the 72 B that ``pair_contact`` reads and writes to leave
+    such a row as it is); most listed pairs are such rows in a packing.
 
     Only the rows listed in ``live`` are visited: the other rows belong to pairs joined by
     an intact bond, which carry no contact load and keep zero rows (bonds never form during

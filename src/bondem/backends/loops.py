@@ -406,8 +406,9 @@ def pair_geometry(c, pairs, pair_bond, bond_active, position, radius, box):
     r = separation(position, i, j, box)
     distance = math.sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2])
     overlap = radius[i] + radius[j] - distance
-    bonded = pair_bond[c] >= 0 and bond_active[pair_bond[c]]
-    apart = overlap <= 0.0 or bonded or distance == 0.0
+    # the bond index is read for an overlapping pair only (most listed pairs are apart)
+    apart = overlap <= 0.0 or distance == 0.0 or (pair_bond[c] >= 0
+                                                  and bond_active[pair_bond[c]])
     return i, j, r, distance, overlap, apart
 
 
