@@ -78,6 +78,49 @@ def test_history_of_scalar_rows_and_duplicated_keys():
     assert np.array_equal(carried, [1.0, 2.0, 0.0, 4.0])
 
 
+@pytest.mark.parametrize("musen", [False, True])
+def test_carried_rows_and_flags_equal_a_row_by_row_carry(musen):
+    """A rebuild carries the pair history arrays without reading or writing the rows that
+    hold nothing (``carry_pair_rows``): every array must equal ``carry_history``'s, and the
+    flags must equal ``quiet_rows`` of the carried rows, with the old flags given (kept by
+    the pair kernel, which also flags a row whose dissipation is not 0) or not."""
+    from bondem.backends import cpu_contacts
+    from bondem.contacts import MUSEN_PAIR_HISTORY, PAIR_HISTORY
+    rng = np.random.default_rng(3)
+    n, m = 40, 300
+    keys = np.sort(rng.choice(n * n, size=2 * m, replace=False))
+    every = np.column_stack([keys // n, keys % n])
+    old_pairs, new_pairs = every[rng.random(2 * m) < 0.6], every[rng.random(2 * m) < 0.6]
+    names = {**PAIR_HISTORY, **(MUSEN_PAIR_HISTORY if musen else {})}
+    k = old_pairs.shape[0]
+    extra = {name: np.zeros((k,) + shape) for name, shape in names.items()}
+    touching = rng.random(k) < 0.3
+    for name in names:
+        extra[name][touching] = rng.normal(size=(int(touching.sum()),) + names[name])
+    # rows with only a spring (or MUSEN's stored force) left: quiet, yet carried
+    only_spring = np.flatnonzero(~touching)[:6]
+    extra["contact_spring"][only_spring[:3], 1] = 1e-9
+    if musen:
+        extra["contact_tangential"][only_spring[3:], 2] = -2.0
+    dissipating = np.flatnonzero(~touching)[6:12]   # reset rows that booked dissipation
+    dissipated = np.zeros(k)
+    dissipated[dissipating] = 1e-12
+    kept = cpu_contacts.quiet_rows(cpu_contacts.pair_rows(extra, dissipated))
+    assert kept[only_spring].all() and not kept[dissipating].any()
+    expected = {name: carry_history(old_pairs, extra[name], new_pairs, n) for name in names}
+    flags = cpu_contacts.quiet_rows(cpu_contacts.pair_rows(expected, np.zeros(len(new_pairs))))
+    for old_flags in (kept, None):
+        carried, carried_flags = cpu_contacts.carry_pair_rows(old_pairs, extra, new_pairs, n,
+                                                              names, old_flags)
+        assert carried.keys() == expected.keys()
+        for name in names:
+            assert carried[name].tobytes() == expected[name].tobytes(), name
+        np.testing.assert_array_equal(carried_flags, flags)
+    assert 0 < flags.sum() < len(new_pairs)
+    carried_spring = carried["contact_spring"][:, 1] == 1e-9
+    assert carried_spring.any()     # the case holds a spring-only row listed again
+
+
 @pytest.mark.parametrize("row", [0, 7, 19])
 def test_a_nan_position_anywhere_stops_the_neighbour_grid(row):
     position = np.random.default_rng(1).uniform(0.0, 0.01, (20, 3))

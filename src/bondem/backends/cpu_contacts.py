@@ -184,6 +184,67 @@ def quiet_rows(rows):
     return quiet
 
 
+@numba.njit(cache=True, nogil=True)
+def _carry_rows(new_rows, old_rows, old_quiet, unflagged, old_values, new_values, new_quiet):
+    """Copy the mapped rows (``history_map``) of the pair history arrays ``old_values``
+    into ``new_values`` (zeros), except rows that hold nothing: flagged in ``old_quiet``
+    (no load, energy or dissipation) with every value of ``unflagged`` (the arrays the flag
+    does not cover: springs) zero. new_quiet (ones) receives ``row_quiet`` of each copied
+    row with no dissipation (the rows' state before their first step in the new list).
+    Arrays as (rows, K) views; ``old_values``/``new_values`` end with force, moment_i,
+    moment_j, energy."""
+    for q in range(new_rows.shape[0]):
+        o = old_rows[q]
+        r = new_rows[q]
+        if old_quiet[o]:
+            empty = True
+            for a in unflagged:
+                for k in range(a.shape[1]):
+                    empty &= a[o, k] == 0.0
+            if empty:
+                continue
+        for t in range(len(old_values)):
+            for k in range(old_values[t].shape[1]):
+                new_values[t][r, k] = old_values[t][o, k]
+        quiet = 1
+        for t in range(len(new_values) - 4, len(new_values)):
+            for k in range(new_values[t].shape[1]):
+                if new_values[t][r, k] != 0.0:
+                    quiet = 0
+        new_quiet[r] = quiet
+
+
+def carry_pair_rows(old_pairs, old_extra, new_pairs, n_particles, names, old_quiet=None):
+    """The pair history arrays ``names`` (``ContactLaw.history``) of ``new_pairs``, carried
+    from ``old_extra`` listed for ``old_pairs`` (both sorted by key) as
+    ``neighbors.carry_history`` does, and the new rows' ``quiet_rows`` flags (as a
+    derivation would find them). old_quiet: the old rows' current flags, if known (then
+    the rows that hold nothing are neither read whole nor written: most of a packing's
+    rows). Returns (dict name -> array, flags (M,) uint8)."""
+    m, m_old = new_pairs.shape[0], old_pairs.shape[0]
+    new = {name: np.zeros((m,) + shape) for name, shape in names.items()}
+    new_quiet = np.ones(m, dtype=np.uint8)
+    if m == 0 or m_old == 0:
+        return new, new_quiet
+    # an array the old lists lack (a SPEC checkpoint resumed MUSEN-compatible) held zeros
+    old = {name: (old_extra[name] if name in old_extra and old_extra[name].shape[0] == m_old
+                  else np.zeros((m_old,) + shape)) for name, shape in names.items()}
+    if old_quiet is None:
+        old_quiet = quiet_rows(pair_rows(old, np.zeros(m_old)))
+    new_rows, old_rows = history_map(old_pairs, new_pairs, n_particles)
+    flagged = ("contact_force", "contact_moment_i", "contact_moment_j", "contact_energy")
+    order = [name for name in names if name not in flagged] + list(flagged)
+
+    def view(a):
+        return np.ascontiguousarray(a).reshape(a.shape[0], -1)
+
+    _carry_rows(new_rows, old_rows, old_quiet,
+                tuple(view(old[name]) for name in order[:-4]),
+                tuple(view(old[name]) for name in order),
+                tuple(view(new[name]) for name in order), new_quiet)
+    return new, new_quiet
+
+
 def csr_by(index, n):
     """(start (n+1,), order) grouping rows by ``index`` (values in 0..n-1; stable: a
     counting sort, O(rows + n))."""
@@ -274,6 +335,7 @@ class ContactLaw:
         self._bond_order = np.argsort(bonds[:, 0] * np.int64(n) + bonds[:, 1], kind="stable")
         self._bonds_sorted = np.ascontiguousarray(bonds[self._bond_order])
         self._derived_for = None
+        self._carried_quiet = None  # the flags of a rebuild's rows, for the next _derive
         self._row_room = 0      # room per row of the next pair search (build_pairs)
         self._last_state = None
         self._t_wall = 0.0   # s, where the walls stand for the step being evaluated
@@ -307,10 +369,11 @@ class ContactLaw:
             for name in (*MUSEN_PAIR_HISTORY, *MUSEN_WALL_HISTORY):
                 extra.pop(name, None)
         old_pairs = extra.get("contact_pairs", empty2)
-        mapping = history_map(old_pairs, pairs, model.n_particles)
-        for name, shape in pair_history.items():
-            extra[name] = carry_history(old_pairs, extra.get(name, np.zeros((0,) + shape)),
-                                        pairs, model.n_particles, mapping)
+        # the pair kernel keeps the flags of the rows it derived them for
+        flags = self._quiet if self._derived(extra) else None
+        carried, self._carried_quiet = carry_pair_rows(old_pairs, extra, pairs,
+                                                       model.n_particles, pair_history, flags)
+        extra.update(carried)
         extra["contact_pairs"] = pairs
         rows = self.walls.elements(self._t_wall)
         wall_pairs = build_wall_pairs(position, model.radius, self.skin, rows,
@@ -373,13 +436,22 @@ class ContactLaw:
             state.extra["contact_pairs"], rows)
         self._i_order = self._live
 
+    @staticmethod
+    def _key(extra):
+        # the history arrays too: ``_quiet`` caches what their rows hold
+        return (extra["contact_pairs"], extra["wall_pairs"], extra["contact_force"],
+                extra["contact_moment_i"], extra["contact_moment_j"], extra["contact_energy"])
+
+    def _derived(self, extra):
+        """True when the derived indices and flags belong to ``extra``'s current lists."""
+        if self._derived_for is None or "contact_pairs" not in extra:
+            return False
+        return all(a is b for a, b in zip(self._key(extra), self._derived_for))
+
     def _derive(self, model, state):
         """CSR indices and bond lookup for the current lists (cached per list object)."""
         extra = state.extra
-        # the history arrays too: ``_quiet`` caches what their rows hold
-        key = (extra["contact_pairs"], extra["wall_pairs"], extra["contact_force"],
-               extra["contact_moment_i"], extra["contact_moment_j"], extra["contact_energy"])
-        if self._derived_for is not None and all(a is b for a, b in zip(key, self._derived_for)):
+        if self._derived(extra):
             if int(np.count_nonzero(state.bond_active)) != self._active_bonds:
                 self._add_broken(model, state)
             return
@@ -395,7 +467,9 @@ class ContactLaw:
         self._bond_row[self._pair_bond[held]] = held
         self._derive_live(model, state)
         self._dissipated = np.zeros(pairs.shape[0])
-        self._quiet = quiet_rows(pair_rows(extra, self._dissipated))
+        carried, self._carried_quiet = self._carried_quiet, None
+        self._quiet = (carried if carried is not None and carried.shape[0] == pairs.shape[0]
+                       else quiet_rows(pair_rows(extra, self._dissipated)))
         wall_pairs = extra["wall_pairs"]
         k = wall_pairs.shape[0]
         self._wall_start = np.zeros(n + 1, dtype=np.int64)
@@ -406,7 +480,7 @@ class ContactLaw:
         self._w_feature = np.zeros(k, dtype=np.int64)
         self._w_dissipated = np.zeros(k)
         self._w_work = np.zeros(k)
-        self._derived_for = key
+        self._derived_for = self._key(extra)
 
     # -- the law ----------------------------------------------------------------------
     def wall_time(self, state, increment_dt):
