@@ -53,8 +53,8 @@ def grid_shape(position, cell_size, periodic, box_low, box_high, max_cells):
 
 @numba.njit(cache=True, nogil=True)
 def bounding_box(position):
-    """(lowest (3,), highest (3,)) coordinates of position (N,3), N > 0, in m; NaN if a
-    coordinate is NaN. numpy's min(axis=0) of this layout took 0.25 ms for 10^4 rows."""
+    """(lowest (3,), highest (3,)) coordinates of position (N,3), N > 0, in m; both NaN if
+    a coordinate is NaN. numpy's min(axis=0) of this layout took 0.25 ms for 10^4 rows."""
     low = position[0].copy()
     high = position[0].copy()
     finite = True
@@ -66,6 +66,7 @@ def bounding_box(position):
             high[k] = max(high[k], x)
     if not finite:
         low[:] = np.nan
+        high[:] = np.nan
     return low, high
 
 

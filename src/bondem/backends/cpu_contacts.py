@@ -185,14 +185,14 @@ def quiet_rows(rows):
 
 
 @numba.njit(cache=True, nogil=True)
-def _carry_rows(new_rows, old_rows, old_quiet, unflagged, old_values, new_values, new_quiet):
+def _carry_rows(new_rows, old_rows, old_quiet, unflagged, old_values, new_values, rows,
+                new_quiet):
     """Copy the mapped rows (``history_map``) of the pair history arrays ``old_values``
     into ``new_values`` (zeros), except rows that hold nothing: flagged in ``old_quiet``
-    (no load, energy or dissipation) with every value of ``unflagged`` (the arrays the flag
-    does not cover: springs) zero. new_quiet (ones) receives ``row_quiet`` of each copied
-    row with no dissipation (the rows' state before their first step in the new list).
-    Arrays as (rows, K) views; ``old_values``/``new_values`` end with force, moment_i,
-    moment_j, energy."""
+    with every value of ``unflagged`` (the arrays the flag does not cover: springs) zero.
+    new_quiet (ones) receives ``row_quiet`` of each copied row, read from ``rows`` (the
+    new arrays as ``PairRows``, with no dissipation: the rows before their first step in
+    the new list). Arrays as (rows, K) views."""
     for q in range(new_rows.shape[0]):
         o = old_rows[q]
         r = new_rows[q]
@@ -206,12 +206,11 @@ def _carry_rows(new_rows, old_rows, old_quiet, unflagged, old_values, new_values
         for t in range(len(old_values)):
             for k in range(old_values[t].shape[1]):
                 new_values[t][r, k] = old_values[t][o, k]
-        quiet = 1
-        for t in range(len(new_values) - 4, len(new_values)):
-            for k in range(new_values[t].shape[1]):
-                if new_values[t][r, k] != 0.0:
-                    quiet = 0
-        new_quiet[r] = quiet
+        new_quiet[r] = row_quiet(r, rows)
+
+
+# The arrays ``row_quiet`` reads: a row flagged quiet holds zeros in these.
+FLAGGED = ("contact_force", "contact_moment_i", "contact_moment_j", "contact_energy")
 
 
 def carry_pair_rows(old_pairs, old_extra, new_pairs, n_particles, names, old_quiet=None):
@@ -232,16 +231,15 @@ def carry_pair_rows(old_pairs, old_extra, new_pairs, n_particles, names, old_qui
     if old_quiet is None:
         old_quiet = quiet_rows(pair_rows(old, np.zeros(m_old)))
     new_rows, old_rows = history_map(old_pairs, new_pairs, n_particles)
-    flagged = ("contact_force", "contact_moment_i", "contact_moment_j", "contact_energy")
-    order = [name for name in names if name not in flagged] + list(flagged)
 
     def view(a):
         return np.ascontiguousarray(a).reshape(a.shape[0], -1)
 
     _carry_rows(new_rows, old_rows, old_quiet,
-                tuple(view(old[name]) for name in order[:-4]),
-                tuple(view(old[name]) for name in order),
-                tuple(view(new[name]) for name in order), new_quiet)
+                tuple(view(old[name]) for name in names if name not in FLAGGED),
+                tuple(view(old[name]) for name in names),
+                tuple(view(new[name]) for name in names), pair_rows(new, np.zeros(m)),
+                new_quiet)
     return new, new_quiet
 
 
