@@ -54,3 +54,48 @@ def test_killed_swmr_writer_file_opens_plainly_after_repair(tmp_path):
     assert rows.shape[0] >= 20
     np.testing.assert_array_equal(rows[:, 0], np.arange(rows.shape[0]))
     assert not clear_open_flags(path)   # nothing left to clear: the file is not touched
+
+
+def _mark_killed(path, end):
+    """Rewrite the superblock as a SWMR writer killed within a flush leaves it: the
+    open-for-write marks set and the end of allocated space (EOA) at ``end`` bytes."""
+    with open(path, "r+b") as f:
+        block = bytearray(f.read(48))
+        block[11] = 0x05                     # write access | SWMR write access
+        struct.pack_into("<Q", block, 28, end)
+        struct.pack_into("<I", block, 44, lookup3(bytes(block[:44])))
+        f.seek(0)
+        f.write(block)
+
+
+def test_repair_raises_an_eoa_that_lags_behind_written_objects(tmp_path):
+    # Killed within a flush, a SWMR writer can leave chunks written and indexed beyond
+    # the EOA its superblock holds (SWMR readers accept that, plain readers stop with
+    # "addr overflow"). The repair must make every written object readable again.
+    path = tmp_path / "lagging.h5"
+    with h5py.File(path, "w", libver="latest") as f:
+        f["early"] = np.arange(1000.0)
+        d = f.create_dataset("late", data=np.arange(500.0) + 0.5, chunks=(500,))
+        chunk = d.id.get_chunk_info(0).byte_offset
+    size = path.stat().st_size
+    _mark_killed(path, chunk + 8)            # the EOA cuts through the last chunk
+    assert clear_open_flags(path)
+    with h5py.File(path, "r") as f:
+        np.testing.assert_array_equal(f["late"][()], np.arange(500.0) + 0.5)
+        np.testing.assert_array_equal(f["early"][()], np.arange(1000.0))
+    assert path.stat().st_size == size       # nothing appended: the EOA met the file's end
+    block = path.read_bytes()[:48]
+    assert struct.unpack_from("<Q", block, 28)[0] == size
+    assert block[11] == 0
+
+
+def test_repair_extends_a_file_shorter_than_its_eoa(tmp_path):
+    path = tmp_path / "short.h5"
+    with h5py.File(path, "w", libver="latest") as f:
+        f["x"] = np.arange(100.0)
+    size = path.stat().st_size
+    _mark_killed(path, size + 4096)          # space allocated, never written
+    assert clear_open_flags(path)
+    assert path.stat().st_size == size + 4096
+    with h5py.File(path, "r") as f:
+        np.testing.assert_array_equal(f["x"][()], np.arange(100.0))

@@ -59,11 +59,20 @@ def lookup3(data: bytes, initval: int = 0) -> int:
 
 def clear_open_flags(path) -> bool:
     """Clear the "open for write" marks of an HDF5 file whose writer is gone (what
-    ``h5clear -s`` does) and, if the writer died before the end of the space it had
-    allocated was written, extend the file to that end (zeros) so that readers do not
-    call it truncated. A file without the marks is left alone. Returns True if the file
-    was changed. Only a version 2/3 superblock at offset 0 with 8-byte addresses and a
-    valid checksum is touched; anything else is left as it is."""
+    ``h5clear -s`` does) and make the superblock's end of allocated space (EOA) agree with
+    the file's end (what ``h5clear --increment=0`` does).
+
+    The EOA can lag either way when the writer is killed within a flush:
+    - behind the file's end: SWMR writes an object before the metadata that points to it,
+      and the superblock, which holds the EOA, may come last. SWMR readers accept such
+      addresses; a plain reader stops with "addr overflow" on them, so the EOA is raised
+      to the file's end. (A writer that reopened the file would otherwise also allocate
+      new space over those objects.)
+    - beyond the file's end: space allocated but not yet written; the file is extended
+      to the EOA with zeros so that readers do not call it truncated.
+    A file without the marks is left alone. Returns True if the file was changed. Only a
+    version 2/3 superblock at offset 0 with 8-byte addresses and a valid checksum is
+    touched; anything else is left as it is."""
     try:
         fd = os.open(path, os.O_RDWR)
     except OSError:
@@ -76,12 +85,14 @@ def clear_open_flags(path) -> bool:
         (stored,) = struct.unpack_from("<I", block, 44)
         if lookup3(block[:44]) != stored:
             return False
-        (end,) = struct.unpack_from("<Q", block, 28)
+        base, _, end = struct.unpack_from("<QQQ", block, 12)
         if block[11] == 0:
             return False    # closed by its writer (if short, damaged: not ours to mend)
-        if os.fstat(fd).st_size < end:
-            os.ftruncate(fd, end)
-        fixed = block[:11] + b"\0" + block[12:44]
+        size = os.fstat(fd).st_size
+        if size < base + end:
+            os.ftruncate(fd, base + end)
+        end = max(end, size - base)
+        fixed = block[:11] + b"\0" + block[12:28] + struct.pack("<Q", end) + block[36:44]
         os.pwrite(fd, fixed + struct.pack("<I", lookup3(fixed)), 0)
         os.fsync(fd)
         return True
