@@ -159,9 +159,64 @@ def test_bench_profile_reports_the_bond_kernel_against_the_roofline(monkeypatch)
     line = next(x for x in result.output.splitlines() if "ns per bond" in x)
     ns_per_bond = float(line.split("profile):")[1].split("ns")[0])
     share = float(line.split("GB/s):")[1].split("%")[0])
-    # roofline 325 B / 20 GB/s = 16.25 ns per bond, over the measured time
-    assert "16.2 ns" in line or "16.3 ns" in line
-    assert share == pytest.approx(100 * 16.25 / ns_per_bond, rel=0.05, abs=1)
+    # roofline 334 B / 20 GB/s = 16.7 ns per bond, over the measured time
+    assert "16.7 ns" in line
+    assert share == pytest.approx(100 * 16.7 / ns_per_bond, rel=0.05, abs=1)
+
+
+def test_bench_lattice_reports_the_whole_step_against_the_roofline(monkeypatch, tmp_path):
+    monkeypatch.setattr(bench, "stream_triad", lambda: 20e9)
+    out = tmp_path / "bench.json"
+    result = CliRunner().invoke(main, ["bench", "lattice", "--sizes", "4", "--steps", "3",
+                                       "--triad", "--json", str(out)])
+    assert result.exit_code == 0, result.output
+    row = json.loads(out.read_text())["results"][0]
+    counted = row["step_bytes_per_particle"] * row["particles"]
+    assert row["step_roofline_share"] == pytest.approx(counted / 20e9 / row["s_per_step"])
+    assert f"{100 * row['step_roofline_share']:.0f} % of the roofline" in result.output
+    # A lower bound from the arrays themselves: a step must at least read and write each
+    # particle's position, velocities, force and moment, each bond's axis and three
+    # carried vectors and its three loads, and read its pair, L0 and diameter once.
+    model, state = bench.lattice_system(4)
+    per_particle = 2 * 5 * 3 * 8
+    per_bond = 2 * 4 * 3 * 8 + 2 * 3 * 3 * 8 + 16 + 8 + 8
+    floor = model.n_particles * per_particle + model.n_bonds * per_bond
+    assert floor <= counted <= 1.5 * floor
+
+
+def test_lattice_peer_runs_lammps_on_each_rank_count(monkeypatch, tmp_path):
+    """``bench lattice --peer lammps --ranks 1,2`` runs the deck once per rank count, the
+    second under mpirun -np 2, and reads LAMMPS's figures (a stand-in ``lmp`` prints
+    LAMMPS's lines and what it was started with)."""
+    venv = tmp_path / "venv"
+    (venv / "bin").mkdir(parents=True)
+    log = tmp_path / "calls"
+    (venv / "bin" / "lmp").write_text(
+        "#!/bin/sh\n"
+        f"echo \"lmp $*\" >> {log}\n"
+        "echo 'Added 144 bonds'\n"
+        "echo 'Loop time of 0.5 on 1 procs for 10 steps with 64 atoms'\n"
+        "echo '95.0% CPU use with 1 MPI tasks x 1 OpenMP threads'\n")
+    (venv / "bin" / "mpirun").write_text(f"#!/bin/sh\necho \"mpirun $1 $2\" >> {log}\n"
+                                         "shift 2\nexec \"$@\"\n")
+    for name in ("lmp", "mpirun"):
+        (venv / "bin" / name).chmod(0o755)
+    monkeypatch.setenv("LMP_VENV", str(venv))
+    out = tmp_path / "bench.json"
+    result = CliRunner().invoke(main, ["bench", "lattice", "--sizes", "4", "--steps", "10",
+                                       "--peer", "lammps", "--ranks", "1,2",
+                                       "--json", str(out)])
+    assert result.exit_code == 0, result.output
+    rows = json.loads(out.read_text())["results"]
+    assert [r["backend"] for r in rows] == ["cpu", "lammps x1", "lammps x2"]
+    calls = log.read_text().splitlines()
+    assert len(calls) == 3 and calls[1] == "mpirun -np 2"
+    assert all("-var n 4 -var steps 10" in calls[k] for k in (0, 2))
+    for peer, ranks in zip(rows[1:], (1, 2)):
+        assert peer["particle_steps_per_s"] == pytest.approx(64 * 10 / 0.5)
+        assert peer["cpu_s"] == pytest.approx(0.5 * 0.95 * ranks)
+        assert peer["ratio_bondem_over_lammps"] == pytest.approx(
+            rows[0]["particle_steps_per_s"] / 1280.0)
 
 
 def test_energy_counters_balance_kinetic_energy():

@@ -31,9 +31,19 @@ STRENGTH = {"intact": 1e30, "breaking": 2e5}   # Pa, sigma_max = tau_max
 ORDERS = ("morton", "lattice", "random")
 # Bytes a bond update must move at the least (docs/performance.md): reads pair 16,
 # diameter 8, L0 8, material 4, active 1, axis and carried vectors 96, ~24 of particle
-# state (each particle's 72 B shared by its bonds); writes the carried vectors 96 and the
-# per-bond loads 72. Write-allocate is not counted, as the triad does not count it.
-BOND_UPDATE_BYTES = 325
+# state (each particle's 72 B shared by its bonds); writes the carried vectors 96, the
+# per-bond loads 72, the current length 8 and the slow flag 1. Write-allocate is not
+# counted, as the triad does not count it.
+BOND_UPDATE_BYTES = 334
+# The rest of the lattice's step (``step_roofline_share``). Per bond, the bonds' gather
+# reads two CSR entries 16 and the loads of both ends 96. Per particle: zeroing the loads
+# writes force and moment 48; the bonds' gather reads its CSR offset 8 and the loads 48
+# and writes them 48; the contact lists' test reads the position and the position at the
+# last rebuild 48; the integration reads the loads 48, mass and inertia 16, the fixed
+# flag 1, the external loads 48, the position and both velocities 72 and writes those 72.
+# (Every listed pair of the lattice is bonded: the contacts add nothing and move nothing.)
+BOND_GATHER_BYTES = 112
+PARTICLE_STEP_BYTES = 48 + 104 + 48 + 257
 
 
 def lattice_system(n, variant="intact", *, seed=42):
@@ -295,6 +305,19 @@ def bond_roofline_share(bond_kernel_s_per_step, bonds, bandwidth):
     return BOND_UPDATE_BYTES * bonds / bandwidth / bond_kernel_s_per_step
 
 
+def step_bytes(particles, bonds):
+    """Bytes a step of the lattice scene must move at the least (bonds and particles; no
+    wall, no contact loaded): BOND_UPDATE_BYTES + BOND_GATHER_BYTES per bond and
+    PARTICLE_STEP_BYTES per particle."""
+    return bonds * (BOND_UPDATE_BYTES + BOND_GATHER_BYTES) + particles * PARTICLE_STEP_BYTES
+
+
+def step_roofline_share(s_per_step, particles, bonds, bandwidth):
+    """Fraction of the memory-bandwidth roofline the whole lattice step reaches: the time
+    ``step_bytes`` take at ``bandwidth`` (B/s) over the measured seconds per step."""
+    return step_bytes(particles, bonds) / bandwidth / s_per_step
+
+
 def stream_triad(n=20_000_000, repeats=5):
     """Memory bandwidth (bytes/s) of a Numba triad a = b + s c over arrays of n doubles,
     best of ``repeats``, counting 3 x 8 bytes per element (no write-allocate)."""
@@ -325,16 +348,17 @@ def lammps_deck_dir():
     return Path(__file__).resolve().parents[2] / "benchmarks" / "lammps"
 
 
-def lammps_run(n, steps):
-    """Run the LAMMPS BPM deck (benchmarks/lammps/run.sh n steps); returns its figures.
+def lammps_run(n, steps, ranks=1):
+    """Run the LAMMPS BPM deck on the lattice of n^3 particles for ``steps`` steps on
+    ``ranks`` MPI ranks (benchmarks/lammps/run.sh n steps ranks); returns its figures.
 
     LAMMPS from ``lammps_venv()`` (run.sh installs it there on first use). Returns a dict,
     or raises RuntimeError with LAMMPS's output.
     """
     script = lammps_deck_dir() / "run.sh"
     env = dict(os.environ, LMP_VENV=str(lammps_venv()))
-    proc = subprocess.run(["bash", str(script), str(n), str(steps)], capture_output=True,
-                          text=True, env=env)
+    proc = subprocess.run(["bash", str(script), str(n), str(steps), str(ranks)],
+                          capture_output=True, text=True, env=env)
     line = [w for w in proc.stdout.splitlines() if w.startswith("lammps ")]
     if proc.returncode or not line:
         raise RuntimeError(f"LAMMPS run failed (exit {proc.returncode}):\n"
@@ -344,10 +368,10 @@ def lammps_run(n, steps):
     particles = int(fields["particles"])
     wall = float(fields["seconds"])
     n_bonds = int(bonds[-1].split()[1]) if bonds else 0
-    cpu = float(fields.get("cpu_percent", "nan")) / 100.0
-    return {"scene": "lattice", "n": n, "backend": "lammps", "particles": particles,
-            "bonds": n_bonds, "steps": steps, "threads": 1, "wall_s": wall,
-            "cpu_s": wall * cpu, "s_per_step": wall / steps,
+    cpu = float(fields.get("cpu_percent", "nan")) / 100.0 * ranks
+    return {"scene": "lattice", "n": n, "backend": f"lammps x{ranks}",
+            "particles": particles, "bonds": n_bonds, "steps": steps, "threads": ranks,
+            "wall_s": wall, "cpu_s": wall * cpu, "s_per_step": wall / steps,
             "particle_steps_per_cpu_s": particles * steps / (wall * cpu),
             "particle_steps_per_s": float(fields["particle_steps_per_s"]),
             "bond_updates_per_s": n_bonds * steps / wall if n_bonds else float("nan")}

@@ -56,7 +56,7 @@ def _ranks(text):
 @click.option("--peer-steps", type=click.IntRange(min=1), default=None,
               help="Timed steps for the lattice peer [default: same as --steps].")
 @click.option("--ranks", default="1,2", show_default=True,
-              help="MPI ranks of the LAMMPS peer for impact and bed (each a run).")
+              help="MPI ranks of the LAMMPS peer (each a run).")
 @click.option("--warmup", type=click.IntRange(min=0), default=5, show_default=True,
               help="Untimed steps before the timed ones, for impact and bed (both codes): "
                    "e.g. 1500 to time the impact well under way.")
@@ -79,7 +79,7 @@ def command(scene, sizes, steps, variant, backend, order, json_path, peer, peer_
         click.echo(f"memory bandwidth (triad): {extra['triad_bytes_per_s'] / 1e9:.1f} GB/s")
     if scene == "lattice":
         _lattices(bench, _sizes(sizes or "22"), steps, variant, backend, order, peer,
-                  peer_steps, profile, results)
+                  peer_steps, _ranks(ranks), profile, results)
     else:
         _scenes(bench, scene, _sizes(sizes or "1e4", scene), steps, backend, peer,
                 _ranks(ranks), profile, results, warmup)
@@ -107,6 +107,8 @@ def command(scene, sizes, steps, variant, backend, order, json_path, peer, peer_
                          f"({bench.BOND_UPDATE_BYTES} B at {bandwidth / 1e9:.1f} GB/s): "
                          f"{100 * r['bond_roofline_share']:.0f} % of the roofline")
             click.echo(line)
+    if scene == "lattice" and "triad_bytes_per_s" in extra:
+        _step_roofline(bench, results, extra["triad_bytes_per_s"])
     cpu_runs = [r for r in results if r.get("backend") == "cpu" and r["bonds"]]
     if cpu_runs:
         estimate = bench.memory_estimate(cpu_runs[-1])
@@ -116,6 +118,22 @@ def command(scene, sizes, steps, variant, backend, order, json_path, peer, peer_
         json_path.write_text(json.dumps({"results": clean, **extra}, indent=2) + "\n")
         click.echo(f"json: {json_path}")
     sys.stdout.flush()
+
+
+def _step_roofline(bench, results, bandwidth):
+    """Print and record the whole lattice step against the memory roofline (the timed
+    steps' seconds per step, ``bench.step_bytes`` at the triad's bandwidth)."""
+    for r in results:
+        if r.get("backend") != "cpu":     # the triad measures the CPU's memory only
+            continue
+        total = bench.step_bytes(r["particles"], r["bonds"])
+        r["step_bytes_per_particle"] = total / r["particles"]
+        r["step_roofline_share"] = bench.step_roofline_share(r["s_per_step"], r["particles"],
+                                                             r["bonds"], bandwidth)
+        click.echo(f"n={r['n']} whole step: {total / r['particles']:.0f} B per particle-step "
+                   f"counted, roofline {total / bandwidth * 1e3:.3f} ms per step at "
+                   f"{bandwidth / 1e9:.1f} GB/s, measured {r['s_per_step'] * 1e3:.3f} ms: "
+                   f"{100 * r['step_roofline_share']:.0f} % of the roofline")
 
 
 def _add_peer(results, result, run):
@@ -131,9 +149,10 @@ def _add_peer(results, result, run):
     results.append(other)
 
 
-def _lattices(bench, sizes, steps, variant, backend, order, peer, peer_steps, profile,
-              results):
-    """The lattice scene at each size n, and its LAMMPS peer (benchmarks/lammps)."""
+def _lattices(bench, sizes, steps, variant, backend, order, peer, peer_steps, ranks,
+              profile, results):
+    """The lattice scene at each size n, and its LAMMPS peer (benchmarks/lammps) on each
+    rank count."""
     for n in sizes:
         n_steps = steps or (1000 if n <= 22 else 200)
         click.echo(f"bench lattice n={n}: {n ** 3:,} particles, building the scene, "
@@ -147,9 +166,13 @@ def _lattices(bench, sizes, steps, variant, backend, order, peer, peer_steps, pr
         results.append(result)
         for note in result["notes"]:
             click.echo(f"n={n}: {note}")
-        if peer == "lammps":
-            click.echo(f"bench lattice n={n}: the same scene in LAMMPS ...", err=True)
-            _add_peer(results, result, lambda: bench.lammps_run(n, peer_steps or n_steps))
+        if peer != "lammps":
+            continue
+        for count in ranks:
+            click.echo(f"bench lattice n={n}: the same scene in LAMMPS on {count} MPI "
+                       f"rank{'s' if count > 1 else ''} ...", err=True)
+            _add_peer(results, result,
+                      lambda: bench.lammps_run(n, peer_steps or n_steps, count))
 
 
 def _scenes(bench, scene, sizes, steps, backend, peer, ranks, profile, results, warmup=5):
