@@ -87,9 +87,16 @@ def particle_contacts(live, quiet, pairs, pair_bond, bond_active, particles, gra
 
 @numba.njit(**_serial)
 def gather_pair_range(first, last, index, rows, force, moment):
-    """Add the contact loads of particles first to last - 1 (``loops.pair_rows_sum``)."""
+    """Add the contact loads of particles first to last - 1 (``loops.pair_rows_sum``).
+
+    A particle whose sums are all zero is not written: adding +0 changes no load, since
+    every load is a sum that starts at +0 and so is never -0. That saves reading and
+    writing the loads of every particle without a touching neighbour."""
     for p in range(first, last):
         f, m = pair_rows_sum(p, index, rows)
+        if (f[0] == 0.0 and f[1] == 0.0 and f[2] == 0.0 and m[0] == 0.0 and m[1] == 0.0
+                and m[2] == 0.0):
+            continue
         for k in range(3):
             force[p, k] += f[k]
             moment[p, k] += m[k]
@@ -528,6 +535,8 @@ class ContactLaw:
             self.pair_law, self._linear_stiffness, bool(self.settings.rolling_resistance),
             cpu.box(model), rows, increment_dt, moved_dt,
             True if self.musen_compat else None)
+        if not self._live.shape[0]:
+            return   # every listed pair bonded: no load to add, no row dissipated anything
         gather_pair_loads(
             loops.PairIndex(self._i_start, self._i_order, self._j_start, self._j_order,
                             self._quiet),
