@@ -1,4 +1,5 @@
-"""One time step: zero loads, add every law's loads, then the semi-implicit Euler update.
+"""One time step: zero loads (or let the first law store its own), add every law's loads,
+then the semi-implicit Euler update.
 
 SPEC section 1. Laws read the state at the start of the step. The first step of a run
 evaluates the loads at x_0 with zero increments of the incremental springs, kicks the
@@ -31,16 +32,22 @@ def extra_start_up_steps(started, musen_compat=False):
 def step(model, state, laws, integrator, force, moment, dt, musen_compat=False):
     """Advance ``state`` in place by one step of ``dt`` seconds (or do the start-up kick).
 
-    laws: objects with ``accumulate(model, state, force, moment, increment_dt)``;
+    laws: objects with ``accumulate(model, state, force, moment, increment_dt)``; the
+    first law may also have ``assign`` (same arguments), which stores its loads instead;
     force, moment: (N,3) scratch arrays. Raises SimulationBlowUp on a bad status.
     """
     increment_dt, kick, drift, advances = step_plan(state.started, dt, musen_compat)
-    force.fill(0.0)
-    moment.fill(0.0)
     if musen_compat:
         # MUSEN adds contact and wall loads first, then the bonds' (CPUSimulator::
         # CalculateForcesStep); laws[0] is the bond law
         laws = [*laws[1:], *laws[:1]]
+    if laws and hasattr(laws[0], "assign"):
+        # a first law that stores its loads (the bonds'): nothing to zero beforehand
+        laws[0].assign(model, state, force, moment, increment_dt)
+        laws = laws[1:]
+    else:
+        force.fill(0.0)
+        moment.fill(0.0)
     for law in laws:
         law.accumulate(model, state, force, moment, increment_dt)
     status = integrator.advance(model, state, force, moment, kick, drift)
