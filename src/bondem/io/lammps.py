@@ -30,6 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..contacts import contact_cutoff
 from ..physics.bond_elastic import bond_stiffnesses
 from ..physics.contact_hertz import effective_shear_modulus, effective_young_modulus
 
@@ -179,7 +180,7 @@ def write_lammps(model, state, options, out_dir, *, end_time, save_every, title=
         dt = Simulation(model, state.copy(), **options).time_step
     steps = max(1, int(round(end_time / dt)))
     save = max(1, int(round(save_every / dt)))
-    skin = (contact.skin if contact is not None and contact.skin else 0.2 * float(radius.mean()))
+    skin = contact_cutoff(radius, contact.skin if contact is not None else None)[1]
     longest = float(model.bond_initial_length.max()) if nb else 0.0
     ghost = max(2.0 * reach + skin, 1.5 * longest + skin)
     boundary = " ".join("p" if model.periodic[k] else "m" for k in range(3))
