@@ -298,3 +298,38 @@ def test_profile_times_the_same_work_as_a_step():
         np.testing.assert_array_equal(getattr(runs[0], name), getattr(runs[1], name))
     np.testing.assert_array_equal(runs[0].extra["contact_spring"],
                                   runs[1].extra["contact_spring"])
+
+
+class _AddingOnly:
+    """A law seen through ``accumulate`` only: the step then zeroes the loads first."""
+
+    def __init__(self, law):
+        self.law = law
+
+    def accumulate(self, *args):
+        self.law.accumulate(*args)
+
+
+def test_a_bond_gather_storing_the_loads_equals_adding_them_to_zeroed_arrays():
+    """The step lets the bonds' gather store each particle's loads instead of zeroing the
+    arrays first: the same bits, for particles without bonds too (their loads must be
+    the contacts' and walls' alone, not the last step's), while bonds break."""
+    model, state, walls = bench.impact_system(400)
+    unbonded = np.bincount(model.bond_pairs.ravel(), minlength=model.n_particles) == 0
+    assert unbonded.any() and not unbonded.all()
+    # the unbonded particles rush into their neighbours, so that they carry contact loads
+    inward = state.position.mean(axis=0) - state.position[unbonded]
+    state.velocity[unbonded] = 50.0 * inward / np.linalg.norm(inward, axis=1)[:, None]
+    runs = []
+    for adding in (False, True):
+        sim, _ = bench.scene_simulation(model, state.copy(), walls)
+        if adding:
+            sim.laws[0] = _AddingOnly(sim.laws[0])
+        sim.step(60)
+        runs.append((sim.state.position.copy(), sim.state.velocity.copy(), sim.force.copy(),
+                     sim.moment.copy(), sim.state.bond_active.copy()))
+    stored, added = runs
+    assert not stored[4].all()                       # some bonds broke
+    assert np.any(stored[2][unbonded] != 0.0)        # unbonded particles touch something
+    for a, b in zip(stored, added):
+        assert a.tobytes() == b.tobytes()
