@@ -366,16 +366,21 @@ def lammps_run(n, steps, ranks=1):
                            f"{proc.stdout[-2000:]}\n{proc.stderr[-2000:]}")
     fields = dict(item.split("=") for item in line[-1].split()[1:])
     bonds = [w for w in proc.stdout.splitlines() if w.startswith("Added")]
-    particles = int(fields["particles"])
-    wall = float(fields["seconds"])
-    n_bonds = int(bonds[-1].split()[1]) if bonds else 0
-    cpu = float(fields.get("cpu_percent", "nan")) / 100.0 * ranks
-    return {"scene": "lattice", "n": n, "backend": f"lammps x{ranks}",
-            "particles": particles, "bonds": n_bonds, "steps": steps, "threads": ranks,
-            "wall_s": wall, "cpu_s": wall * cpu, "s_per_step": wall / steps,
-            "particle_steps_per_cpu_s": particles * steps / (wall * cpu),
-            "particle_steps_per_s": float(fields["particle_steps_per_s"]),
-            "bond_updates_per_s": n_bonds * steps / wall if n_bonds else float("nan")}
+    return _lammps_figures("lattice", n, int(fields["particles"]),
+                           int(bonds[-1].split()[1]) if bonds else 0, steps, ranks,
+                           float(fields["seconds"]),
+                           float(fields.get("cpu_percent", "nan")) / 100.0)
+
+
+def _lammps_figures(scene, n, particles, bonds, steps, ranks, wall, share):
+    """A LAMMPS run's bench figures from its loop time ``wall`` (s) over ``steps`` steps on
+    ``ranks`` ranks, each busy ``share`` of the time (LAMMPS's "% CPU use" / 100)."""
+    cpu = wall * share * ranks
+    return {"scene": scene, "n": n, "backend": f"lammps x{ranks}", "particles": particles,
+            "bonds": bonds, "steps": steps, "threads": ranks, "wall_s": wall, "cpu_s": cpu,
+            "s_per_step": wall / steps, "particle_steps_per_s": particles * steps / wall,
+            "particle_steps_per_cpu_s": particles * steps / cpu,
+            "bond_updates_per_s": bonds * steps / wall if bonds else float("nan")}
 
 
 # -- the "impact" and "bed" scenes (issue: real work, side by side with LAMMPS) -----------
@@ -530,14 +535,8 @@ def lammps_scene_run(result, ranks=1, warmup=None):
     wall = float(words[3])
     cpu = [line for line in proc.stdout.splitlines() if "% CPU use" in line]
     share = float(cpu[-1].split("%")[0]) / 100.0 if cpu else float("nan")
-    n_p = model.n_particles
-    return {"scene": result["scene"], "n": n_p, "backend": f"lammps x{ranks}",
-            "particles": n_p, "bonds": model.n_bonds, "steps": steps, "threads": ranks,
-            "wall_s": wall, "cpu_s": wall * share * ranks, "s_per_step": wall / steps,
-            "particle_steps_per_s": n_p * steps / wall,
-            "particle_steps_per_cpu_s": n_p * steps / (wall * share * ranks),
-            "bond_updates_per_s": model.n_bonds * steps / wall if model.n_bonds
-            else float("nan")}
+    return _lammps_figures(result["scene"], model.n_particles, model.n_particles,
+                           model.n_bonds, steps, ranks, wall, share)
 
 
 def format_table(rows):

@@ -5,8 +5,9 @@ axes) are listed, sorted by i then j. The list stays valid until some particle h
 more than skin/2 since the build (two particles approaching each other by skin/2 each close
 the gap); ``max_displacement`` measures that. Cells are at least 2 r_max + skin wide, so a
 particle's candidates lie in its own and the 26 adjacent cells; along a periodic axis with
-fewer than three cells the wrapped neighbours are visited once each. The grid is counted
-and filled in two parallel passes, so the list is the same whatever the thread count.
+fewer than three cells the wrapped neighbours are visited once each. The search is a
+parallel pass per particle (into rows of a guessed room, or counting then filling when a
+row outgrows it), each row sorted, so the list is the same whatever the thread count.
 History of contacts is carried across rebuilds by ``carry_history`` (match by pair key).
 """
 import math

@@ -526,8 +526,8 @@ class ContactLaw:
     def pair_loads(self, model, state, force, moment, increment_dt, moved_dt):
         """Add the particle-particle contacts' loads (N, N m) after ``update_lists``."""
         extra = state.extra
-        if not extra["contact_pairs"].shape[0]:
-            return
+        if not self._live.shape[0]:
+            return   # no pair listed, or every one bonded: no load, nothing dissipated
         rows = pair_rows(extra, self._dissipated)
         particle_contacts(
             self._live, self._quiet, extra["contact_pairs"], self._pair_bond,
@@ -535,8 +535,6 @@ class ContactLaw:
             self.pair_law, self._linear_stiffness, bool(self.settings.rolling_resistance),
             cpu.box(model), rows, increment_dt, moved_dt,
             True if self.musen_compat else None)
-        if not self._live.shape[0]:
-            return   # every listed pair bonded: no load to add, no row dissipated anything
         gather_pair_loads(
             loops.PairIndex(self._i_start, self._i_order, self._j_start, self._j_order,
                             self._quiet),

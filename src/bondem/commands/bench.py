@@ -149,6 +149,14 @@ def _add_peer(results, result, run):
     results.append(other)
 
 
+def _lammps_peers(results, result, label, ranks, run):
+    """The LAMMPS peer of ``result`` on each rank count (``run(ranks)``: its figures)."""
+    for count in ranks:
+        click.echo(f"bench {label}: the same in LAMMPS on {count} MPI "
+                   f"rank{'s' if count > 1 else ''} ...", err=True)
+        _add_peer(results, result, lambda: run(count))
+
+
 def _lattices(bench, sizes, steps, variant, backend, order, peer, peer_steps, ranks,
               profile, results):
     """The lattice scene at each size n, and its LAMMPS peer (benchmarks/lammps) on each
@@ -166,13 +174,9 @@ def _lattices(bench, sizes, steps, variant, backend, order, peer, peer_steps, ra
         results.append(result)
         for note in result["notes"]:
             click.echo(f"n={n}: {note}")
-        if peer != "lammps":
-            continue
-        for count in ranks:
-            click.echo(f"bench lattice n={n}: the same scene in LAMMPS on {count} MPI "
-                       f"rank{'s' if count > 1 else ''} ...", err=True)
-            _add_peer(results, result,
-                      lambda: bench.lammps_run(n, peer_steps or n_steps, count))
+        if peer == "lammps":
+            _lammps_peers(results, result, f"lattice n={n}", ranks,
+                          lambda count: bench.lammps_run(n, peer_steps or n_steps, count))
 
 
 def _scenes(bench, scene, sizes, steps, backend, peer, ranks, profile, results, warmup=5):
@@ -191,9 +195,6 @@ def _scenes(bench, scene, sizes, steps, backend, peer, ranks, profile, results, 
         results.append(result)
         for note in result["notes"]:
             click.echo(f"{scene} {n}: {note}")
-        if peer != "lammps":
-            continue
-        for count in ranks:
-            click.echo(f"bench {scene} {n:,} particles: the same in LAMMPS on {count} MPI "
-                       f"rank{'s' if count > 1 else ''} ...", err=True)
-            _add_peer(results, result, lambda: bench.lammps_scene_run(result, count))
+        if peer == "lammps":
+            _lammps_peers(results, result, f"{scene} {n:,} particles", ranks,
+                          lambda count: bench.lammps_scene_run(result, count))
