@@ -327,3 +327,69 @@ def test_quiet_rows_skipped_give_the_same_bits_as_visiting_every_row(monkeypatch
         np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
     for name, value in a.extra.items():
         np.testing.assert_array_equal(value, b.extra[name], err_msg=name)
+
+
+def test_balanced_shares_cut_contiguous_runs_of_even_work():
+    """cpu.balanced_shares: contiguous runs covering every chunk once, each within one
+    chunk's work of an equal share; a bed-like skew (the first half of the chunks 13x
+    costlier) is split by work, not by length."""
+    from bondem.backends.cpu import balanced_shares
+    rng = np.random.default_rng(2)
+    skewed = np.r_[np.full(500, 13.0), np.ones(500)]
+    for work in (np.ones(10), rng.exponential(1.0, 1000), skewed, np.zeros(7), np.ones(1),
+                 np.zeros(0)):
+        for parts in (1, 2, 3, 8):
+            bounds = balanced_shares(work, parts)
+            assert bounds.shape == (parts + 1,)
+            assert bounds[0] == 0 and bounds[-1] == work.shape[0]
+            assert np.all(np.diff(bounds) >= 0)
+            if work.size:
+                shares = [work[a:b].sum() for a, b in zip(bounds[:-1], bounds[1:])]
+                assert max(shares) <= work.sum() / parts + work.max() + 1e-9
+    bounds = balanced_shares(skewed, 2)
+    assert skewed[:bounds[1]].sum() == pytest.approx(0.5 * skewed.sum(), rel=0.01)
+    assert 260 <= bounds[1] <= 280       # 500 chunks by length would give 6500 : 500
+
+
+def test_contact_kernel_gives_the_same_bits_however_its_chunks_are_shared():
+    """The pair kernel shares its chunks of rows out by the work they took last time
+    (particle_contacts' ``work``); any sharing, over any number of parts, gives the same
+    rows to the bit, and the kernel records each chunk's work for the next step."""
+    from bondem import bench
+    from bondem.backends import cpu, cpu_contacts as cc
+    model, state, walls = bench.bed_system(3000)
+    sim, _ = bench.scene_simulation(model, state, walls)
+    sim.step(20)
+    law = sim.contacts
+    extra = state.extra
+    names = ("contact_spring", "contact_force", "contact_moment_i", "contact_moment_j",
+             "contact_energy")
+    before = {name: extra[name].copy() for name in names}
+    quiet = law._quiet.copy()
+    m = cpu.chunks(law._live.shape[0])
+    assert m >= 8
+    rng = np.random.default_rng(4)
+    layouts = ((1, np.ones(m)), (2, np.ones(m)), (2, np.r_[np.full(m - 1, 0.0), 1e6]),
+               (3, rng.exponential(1.0, m)), (7, np.zeros(m)))
+    results = []
+    for threads, work in layouts:
+        for name in names:
+            extra[name][...] = before[name]
+        law._quiet[:] = quiet
+        dissipated = np.zeros(extra["contact_pairs"].shape[0])
+        cc.particle_contacts(
+            law._live, law._quiet, extra["contact_pairs"], law._pair_bond, state.bond_active,
+            cpu.particles(state), law.grains(model), law._materials, law.pair_law,
+            law._linear_stiffness, False, cpu.box(model),
+            cc.pair_rows(extra, dissipated), sim.time_step, sim.time_step, None, work,
+            threads)
+        evaluated = (work - np.diff(np.minimum(np.arange(m + 1) * cpu.CHUNK,
+                                               law._live.shape[0]))) / cc.EVALUATED_ROW_WORK
+        np.testing.assert_array_equal(evaluated, np.round(evaluated))
+        assert evaluated.sum() >= np.count_nonzero(quiet[law._live] == 0) > 0
+        results.append([extra[name].copy() for name in names] + [law._quiet.copy(),
+                                                                 dissipated])
+    for other in results[1:]:
+        for a, b in zip(results[0], other):
+            np.testing.assert_array_equal(a, b)
+    assert not np.array_equal(results[0][1], before["contact_force"])

@@ -67,6 +67,35 @@ def chunks(n):
     """Number of CHUNKs covering n items."""
     return (n + CHUNK - 1) // CHUNK
 
+
+@numba.njit(cache=True, nogil=True)
+def balanced_shares(work, parts):
+    """Boundaries (parts + 1,) that cut chunks 0..len(work)-1 into ``parts`` contiguous
+    runs of about equal summed ``work`` (any unit, >= 0), one run per thread.
+
+    Numba gives each thread of a ``prange`` one contiguous share of equal length, and the
+    costly chunks of a scene are often side by side: the touching contacts at the bottom
+    of a settling bed, the bonds that break where an agglomerate hits a wall. In a 10^5
+    bed one thread got 78 % of the touching rows. Cutting by last step's work keeps the
+    shares contiguous (each thread streams its rows in order) and even."""
+    m = work.shape[0]
+    bounds = np.empty(parts + 1, dtype=np.int64)
+    bounds[0] = 0
+    total = 0.0
+    for c in range(m):
+        total += work[c]
+    done = 0.0
+    c = 0
+    for t in range(1, parts):
+        target = total * t / parts
+        while c < m and done + 0.5 * work[c] < target:
+            done += work[c]
+            c += 1
+        bounds[t] = c
+    bounds[parts] = m
+    return bounds
+
+
 # Below this many particles + bonds a step costs less than waking and joining the
 # worker threads of three parallel loops (tens of microseconds), so it runs on one.
 SERIAL_BELOW = 2048

@@ -16,7 +16,7 @@ from ..neighbors import (build_pairs, carry_history, counting_sort, history_map,
 from ..physics.contact_linear import MODEL_HERTZ
 from ..walls import PLANE, WallSet, build_wall_pairs
 from . import cpu, loops
-from .cpu import CHUNK, L, _jit, _serial, chunks
+from .cpu import CHUNK, L, _jit, _serial, balanced_shares, chunks
 
 # The pair loop inlines its contact law as well (Hertz-Mindlin, friction and rolling, at
 # Numba's IR level; the small vector helpers LLVM inlines anyway): a touching row costs
@@ -42,12 +42,19 @@ hertz_mindlin = L.hertz_mindlin
 restitution_beta = L.restitution_beta
 
 
+# What a row that ``pair_contact`` evaluates costs, in quiet rows skipped: 73 against
+# 5.5 ns (one thread, 10^5 bed). The unit of ``particle_contacts``' work per chunk.
+EVALUATED_ROW_WORK = 13.0
+
+
 @numba.njit(**_serial)
 def pair_contact_range(first, last, live, quiet, pairs, pair_bond, bond_active, particles,
                        grains, materials, law, linear_stiffness, use_rolling, box, rows, dt,
                        moved_dt, musen):
     """``loops.pair_contact`` for the rows live[first:last], but for quiet rows whose pair
-    is still apart, which it would leave as they are."""
+    is still apart, which it would leave as they are. Returns the range's work (rows,
+    EVALUATED_ROW_WORK for each evaluated one)."""
+    evaluated = 0
     for s in range(first, last):
         c = live[s]
         if quiet[c] and pair_geometry(c, pairs, pair_bond, bond_active, particles.position,
@@ -56,12 +63,14 @@ def pair_contact_range(first, last, live, quiet, pairs, pair_bond, bond_active, 
         pair_contact(c, pairs, pair_bond, bond_active, particles, grains, materials,
                      law, linear_stiffness, use_rolling, box, rows, dt, moved_dt, musen)
         quiet[c] = row_quiet(c, rows)
+        evaluated += 1
+    return (last - first) + EVALUATED_ROW_WORK * evaluated
 
 
 @numba.njit(**_jit)
 def particle_contacts(live, quiet, pairs, pair_bond, bond_active, particles, grains,
                       materials, law, linear_stiffness, use_rolling, box, rows, dt,
-                      moved_dt, musen):
+                      moved_dt, musen, work, threads):
     """Loads, stored energy and dissipation of every contact row listed in ``live``
     (``loops.pair_contact``), advancing the springs by dt (s); moved_dt (s): time since
     the previous evaluation.
@@ -77,12 +86,19 @@ def particle_contacts(live, quiet, pairs, pair_bond, bond_active, particles, gra
     linear_stiffness: None for Hertz-Mindlin (the linear law is then not compiled), else
     k_n (N/m, 0 for the default) of the linear law. musen: None for the SPEC's law (MUSEN's
     is then not compiled), True for MUSEN's Hertz-Mindlin.
+    work (one per CHUNK of ``live``): each chunk's work in the last call, which shares
+    the chunks out among ``threads`` (``numba.get_num_threads()``, read by the caller: the
+    call inside would make the kernel uncachable) with ``cpu.balanced_shares``, and is
+    updated here; the results depend on neither.
     """
     n = live.shape[0]
-    for c in prange(chunks(n)):
-        pair_contact_range(c * CHUNK, min(n, (c + 1) * CHUNK), live, quiet, pairs,
-                           pair_bond, bond_active, particles, grains, materials, law,
-                           linear_stiffness, use_rolling, box, rows, dt, moved_dt, musen)
+    bounds = balanced_shares(work, threads)
+    for t in prange(bounds.shape[0] - 1):
+        for c in range(bounds[t], bounds[t + 1]):
+            work[c] = pair_contact_range(
+                c * CHUNK, min(n, (c + 1) * CHUNK), live, quiet, pairs, pair_bond,
+                bond_active, particles, grains, materials, law, linear_stiffness,
+                use_rolling, box, rows, dt, moved_dt, musen)
 
 
 @numba.njit(**_serial)
@@ -342,6 +358,7 @@ class ContactLaw:
         self._derived_for = None
         self._carried_quiet = None  # the flags of a rebuild's rows, for the next _derive
         self._row_room = 0      # room per row of the next pair search (build_pairs)
+        self._chunk_work = np.ones(0)   # particle_contacts' work per chunk of live rows
         self._last_state = None
         self._t_wall = 0.0   # s, where the walls stand for the step being evaluated
         self.wall_force = np.zeros((self.walls.n_walls, 3))
@@ -529,12 +546,14 @@ class ContactLaw:
         if not self._live.shape[0]:
             return   # no pair listed, or every one bonded: no load, nothing dissipated
         rows = pair_rows(extra, self._dissipated)
+        if self._chunk_work.shape[0] != chunks(self._live.shape[0]):
+            self._chunk_work = np.ones(chunks(self._live.shape[0]))
         particle_contacts(
             self._live, self._quiet, extra["contact_pairs"], self._pair_bond,
             state.bond_active, cpu.particles(state), self.grains(model), self._materials,
             self.pair_law, self._linear_stiffness, bool(self.settings.rolling_resistance),
             cpu.box(model), rows, increment_dt, moved_dt,
-            True if self.musen_compat else None)
+            True if self.musen_compat else None, self._chunk_work, numba.get_num_threads())
         gather_pair_loads(
             loops.PairIndex(self._i_start, self._i_order, self._j_start, self._j_order,
                             self._quiet),
