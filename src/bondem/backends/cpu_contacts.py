@@ -273,19 +273,48 @@ def csr_by(index, n):
 
 
 @numba.njit(cache=True, nogil=True)
+def _merge_sorted(old, new, at):
+    """``old`` with the values ``new`` inserted before old[at[k]] (at ascending; equal at
+    in the order of ``new``): block copies between the insertion points."""
+    out = np.empty(old.shape[0] + new.shape[0], dtype=old.dtype)
+    a = 0
+    for k in range(new.shape[0]):
+        out[a + k:at[k] + k] = old[a:at[k]]
+        out[at[k] + k] = new[k]
+        a = at[k]
+    out[a + new.shape[0]:] = old[a:]
+    return out
+
+
+@numba.njit(cache=True, nogil=True)
 def _insert_rows(live, j_order, i_start, j_start, pairs, rows):
     """``live`` (ascending) and ``j_order`` (grouped by j, ascending within) with the
     ascending ``rows`` merged in where a full derivation would put them; the CSR offsets
-    i_start, j_start (n+1,) grow in place. Returns (live, j_order)."""
+    i_start, j_start (n+1,) grow in place. Returns (live, j_order).
+
+    Each new row's place is found by binary search (in ``live``, and in its j's group of
+    ``j_order``), and the arrays are copied in blocks between those places: a merge that
+    compared every row of j_order read the pair of each (a random read per row, most of
+    the 1.6 ms this took per step of the 10^5 impact)."""
     n = i_start.shape[0] - 1
-    merged = np.empty(live.shape[0] + rows.shape[0], dtype=np.int64)
-    a = 0
-    for b in range(merged.shape[0]):
-        if a < live.shape[0] and (b - a >= rows.shape[0] or live[a] < rows[b - a]):
-            merged[b] = live[a]
-            a += 1
-        else:
-            merged[b] = rows[b - a]
+    merged = _merge_sorted(live, rows, np.searchsorted(live, rows))
+    # the new rows by (j, row), each placed in its j's group (ascending rows)
+    size = pairs.shape[0]
+    key = np.sort(pairs[rows, 1] * size + rows)
+    at = np.empty(key.shape[0], dtype=np.int64)
+    for k in range(key.shape[0]):
+        j = key[k] // size
+        r = key[k] % size
+        lo = j_start[j]
+        hi = j_start[j + 1]
+        while lo < hi:
+            mid = (lo + hi) // 2
+            if j_order[mid] < r:
+                lo = mid + 1
+            else:
+                hi = mid
+        at[k] = lo
+    grouped = _merge_sorted(j_order, key % size, at)
     added_i = np.zeros(n + 1, dtype=np.int64)
     added_j = np.zeros(n + 1, dtype=np.int64)
     for r in rows:
@@ -296,19 +325,6 @@ def _insert_rows(live, j_order, i_start, j_start, pairs, rows):
         added_j[p + 1] += added_j[p]
         i_start[p + 1] += added_i[p + 1]
         j_start[p + 1] += added_j[p + 1]
-    # the new rows by (j, row), merged into j_order, which is sorted by the same key
-    size = pairs.shape[0]
-    new_key = np.sort(pairs[rows, 1] * size + rows)
-    grouped = np.empty(j_order.shape[0] + rows.shape[0], dtype=np.int64)
-    a = 0
-    for b in range(grouped.shape[0]):
-        taken = b - a
-        if a < j_order.shape[0] and (taken >= new_key.shape[0] or
-                                     pairs[j_order[a], 1] * size + j_order[a] < new_key[taken]):
-            grouped[b] = j_order[a]
-            a += 1
-        else:
-            grouped[b] = new_key[taken] % size
     return merged, grouped
 
 
