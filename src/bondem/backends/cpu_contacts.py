@@ -273,6 +273,41 @@ def csr_by(index, n):
 
 
 @numba.njit(cache=True, nogil=True)
+def live_rows(pairs, pair_bond, bond_active, n):
+    """The rows of ``pairs`` (sorted by i) that no intact bond joins (pair_bond[c]: the
+    bond of row c, or -1), ascending, and their CSR indices by particle (n of them):
+    (live, i_start, j_start, j_order), j's rows j_order[j_start[j]:j_start[j+1]]
+    ascending."""
+    m = pairs.shape[0]
+    keep = np.empty(m, dtype=np.bool_)
+    count = 0
+    for c in range(m):
+        b = pair_bond[c]
+        keep[c] = b < 0 or not bond_active[b]
+        count += keep[c]
+    live = np.empty(count, dtype=np.int64)
+    i_start = np.zeros(n + 1, dtype=np.int64)
+    j_start = np.zeros(n + 1, dtype=np.int64)
+    k = 0
+    for c in range(m):
+        if keep[c]:
+            live[k] = c
+            k += 1
+            i_start[pairs[c, 0] + 1] += 1
+            j_start[pairs[c, 1] + 1] += 1
+    for p in range(n):
+        i_start[p + 1] += i_start[p]
+        j_start[p + 1] += j_start[p]
+    fill = j_start[:-1].copy()
+    j_order = np.empty(count, dtype=np.int64)
+    for c in live:
+        j = pairs[c, 1]
+        j_order[fill[j]] = c
+        fill[j] += 1
+    return live, i_start, j_start, j_order
+
+
+@numba.njit(cache=True, nogil=True)
 def _merge_sorted(old, new, at):
     """``old`` with the values ``new`` inserted before old[at[k]] (at ascending; equal at
     in the order of ``new``): block copies between the insertion points."""
@@ -442,17 +477,11 @@ class ContactLaw:
     def _derive_live(self, model, state):
         """Rows that can carry a contact load (no intact bond joins the pair) and their
         CSR indices by particle; redone when a bond breaks."""
-        pairs = state.extra["contact_pairs"]
-        n = model.n_particles
-        bonded = self._pair_bond >= 0
-        bonded[bonded] = state.bond_active[self._pair_bond[bonded]]
-        self._live = np.flatnonzero(~bonded).astype(np.int64)
+        self._live, self._i_start, self._j_start, self._j_order = live_rows(
+            state.extra["contact_pairs"], self._pair_bond, state.bond_active,
+            model.n_particles)
         # rows are sorted by i, so the live rows are too: i's CSR needs no sort
         self._i_order = self._live
-        self._i_start = np.zeros(n + 1, dtype=np.int64)
-        np.cumsum(np.bincount(pairs[self._live, 0], minlength=n), out=self._i_start[1:])
-        j_start, j_order = csr_by(pairs[self._live, 1], n)
-        self._j_start, self._j_order = j_start, self._live[j_order]
         self._active_bonds = int(np.count_nonzero(state.bond_active))
         self._bond_was_active = state.bond_active.copy()
 
