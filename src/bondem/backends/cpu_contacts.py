@@ -339,16 +339,8 @@ def _insert_rows(live, j_order, i_start, j_start, pairs, rows):
     at = np.empty(key.shape[0], dtype=np.int64)
     for k in range(key.shape[0]):
         j = key[k] // size
-        r = key[k] % size
-        lo = j_start[j]
-        hi = j_start[j + 1]
-        while lo < hi:
-            mid = (lo + hi) // 2
-            if j_order[mid] < r:
-                lo = mid + 1
-            else:
-                hi = mid
-        at[k] = lo
+        at[k] = j_start[j] + np.searchsorted(j_order[j_start[j]:j_start[j + 1]],
+                                             key[k] % size)
     grouped = _merge_sorted(j_order, key % size, at)
     added_i = np.zeros(n + 1, dtype=np.int64)
     added_j = np.zeros(n + 1, dtype=np.int64)
