@@ -229,9 +229,11 @@ RUN_GAS = """
 import sys, numpy as np
 sys.path.insert(0, {tests!r})
 import bondem
+import bondem.backends.cpu as cpu
 from bondem.contacts import ContactSettings
 from test_contacts_neighbors import gas
-model, state = gas(n_side=5, seed=7)
+cpu.SERIAL_BELOW = 0   # the parallel loops even for this small gas (else one thread)
+model, state = gas(n_side=8, seed=7)
 sim = bondem.Simulation(model, state, contact=ContactSettings(skin=1e-4))
 sim.step(200)
 np.savez({out!r}, **{{k.replace('/', '_'): v for k, v in state.arrays().items()}})
