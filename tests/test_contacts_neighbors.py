@@ -348,6 +348,7 @@ def test_balanced_shares_cut_contiguous_runs_of_even_work():
             if work.size:
                 shares = [work[a:b].sum() for a, b in zip(bounds[:-1], bounds[1:])]
                 assert max(shares) <= work.sum() / parts + work.max() + 1e-9
+    np.testing.assert_array_equal(balanced_shares(np.zeros(9), 3), [0, 3, 6, 9])
     bounds = balanced_shares(skewed, 2)
     assert skewed[:bounds[1]].sum() == pytest.approx(0.5 * skewed.sum(), rel=0.01)
     assert 260 <= bounds[1] <= 280       # 500 chunks by length would give 6500 : 500

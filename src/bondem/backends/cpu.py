@@ -84,6 +84,10 @@ def balanced_shares(work, parts):
     total = 0.0
     for c in range(m):
         total += work[c]
+    if total <= 0.0:      # nothing measured: even lengths
+        for t in range(1, parts + 1):
+            bounds[t] = m * t // parts
+        return bounds
     done = 0.0
     c = 0
     for t in range(1, parts):
