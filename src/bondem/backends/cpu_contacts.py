@@ -278,47 +278,18 @@ def live_rows(pairs, pair_bond, bond_active, n):
     bond of row c, or -1), ascending, and their CSR indices by particle (n of them):
     (live, i_start, j_start, j_order), j's rows j_order[j_start[j]:j_start[j+1]]
     ascending."""
-    m = pairs.shape[0]
-    keep = np.empty(m, dtype=np.bool_)
-    count = 0
-    for c in range(m):
-        b = pair_bond[c]
-        keep[c] = b < 0 or not bond_active[b]
-        count += keep[c]
-    live = np.empty(count, dtype=np.int64)
+    keep = np.empty(pairs.shape[0], dtype=np.bool_)
+    for c in range(pairs.shape[0]):
+        keep[c] = pair_bond[c] < 0 or not bond_active[pair_bond[c]]
+    live = np.flatnonzero(keep)
+    # rows are sorted by i, so the live rows are too: i's CSR is a count per particle
     i_start = np.zeros(n + 1, dtype=np.int64)
-    j_start = np.zeros(n + 1, dtype=np.int64)
-    k = 0
-    for c in range(m):
-        if keep[c]:
-            live[k] = c
-            k += 1
-            i_start[pairs[c, 0] + 1] += 1
-            j_start[pairs[c, 1] + 1] += 1
+    for c in live:
+        i_start[pairs[c, 0] + 1] += 1
     for p in range(n):
         i_start[p + 1] += i_start[p]
-        j_start[p + 1] += j_start[p]
-    fill = j_start[:-1].copy()
-    j_order = np.empty(count, dtype=np.int64)
-    for c in live:
-        j = pairs[c, 1]
-        j_order[fill[j]] = c
-        fill[j] += 1
-    return live, i_start, j_start, j_order
-
-
-@numba.njit(cache=True, nogil=True)
-def _merge_sorted(old, new, at):
-    """``old`` with the values ``new`` inserted before old[at[k]] (at ascending; equal at
-    in the order of ``new``): block copies between the insertion points."""
-    out = np.empty(old.shape[0] + new.shape[0], dtype=old.dtype)
-    a = 0
-    for k in range(new.shape[0]):
-        out[a + k:at[k] + k] = old[a:at[k]]
-        out[at[k] + k] = new[k]
-        a = at[k]
-    out[a + new.shape[0]:] = old[a:]
-    return out
+    j_start, order = counting_sort(pairs[live, 1], n)
+    return live, i_start, j_start, live[order]
 
 
 @numba.njit(cache=True, nogil=True)
@@ -328,11 +299,11 @@ def _insert_rows(live, j_order, i_start, j_start, pairs, rows):
     i_start, j_start (n+1,) grow in place. Returns (live, j_order).
 
     Each new row's place is found by binary search (in ``live``, and in its j's group of
-    ``j_order``), and the arrays are copied in blocks between those places: a merge that
+    ``j_order``) and the row inserted there (``np.insert``, block copies): a merge that
     compared every row of j_order read the pair of each (a random read per row, most of
     the 1.6 ms this took per step of the 10^5 impact)."""
     n = i_start.shape[0] - 1
-    merged = _merge_sorted(live, rows, np.searchsorted(live, rows))
+    merged = np.insert(live, np.searchsorted(live, rows), rows)
     # the new rows by (j, row), each placed in its j's group (ascending rows)
     size = pairs.shape[0]
     key = np.sort(pairs[rows, 1] * size + rows)
@@ -341,7 +312,7 @@ def _insert_rows(live, j_order, i_start, j_start, pairs, rows):
         j = key[k] // size
         at[k] = j_start[j] + np.searchsorted(j_order[j_start[j]:j_start[j + 1]],
                                              key[k] % size)
-    grouped = _merge_sorted(j_order, key % size, at)
+    grouped = np.insert(j_order, at, key % size)
     added_i = np.zeros(n + 1, dtype=np.int64)
     added_j = np.zeros(n + 1, dtype=np.int64)
     for r in rows:
@@ -472,7 +443,6 @@ class ContactLaw:
         self._live, self._i_start, self._j_start, self._j_order = live_rows(
             state.extra["contact_pairs"], self._pair_bond, state.bond_active,
             model.n_particles)
-        # rows are sorted by i, so the live rows are too: i's CSR needs no sort
         self._i_order = self._live
         self._active_bonds = int(np.count_nonzero(state.bond_active))
         self._bond_was_active = state.bond_active.copy()
