@@ -264,9 +264,13 @@ def profile_step(sim, steps=40):
             sim.force.fill(0.0)
             sim.moment.fill(0.0)
         clock.append(time.perf_counter())
-        bonds.compute(model, state, dt)
+        # Without bonds the step runs neither bond part (the 10^5 bed's profile showed
+        # 0.4 ms of them that its steps never spend).
+        if assign:
+            bonds.compute(model, state, dt)
         clock.append(time.perf_counter())
-        bonds.gather(sim.force, sim.moment, assign=assign)
+        if assign:
+            bonds.gather(sim.force, sim.moment, assign=assign)
         clock.append(time.perf_counter())
         moved = [law.update_lists(model, state, dt) for law in contacts]
         clock.append(time.perf_counter())
