@@ -303,6 +303,42 @@ def test_profile_times_the_same_work_as_a_step():
                                   runs[1].extra["contact_spring"])
 
 
+def test_steps_timed_while_numba_compiles_are_timed_again_on_a_fresh_simulation():
+    """A first run on an empty Numba cache compiles the kernels of paths the warm-up did
+    not take (the first rebuild, the first broken bond) inside the timed steps, which then
+    time the compiler: the bench times those steps again on a fresh simulation from the
+    same initial state. Steps that compile nothing are timed once."""
+    import numba
+    model, state, walls = bench.bed_system(400)
+    initial = state.copy()
+    made = []
+
+    def fresh():
+        made.append(bench.scene_simulation(model, initial.copy(), walls)[0])
+        return made[-1]
+
+    sim = bench.scene_simulation(model, state, walls)[0]
+    plain_step = sim.step
+
+    def compiling_step(steps=1):
+        if steps == 20:      # the timed steps: a function new to Numba, compiled now
+            numba.njit(lambda x: x + 1)(1)
+        plain_step(steps)
+
+    sim.step = compiling_step
+    figures, _, timed = bench.timed_figures(sim, 20, 3, 0.0, fresh)
+    assert figures["retimed"] and not figures["compiled_in_timed_steps"]
+    assert len(made) == 1 and timed is made[0]
+    assert timed.state.step == sim.state.step == 1 + 3 + 20
+    np.testing.assert_array_equal(timed.state.position, sim.state.position)
+    assert any("timed again" in note for note in bench._retimed_notes(figures))
+
+    clean = fresh()
+    figures, _, timed = bench.timed_figures(clean, 20, 3, 0.0, fresh)
+    assert not figures["retimed"] and timed is clean and len(made) == 2
+    assert bench._retimed_notes(figures) == []
+
+
 class _AddingOnly:
     """A law seen through ``accumulate`` only: the step then zeroes the loads first."""
 
