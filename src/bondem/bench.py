@@ -200,8 +200,8 @@ def timed_figures(sim, steps, warmup, setup, fresh=None):
     compiled or loaded a kernel during the timed steps (a path the warm-up did not take:
     the first list rebuild or the first broken bond, with an empty cache), those steps are
     timed again on a fresh simulation, whose kernels are then all in memory; the figures'
-    "retimed" says so. Without that, a first run on an empty cache timed 40 s of
-    compilation as 40 steps of the 10^5 impact (0.33 instead of 0.033 s per step)."""
+    "retimed" says so. Without that, a first run on an empty cache counted ~12 s of
+    compilation in 40 steps of the 10^5 impact (0.33 instead of 0.033 s per step)."""
     first, per_warm, wall, cpu_time, active0, active1, compiled = timed_steps(
         sim, steps, warmup)
     retimed = compiled and fresh is not None
