@@ -299,7 +299,7 @@ def profile_step(sim, steps=40):
             bonds.compute(model, state, dt)
         clock.append(time.perf_counter())
         if assign:
-            bonds.gather(sim.force, sim.moment, assign=assign)
+            bonds.gather(sim.force, sim.moment, assign=True)
         clock.append(time.perf_counter())
         moved = [law.update_lists(model, state, dt) for law in contacts]
         clock.append(time.perf_counter())

@@ -304,12 +304,12 @@ def _max_displacement_sq(position, reference, box_length, periodic):
 
 def max_displacement(position, reference, box_length, periodic):
     """Largest distance (m) any particle moved from ``reference`` (minimum image)."""
+    periodic = np.asarray(periodic, dtype=np.bool_)
     if position.shape[0] < 2 * DISPLACEMENT_BLOCK:   # not worth waking the threads
         worst = _max_displacement_range(0, position.shape[0], position, reference,
-                                        box_length, np.asarray(periodic, dtype=np.bool_))
+                                        box_length, periodic)
     else:
-        worst = _max_displacement_sq(position, reference, box_length,
-                                     np.asarray(periodic, dtype=np.bool_))
+        worst = _max_displacement_sq(position, reference, box_length, periodic)
     return float(np.sqrt(worst))
 
 
