@@ -196,6 +196,26 @@ def test_scene_servo_holds_its_force(tmp_path):
     assert servo.reached
 
 
+def test_each_simulation_of_a_scene_starts_with_the_scene_s_walls(tmp_path):
+    """A servo's travel, speed and integral live in its wall: a second simulation made
+    from the same Scene (a study retrying a run) must start with the top plane where the
+    scene puts it, at rest, and follow the first run's path to the bit."""
+    scene = load_scene(_scene(tmp_path, "servo = { target_force = 0.2, gain = 0.5, "
+                                        "max_velocity = 0.5, integral_time = 1e-4 }",
+                              2.03e-3))
+    first = scene.make_simulation()
+    first.run(until=5e-4)
+    moved = first.walls[1].position(first.state.time)[2]
+    assert abs(moved - 2.03e-3) > 1e-6 and first.walls[1].motion.integral != 0.0
+    second = scene.make_simulation()
+    assert second.walls[1].position(0.0)[2] == 2.03e-3
+    servo = second.walls[1].motion
+    assert (servo.travel, servo.speed, servo.integral, servo.held) == (0.0, 0.0, 0.0, False)
+    second.run(until=5e-4)
+    assert second.walls[1].position(second.state.time)[2] == moved
+    np.testing.assert_array_equal(second.state.position, first.state.position)
+
+
 def test_an_untaken_history_keeps_its_newest_rows():
     from bondem.walls import WallHistory
     history = WallHistory(1, max_rows=10)

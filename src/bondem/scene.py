@@ -132,8 +132,13 @@ class Scene:
         """A Simulation of this scene, from ``state`` (a checkpoint's) or a copy of the
         scene's initial state."""
         from .simulation import Simulation
+        options = dict(self.simulation_options)
+        # A servo's travel, speed and integral live in its wall object: each simulation
+        # gets walls of its own, so a second one starts where the scene says, not where
+        # the first one left its walls.
+        options["walls"] = copy.deepcopy(options.get("walls", []))
         return Simulation(self.model, (state if state is not None else self.state.copy()),
-                          **self.simulation_options)
+                          **options)
 
 
 def load_scene(path, overrides: dict | None = None) -> Scene:
