@@ -157,3 +157,73 @@ def test_walls_become_mesh_walls(tmp_path):
     (wall,) = scene.simulation_options["walls"]
     assert len(wall.triangles) == 2
     assert np.allclose(wall.vertices[:, 2], -0.01)
+
+
+WALL_SCENE = """
+[simulation]
+end_time = 1e-5            # 33.3 steps of 3e-7 s: bondem runs 33
+time_step = 3e-7
+save_every = 3e-6
+contact_model = "hertz_mindlin"
+[materials.glass]
+density = 2500.0
+young_modulus = 1e8
+[materials.steel]
+density = 7800.0
+young_modulus = 2e9
+[bond_materials.binder]
+young_modulus = 1e8
+normal_strength = 1e6
+tangential_strength = 1e6
+[particles]
+file = "particles.csv"
+[bonds]
+file = "bonds.csv"
+[[walls]]
+type = "plane"
+point = [0.0013, -0.0007, -0.0011]
+normal = [0.2, 0.3, 0.9]
+material = "steel"
+[[walls]]
+type = "mesh"
+file = "roof.stl"
+material = "steel"
+"""
+
+
+def test_export_with_plane_and_mesh_walls_imports_back(tmp_path):
+    """A scene with a tilted plane and a mesh wall, run, exported and imported: every
+    number is plain text MUSEN reads (no 'np.float64('), the plane becomes two triangles in
+    its plane, the mesh comes back vertex for vertex, and MUSEN's script runs as many
+    steps as bondem did (end time not a whole number of steps)."""
+    import trimesh
+    vertices = np.array([[-3e-3, -3e-3, 2.5e-3], [3e-3, -3e-3, 2.7e-3],
+                         [3e-3, 3e-3, 2.9e-3], [-3e-3, 3e-3, 2.6e-3]])
+    trimesh.Trimesh(vertices, [[0, 1, 2], [0, 2, 3]], process=False).export(
+        tmp_path / "roof.stl")
+    (tmp_path / "particles.csv").write_text(
+        "x,y,z,radius,material\n0,0,0,0.001,glass\n0.002,0,0,0.001,glass\n")
+    (tmp_path / "bonds.csv").write_text("i,j,diameter,material\n0,1,0.001,binder\n")
+    (tmp_path / "scene.toml").write_text(WALL_SCENE)
+    runner = CliRunner()
+    done = runner.invoke(main, ["run", str(tmp_path / "scene.toml")])
+    assert done.exit_code == 0, done.output
+    out = tmp_path / "musen.txt"
+    done = runner.invoke(main, ["export", "musen", str(tmp_path / "scene" / "results.h5"),
+                                "--out", str(out)])
+    assert done.exit_code == 0, done.output
+    assert "np." not in out.read_text()
+    script = (tmp_path / "musen_script.txt").read_text()
+    end = float(script.split("END_TIME ")[1].split()[0])
+    assert end == pytest.approx(32.5 * 3e-7, rel=1e-12)   # MUSEN stops once it reaches it
+    scene_path, _ = import_musen(out, tmp_path / "back", tmp_path / "musen_script.txt")
+    scene = load_scene(scene_path)
+    assert scene.end_time == pytest.approx(33 * 3e-7, rel=1e-12)
+    plane, mesh = scene.simulation_options["walls"]
+    normal = np.array([0.2, 0.3, 0.9]) / np.linalg.norm([0.2, 0.3, 0.9])
+    assert len(plane.triangles) == 2
+    # the import keeps walls as STL files: float32, 6e-8 of the plane's 8 mm corners
+    np.testing.assert_allclose((plane.vertices - [0.0013, -0.0007, -0.0011]) @ normal, 0.0,
+                               atol=1e-9)
+    assert sorted(map(tuple, mesh.vertices)) == sorted(map(tuple, vertices.astype(np.float32)
+                                                           .astype(float)))

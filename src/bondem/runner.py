@@ -18,6 +18,7 @@ from .errors import BackendUnavailable, InputError
 from .status import SimulationBlowUp
 from .io.checkpoint import read_checkpoint, write_checkpoint
 from .io.results import LOCK_NAME, ResultsWriter
+from .timestep import step_count
 
 RESULTS_NAME = "results.h5"
 CHECKPOINT_NAME = "checkpoint.npz"
@@ -89,7 +90,7 @@ def default_out_dir(scene_path) -> Path:
 
 def frame_schedule(scene, time_step):
     """(total steps, steps between frames) of a scene run with ``time_step`` (s)."""
-    total = max(0, int(round(scene.end_time / time_step)))
+    total = step_count(scene.end_time, time_step)
     stride = max(1, int(round(scene.save_every / time_step)))
     return total, stride
 

@@ -2,6 +2,13 @@
 import numpy as np
 
 
+def step_count(end_time, time_step):
+    """Steps of a run to ``end_time`` (s) with ``time_step`` (s): the nearest whole number,
+    so an end time a rounding error off a whole number of steps takes that number. The
+    runner, the LAMMPS deck and the MUSEN script all count with this."""
+    return max(0, int(round(float(end_time) / float(time_step))))
+
+
 def time_scales(model, musen_compat=False):
     """Smallest time scale (s) of each kind: {"rayleigh", "bond_axial", "bond_bending"},
     and those of the bond models in use (e.g. "bond_dashpot" of Kelvin bonds).

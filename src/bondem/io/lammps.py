@@ -33,6 +33,7 @@ import numpy as np
 from ..contacts import contact_cutoff
 from ..physics.bond_elastic import bond_stiffnesses
 from ..physics.contact_hertz import effective_shear_modulus, effective_young_modulus
+from ..timestep import step_count
 
 BIG = 1e300   # a limit that never breaks: LAMMPS has no infinity in its coefficients
 
@@ -178,7 +179,7 @@ def write_lammps(model, state, options, out_dir, *, end_time, save_every, title=
     if dt is None:
         from .. import Simulation
         dt = Simulation(model, state.copy(), **options).time_step
-    steps = max(1, int(round(end_time / dt)))
+    steps = max(1, step_count(end_time, dt))
     save = max(1, int(round(save_every / dt)))
     skin = contact_cutoff(radius, contact.skin if contact is not None else None)[1]
     longest = float(model.bond_initial_length.max()) if nb else 0.0

@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
+from ..timestep import step_count
 
 SPHERE, SOLID_BOND, LIQUID_BOND, TRIANGULAR_WALL = 1, 9, 10, 14
 DENSITY, VISCOSITY, YOUNG, NORMAL_STRENGTH, TANGENTIAL_STRENGTH, POISSON = 0, 2, 7, 8, 9, 10
@@ -479,7 +480,8 @@ def write_script(scene, time_step, text_name, path):
     if model == "kelvin":
         viscosity = {float(t.get("viscosity", 0.0)) for t in bond_tables}
         params += f" MU {sorted(viscosity)[0]!r}"
-    steps = max(1, math.ceil(float(simulation.get("end_time", 1e-3)) / time_step - 1e-6))
+    # the runner's count, so the exported MUSEN run is as long as bondem's
+    steps = max(1, step_count(simulation.get("end_time", 1e-3), time_step))
     contacts = simulation.get("contact_model", "hertz_mindlin") != "none"
     if simulation.get("contact_model") == "linear":
         notes.append("contact_model = 'linear': written as MUSEN's Hertz-Mindlin")
@@ -503,6 +505,12 @@ def write_script(scene, time_step, text_name, path):
     return notes
 
 
+def _number(value):
+    """A number as MUSEN's text format reads it, to the last bit: ``repr`` of a Python
+    float (a NumPy scalar's repr is ``np.float64(...)`` from NumPy 2 on)."""
+    return repr(float(value))
+
+
 def export_musen(results_path, out_file, every=1):
     """``bondem export musen``: a results file as a MUSEN text file (compounds,
     interactions as the pairs' means, domain, spheres with every frame's coordinates,
@@ -523,23 +531,22 @@ def export_musen(results_path, out_file, every=1):
     radius = data["particles/radius"]
     material = data["particles/material"]
     n = radius.shape[0]
-    full = repr
     for p in range(n):
-        parts = ["0", str(p), "1", str(SPHERE), "5", full(float(radius[p])),
-                 full(float(radius[p])), "23", names[material[p]], "24", "0", "1e+300"]
+        parts = ["0", str(p), "1", str(SPHERE), "5", _number(radius[p]),
+                 _number(radius[p]), "23", names[material[p]], "24", "0", "1e+300"]
         for f in range(len(time)):
-            parts += ["2", full(float(time[f])), "12", *map(full, map(float, position[f, p])),
-                      "15", *map(full, map(float, velocity[f, p])),
-                      "16", *map(full, map(float, spin[f, p]))]
+            parts += ["2", _number(time[f]), "12", *map(_number, position[f, p]),
+                      "15", *map(_number, velocity[f, p]),
+                      "16", *map(_number, spin[f, p])]
         lines.append(" ".join(parts))
     pairs = data["bonds/pairs"]
     for b in range(pairs.shape[0]):
         end = data["bonds/break_time"][b]
         parts = ["0", str(n + b), "1", str(SOLID_BOND), "5", str(int(pairs[b, 0])),
-                 str(int(pairs[b, 1])), full(float(data["bonds/diameter"][b])),
-                 full(float(data["bonds/initial_length"][b])), "23",
+                 str(int(pairs[b, 1])), _number(data["bonds/diameter"][b]),
+                 _number(data["bonds/initial_length"][b]), "23",
                  bond_names[data["bonds/material"][b]], "24", "0",
-                 "1e+300" if np.isnan(end) else full(float(end)), "2", full(float(time[0])),
+                 "1e+300" if np.isnan(end) else _number(end), "2", _number(time[0]),
                  "12", "0", "0", "0"]
         lines.append(" ".join(parts))
     ident = n + pairs.shape[0]
@@ -551,9 +558,9 @@ def export_musen(results_path, out_file, every=1):
         first = ident
         for a, b, c in triangles:
             lines.append(" ".join(["0", str(ident), "1", str(TRIANGULAR_WALL), "5", "23",
-                                   wall["material"], "2", full(float(time[0])), "12",
-                                   *map(full, a), "31", *map(full, b), "0", "16",
-                                   *map(full, c)]))
+                                   wall["material"], "2", _number(time[0]), "12",
+                                   *map(_number, a), "31", *map(_number, b), "0", "16",
+                                   *map(_number, c)]))
             ident += 1
         lines.append(f"25 wall{w} wall{w} 0 0 0 0")
         lines.append(f"27 {ident - first} " + " ".join(str(i) for i in range(first, ident)))
@@ -565,26 +572,26 @@ def export_musen(results_path, out_file, every=1):
         span = size
         centre = 0.5 * (extent[0] + extent[1])
         low, high = list(centre - span), list(centre + span)
-    lines.append("22 " + " ".join(full(float(v)) for v in [*low, *high]))
+    lines.append("22 " + " ".join(_number(v) for v in [*low, *high]))
     if any(simulation.get("periodic", [False] * 3)):
         lines.append("28 1 " + " ".join(str(int(v)) for v in simulation["periodic"]) + " "
-                     + " ".join(full(float(v)) for v in [*low, *high]))
+                     + " ".join(_number(v) for v in [*low, *high]))
     tables = scene.get("materials", {})
     for key in names:
         props = tables.get(key, {})
-        lines.append(f"32 {key} {key} {DENSITY} {full(float(props.get('density', 0.0)))} "
-                     f"{YOUNG} {full(float(props.get('young_modulus', 0.0)))} "
-                     f"{POISSON} {full(float(props.get('poisson_ratio', 0.3)))}")
+        lines.append(f"32 {key} {key} {DENSITY} {_number(props.get('density', 0.0))} "
+                     f"{YOUNG} {_number(props.get('young_modulus', 0.0))} "
+                     f"{POISSON} {_number(props.get('poisson_ratio', 0.3))}")
     density = float(tables.get(names[0], {}).get("density", 1000.0)) if names else 1000.0
     for key in bond_names:
         props = scene.get("bond_materials", {}).get(key, {})
-        line = (f"32 {key} {key} {DENSITY} {full(density)} "
-                f"{YOUNG} {full(float(props.get('young_modulus', 0.0)))} "
-                f"{POISSON} {full(float(props.get('poisson_ratio', 0.3)))}")
+        line = (f"32 {key} {key} {DENSITY} {_number(density)} "
+                f"{YOUNG} {_number(props.get('young_modulus', 0.0))} "
+                f"{POISSON} {_number(props.get('poisson_ratio', 0.3))}")
         for name, prop in (("normal_strength", NORMAL_STRENGTH),
                            ("tangential_strength", TANGENTIAL_STRENGTH)):
             value = float(props.get(name, math.inf))
-            line += f" {prop} {full(value if math.isfinite(value) else 1e300)}"
+            line += f" {prop} {_number(value if math.isfinite(value) else 1e300)}"
         lines.append(line)
     defaults = {"restitution": 0.5, "friction": 0.3, "rolling_friction": 0.0}
     keys = sorted(set(names) | set(wall_materials))
@@ -593,8 +600,8 @@ def export_musen(results_path, out_file, every=1):
             pa, pb = tables.get(keys[a], {}), tables.get(keys[b], {})
             values = [0.5 * (float(pa.get(k, d)) + float(pb.get(k, d)))
                       for k, d in defaults.items()]
-            lines.append(f"33 {keys[a]} {keys[b]} {RESTITUTION} {full(values[0])} "
-                         f"{FRICTION} {full(values[1])} {ROLLING} {full(values[2])}")
+            lines.append(f"33 {keys[a]} {keys[b]} {RESTITUTION} {_number(values[0])} "
+                         f"{FRICTION} {_number(values[1])} {ROLLING} {_number(values[2])}")
     out_file = Path(out_file)
     out_file.write_text("\n".join(lines) + "\n")
     script = out_file.with_name(out_file.stem + "_script.txt")
