@@ -7,6 +7,9 @@ as not identifiable. A calibration killed mid-way resumes to the same result.
 Unreachable targets fail with a message, not a silent best effort.
 """
 import json
+import math
+
+import numpy as np
 
 import pytest
 from click.testing import CliRunner
@@ -102,6 +105,8 @@ def test_recovers_the_identifiable_parameters_and_says_which_is_not(whole):
     assert "not identifiable" in verdict["specimen.bond_material.tangential_strength"][
         "verdict"]
     assert summary["consistent"] and summary["trials"] == 6
+    # two targets cannot fix three parameters, and the summary says so
+    assert any("2 target(s) for 3 parameters" in w for w in summary["warnings"])
 
 
 def test_a_killed_calibration_resumes_to_the_same_result(whole, truth):
@@ -197,3 +202,79 @@ def test_the_worked_example_file_loads():
     calibration = load_calibration(example)
     assert calibration.tests == ["brazilian", "ucs"]
     assert len(calibration.parameters) == 4 and len(calibration.targets) == 4
+
+
+def test_a_failed_first_trial_fails_with_its_own_error(truth, monkeypatch):
+    """The first trial's run blows up: the calibration stops with that run's error, not
+    with the scaling rule's 'nan to nan' taken from its missing numbers."""
+    import bondem.calibrate as calibrate
+    folder, modulus, strength = truth
+    path = _file(folder, "fails.toml", budget=4, modulus=modulus, strength=strength)
+    monkeypatch.setattr(calibrate, "_safe", lambda spec, test, overrides: {
+        "error": f"{test}: SimulationBlowUp: a particle left the domain"})
+    with pytest.raises(CalibrationFailed) as error:
+        run_calibration(path, folder / "fails")
+    message = str(error.value)
+    assert "first trial" in message and "a particle left the domain" in message
+    assert "nan" not in message
+
+
+def test_linearised_uncertainty_of_a_combination_the_targets_cannot_split():
+    """Targets in tolerances y1 = 2 u1 + u2 and y2 = 5 u3 (u: each parameter's place in
+    its range): u1 and u2 enter only as one combination, so both are free along
+    (1, -2, 0); u3 is fixed to 1/5 of its range by one tolerance of y2."""
+    from bondem.calibrate import linearised_uncertainty
+    sigma = linearised_uncertainty([[2.0, 1.0, 0.0], [0.0, 0.0, 5.0]])
+    assert math.isinf(sigma[0]) and math.isinf(sigma[1])
+    assert sigma[2] == pytest.approx(0.2, rel=1e-12)
+
+
+def test_linearised_uncertainty_is_the_scatter_of_the_least_squares_fit():
+    """By definition: the standard deviation of the parameters fitted by least squares
+    to targets with unit (one tolerance) Gaussian noise."""
+    from bondem.calibrate import linearised_uncertainty
+    jacobian = np.array([[2.0, 1.0, 0.0], [0.0, 1.0, 0.5], [1.0, 0.0, 3.0],
+                         [0.3, -0.7, 0.2]])
+    noise = np.random.default_rng(7).standard_normal((4, 40000))
+    fitted = np.linalg.lstsq(jacobian, noise, rcond=None)[0]
+    np.testing.assert_allclose(linearised_uncertainty(jacobian), fitted.std(axis=1),
+                               rtol=0.02)
+
+
+class _LinearLab:
+    """Stands in for the lab: E = 1e9 Pa (a + b), UCS = 1e6 Pa c, and on specimen seed 2
+    the UCS comes out 14 % higher (a specimen's scatter)."""
+    errors = {}
+
+    @staticmethod
+    def predict(params):
+        ucs = 1e6 * params["c"] * (1.14 if params.get("specimen.seed") == 2 else 1.0)
+        return {"young_modulus_secant": 1e9 * (params["a"] + params["b"]), "ucs": ucs}
+
+    def run(self, jobs):
+        return {trial: self.predict(params) for trial, params in jobs.items()}
+
+
+def test_summary_reports_free_combinations_and_seed_scatter(tmp_path):
+    """a and b enter only as a + b: both not identifiable (one target, two unknowns), c
+    identified to +-1/22.5 of its range (dUCS/du_c = 9e6 Pa = 22.5 tolerances); a seed
+    whose UCS misses the target by more than its tolerance is named."""
+    from bondem.calibrate import Calibration, Parameter, Target, summarise
+    calibration = Calibration(tmp_path / "c.toml", tmp_path / "spec.toml",
+                              [Parameter("a", 0.1, 1.0), Parameter("b", 0.2, 2.0),
+                               Parameter("c", 1.0, 10.0)],
+                              [Target("young_modulus_secant", "ucs", 1e9, 0.05),
+                               Target("ucs", "ucs", 4e6, 0.1)], check_seeds=[1, 2])
+    lab = _LinearLab()
+    best = {"a": 0.3, "b": 0.7, "c": 4.0}
+    rows = {0: {"trial": 0, **best, **lab.predict(best), "misfit": 0.0}}
+    summary = summarise(calibration, rows, lab)
+    verdict = summary["identifiability"]
+    assert not verdict["a"]["identifiable"] and not verdict["b"]["identifiable"]
+    assert "not identifiable" in verdict["a"]["verdict"]
+    assert verdict["c"]["uncertainty_of_range"] == pytest.approx(1 / 22.5, rel=1e-9)
+    assert "+-4.4 %" in verdict["c"]["verdict"]
+    warnings = summary["warnings"]
+    assert any("2 target(s) for 3 parameters" in w for w in warnings)
+    (seed,) = [w for w in warnings if "seed" in w]
+    assert "ucs on specimen seed 2" in seed and "+14.0%" in seed

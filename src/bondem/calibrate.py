@@ -88,6 +88,16 @@ class Calibration:
     def tests(self):
         return sorted({t.test for t in self.targets})
 
+    @property
+    def warnings(self):
+        """Messages about a file that is legal but cannot do all it asks (empty: none)."""
+        if len(self.targets) >= len(self.parameters):
+            return []
+        return [f"{len(self.targets)} target(s) for {len(self.parameters)} parameters: at "
+                f"most {len(self.targets)} combination(s) of the parameters can be fixed, "
+                "and every parameter in a combination the targets leave free is reported "
+                "not identifiable; add targets or calibrate fewer parameters"]
+
 
 PARAMETER_KEYS = ("low", "high", "log")
 TARGET_KEYS = ("test", "value", "tolerance")
@@ -433,6 +443,12 @@ def run_calibration(calibration, out_dir, *, scheduler="serial", workers=None,
                 study.enqueue_trial(middle)
             elif finished == 1:
                 first = {t.name: rows[0][t.name] for t in calibration.targets}
+                if not math.isfinite(rows[0]["misfit"]):
+                    why = evaluator.errors.get(0) or "no numbers for " + ", ".join(
+                        n for n, v in first.items() if not math.isfinite(v))
+                    raise CalibrationFailed(
+                        "the first trial (every parameter at the middle of its bounds) "
+                        f"failed, so the scaling rules have nothing to scale: {why}")
                 problems = reachable(calibration, middle, first)
                 if problems:
                     raise CalibrationFailed("the targets cannot be met: "
@@ -477,7 +493,7 @@ def run_calibration(calibration, out_dir, *, scheduler="serial", workers=None,
     if not summary["consistent"]:
         best = summary["best"]
         misses = ", ".join(f"{t.name} by {100 * (best['predictions'][t.name] / t.value - 1):+.1f} %"
-                           f" (tolerance {100 * t.tolerance:.0f} %)"
+                           f" (tolerance {percent(t.tolerance)})"
                            for t in calibration.targets)
         raise CalibrationFailed(f"no parameter set of {calibration.budget} trials meets "
                                 f"every target within its uncertainty; the best misses "
@@ -498,6 +514,33 @@ def _clean(value):
     return value
 
 
+def percent(fraction):
+    """A fraction as a percentage with two significant digits: 0.0024 -> '0.24 %'."""
+    return f"{100.0 * fraction:.2g} %"
+
+
+def linearised_uncertainty(jacobian, null=1e-12):
+    """Each parameter's linearised standard uncertainty, in units of its range, from the
+    Jacobian ``jacobian`` [targets, parameters] of the predictions (in units of each
+    target's tolerance) against the parameters (in units of their ranges): the diagonal of
+    (J^T J)^-1. A direction the targets cannot fix (an eigenvalue of J^T J at most ``null``
+    times the largest) has infinite variance, so every parameter with weight in it gets an
+    infinite uncertainty; a pseudo-inverse would drop that direction and call the
+    parameters in it exactly known."""
+    jacobian = np.asarray(jacobian, dtype=float)
+    n = jacobian.shape[1]
+    if n == 0:
+        return np.zeros(0)
+    eigenvalues, vectors = np.linalg.eigh(jacobian.T @ jacobian)
+    top = float(eigenvalues.max(initial=0.0))
+    free = eigenvalues <= null * top if top > 0.0 else np.ones(n, dtype=bool)
+    weight = vectors ** 2                       # [parameter, direction], rows sum to 1
+    variance = weight[:, ~free] @ (1.0 / eigenvalues[~free])
+    # round-off leaves ~1e-32 of weight in a free direction a parameter has no part in
+    variance[weight[:, free].sum(axis=1) > 1e-9] = math.inf
+    return np.sqrt(variance)
+
+
 def summarise(calibration, rows, evaluator, stage=None):
     """Best set, consistent sets, identifiability (spread and linearised uncertainty) and
     the best set's predictions over the check seeds; stage(text) is told each phase."""
@@ -508,6 +551,7 @@ def summarise(calibration, rows, evaluator, stage=None):
     params = {p.key: best[p.key] for p in calibration.parameters}
     good = [r for r in order if consistent(calibration, r)]
     identifiability = {}
+    warnings = list(calibration.warnings)
     # linearised: predictions / (tolerance value) against the parameters' unit scale
     steps = {}
     jobs = {}
@@ -533,9 +577,9 @@ def summarise(calibration, rows, evaluator, stage=None):
     jacobian = np.where(np.isfinite(jacobian), jacobian, 0.0)   # a failed run: no information
     info = jacobian.T @ jacobian
     eigen = np.linalg.eigvalsh(info) if info.size else np.zeros(0)
-    covariance = np.linalg.pinv(info, rcond=1e-9)
+    uncertainty = linearised_uncertainty(jacobian)
     for k, p in enumerate(calibration.parameters):
-        sigma = math.sqrt(max(covariance[k, k], 0.0)) if info[k, k] > 1e-12 else math.inf
+        sigma = float(uncertainty[k])
         values = [r[p.key] for r in good]
         spread = (max(p.unit(v) for v in values) - min(p.unit(v) for v in values)
                   if len(values) >= 2 else math.nan)
@@ -545,11 +589,11 @@ def summarise(calibration, rows, evaluator, stage=None):
             "consistent_spread_of_range": spread, "identifiable": identifiable,
             "consistent_low": min(values) if values else math.nan,
             "consistent_high": max(values) if values else math.nan,
-            "verdict": ("identified: the targets fix it to +-{:.0%} of its range".format(
-                sigma) if identifiable else
-                "not identifiable: the targets leave it free over its range"
-                if not math.isfinite(sigma) or sigma > 1.0 else
-                "weakly identified: +-{:.0%} of its range".format(sigma))}
+            "verdict": (f"identified: the targets fix it to +-{percent(sigma)} of its range"
+                        if identifiable else
+                        "not identifiable: the targets leave it free over its range"
+                        if not math.isfinite(sigma) or sigma > 1.0 else
+                        f"weakly identified: +-{percent(sigma)} of its range")}
     seeds = {}
     if calibration.check_seeds:
         stage(f"seed scatter: {len(calibration.check_seeds) * tests} runs on specimen seeds "
@@ -561,6 +605,16 @@ def summarise(calibration, rows, evaluator, stage=None):
             values.append(best[t.name])
             seeds[t.name] = {"mean": float(np.mean(values)), "std": float(np.std(values)),
                              "values": values}
+            for seed, value in zip(calibration.check_seeds, values):
+                off = value / t.value - 1.0 if math.isfinite(value) else math.nan
+                if not abs(off) <= t.tolerance:
+                    warnings.append(
+                        f"{t.name} on specimen seed {seed}: {value:.4g}, {off:+.1%} off the "
+                        f"target {t.value:.4g} (tolerance {percent(t.tolerance)}): the best "
+                        "set meets the target on one specimen only; the scatter between "
+                        "specimens is larger than the tolerance (a larger specimen, or a "
+                        "wider tolerance)" if math.isfinite(value) else
+                        f"{t.name} on specimen seed {seed}: the run failed")
     return {"best": {"trial": int(best["trial"]), "parameters": params,
                      "predictions": base, "misfit": best["misfit"]},
             "targets": {t.name: {"test": t.test, "value": t.value,
@@ -570,7 +624,7 @@ def summarise(calibration, rows, evaluator, stage=None):
                             "predictions": {n: r[n] for n in names}} for r in good],
             "identifiability": identifiability,
             "information_eigenvalues": eigen.tolist(),
-            "seed_scatter": seeds, "trials": len(rows),
+            "seed_scatter": seeds, "trials": len(rows), "warnings": warnings,
             "failed": {int(k): v for k, v in evaluator.errors.items() if k >= 0},
             "simulations": (len(rows) + len(calibration.parameters)
                             + len(calibration.check_seeds)) * len(calibration.tests)}

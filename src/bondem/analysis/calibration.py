@@ -91,7 +91,7 @@ def write_page(calibration, summary, out_dir):
     target_rows = []
     for t in calibration.targets:
         spread = summary["seed_scatter"].get(t.name, {})
-        target_rows.append((t.name, t.test, t.value, f"+-{100 * t.tolerance:.0f} %",
+        target_rows.append((t.name, t.test, t.value, f"+-{100 * t.tolerance:.2g} %",
                             best["predictions"][t.name],
                             spread.get("std", "n/a") if spread else "n/a"))
     figures = "".join(
@@ -99,6 +99,8 @@ def write_page(calibration, summary, out_dir):
         f'{base64.b64encode((out_dir / f"{name}.png").read_bytes()).decode("ascii")}">'
         f"<figcaption>{html.escape(caption)}</figcaption></figure>"
         for name, caption in CAPTIONS.items() if (out_dir / f"{name}.png").is_file())
+    warnings = "".join(f'<p class="warning"><b>Warning:</b> {html.escape(w)}</p>\n'
+                       for w in summary.get("warnings", []))
     page = f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8"><title>bondem calibration</title>
 <style>body{{font-family:sans-serif;max-width:60em;margin:auto;padding:1em}}
@@ -108,7 +110,7 @@ img{{max-width:100%}}</style></head><body>
 <p>{summary['trials']} trials, {summary['simulations']} simulations; best trial
 {best['trial']} (misfit {best['misfit']:.3g}); {len(summary['consistent'])} parameter sets
 meet every target within its uncertainty.</p>
-<h2 id="best">Best parameters and what the targets fix</h2>
+{warnings}<h2 id="best">Best parameters and what the targets fix</h2>
 {_table(rows, ("parameter", "best", "identifiability"))}
 <h2 id="targets">Targets and predictions</h2>
 {_table(target_rows, ("target", "test", "value", "uncertainty", "predicted",

@@ -20,10 +20,12 @@ from .run import _folder
 @click.option("--overwrite", is_flag=True, help="Start afresh over an earlier table.")
 def command(calibration, out_dir, scheduler, workers, resume, overwrite):
     """Calibrate the parameters of CALIBRATION (TOML: spec, parameters, targets, budget)."""
-    from ..calibrate import CalibrationFailed, load_calibration, run_calibration
+    from ..calibrate import CalibrationFailed, load_calibration, percent, run_calibration
     from tqdm import tqdm
 
     loaded = load_calibration(calibration)
+    for message in loaded.warnings:
+        click.echo(f"bondem: warning: {message}", err=True)
     out_dir = out_dir or calibration.with_name(calibration.stem)
     if overwrite and (out_dir / "calibration.csv").exists():
         (out_dir / "calibration.csv").unlink()
@@ -55,6 +57,8 @@ def command(calibration, out_dir, scheduler, workers, resume, overwrite):
     for name, value in best["predictions"].items():
         target = summary["targets"][name]
         click.echo(f"  {name}: {value:.4g} (target {target['value']:.4g} "
-                   f"+-{100 * target['tolerance']:.0f} %)")
+                   f"+-{percent(target['tolerance'])})")
+    for message in summary["warnings"][len(loaded.warnings):]:
+        click.echo(f"bondem: warning: {message}", err=True)
     click.echo(f"table: {out_dir / 'calibration.csv'}; summary: calibration.json; page: "
                f"{out_dir / 'calibration.html'}")
