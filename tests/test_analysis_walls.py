@@ -53,6 +53,37 @@ def test_force_displacement_curve(plates):
     assert fixed["peak_force"] == pytest.approx(12.0)   # |F| for a wall that stays
 
 
+def test_the_peak_between_two_frames_comes_from_the_wall_history(plates):
+    """The run's per-step wall history (/walls/history) holds a row between frames 12 and
+    13, at t = 1.25e-3 s, where the plate pushed 12.5 N (the frames saw 12 N
+    and 9 N): the peak, its displacement, gap and time are the history's."""
+    import h5py
+    k = np.arange(N_FRAMES)
+    time = np.sort(np.r_[k * 1e-4, 1.25e-3])
+    push = np.where(time <= 1.25e-3, time / 1e-4, 12.0 - 3.0 * (time - 1.2e-3) / 1e-4)
+    push[time == 1.3e-3] = 9.0
+    force = np.zeros((len(time), 2, 3))
+    force[:, 1, 2], force[:, 0, 2] = push, -push
+    position = np.zeros((len(time), 2, 3))
+    position[:, 1, 2] = 3e-3 - time   # 0.1 mm per 1e-4 s
+    with h5py.File(plates, "a") as f:
+        for name, values in (("time", time), ("force", force), ("position", position)):
+            f[f"walls/history/{name}"] = values
+    with Results(plates) as results:
+        curve = wall_curve(results)
+        numbers = key_numbers(results)
+        fixed = wall_curve(results, wall=0)
+        assert "wall" in build_figures(results)
+    assert curve["peak_force"] == pytest.approx(12.5) and curve["peak_time"] == 1.25e-3
+    assert curve["displacement_at_peak_force"] == pytest.approx(1.25e-3)
+    assert curve["gap_at_peak_force"] == pytest.approx(1.75e-3)
+    assert curve["peak_index"] in (12, 13)
+    assert numbers["peak_wall_force"] == pytest.approx(12.5)
+    # the fixed plate read on its own: |F| against time, and no displacement to report
+    assert fixed["peak_force"] == pytest.approx(12.5)
+    assert fixed["displacement_at_peak_force"] is None
+
+
 def test_two_plates_closing_use_the_gap_and_both_forces(tmp_path):
     """Plates at z = 0 and z = 4 mm close at 0.1 and 0.2 mm per frame: the displacement is
     the gap's decrease (0.3 mm per frame, not one plate's travel), the force the mean of

@@ -93,8 +93,9 @@ def plot_wall(curve):
         ax.plot(x, curve["force"], color="k", label="mean of both")
     else:
         ax.plot(x, curve["force"], color="k")
-    peak = curve["peak_index"]
-    ax.plot(x[peak], curve["force"][peak], "v", color="tab:red", ms=9,
+    # the peak of the per-step history, which may fall between two frames
+    peak_x = (curve["displacement_at_peak_force"] if moved else curve["peak_time"]) * 1e3
+    ax.plot(peak_x, curve["peak_force"], "v", color="tab:red", ms=9,
             label=f"peak {curve['peak_force']:.3g} N")
     first = curve["first_break_index"]
     if first is not None:

@@ -36,6 +36,36 @@ def _counterpart(force, position, travel, wall, direction):
     return best
 
 
+class _Plates:
+    """The loading wall and its counterpart: their compressive forces, the displacement
+    and the gap (module docstring) of any rows of wall forces and positions, so the frames
+    and the per-step history are read the same way."""
+
+    def __init__(self, start, travel, wall, partner, direction, last):
+        self.start, self.wall, self.partner, self.direction = start, wall, partner, direction
+        self.moving = direction is not None
+        self.u_partner = (None if partner is None or travel[partner] <= 0.0 else
+                          (last[partner] - start[partner]) / travel[partner])
+
+    def curve(self, force, position):
+        """(force_wall, force_partner or None, compressive force, displacement, gap or
+        None), each (rows,), of force and position (rows, W, 3)."""
+        wall, partner, direction = self.wall, self.partner, self.direction
+        if not self.moving:
+            magnitude = np.linalg.norm(force[:, wall], axis=-1)
+            return magnitude, None, magnitude, np.zeros(len(magnitude)), None
+        displacement = (position[:, wall] - self.start[wall]) @ direction
+        force_wall = -(force[:, wall] @ direction)
+        if partner is None:
+            return force_wall, None, force_wall, displacement, None
+        if self.u_partner is not None:
+            displacement = displacement + (position[:, partner] - self.start[partner]) \
+                @ self.u_partner
+        force_partner = force[:, partner] @ direction
+        gap = abs(float((self.start[partner] - self.start[wall]) @ direction)) - displacement
+        return force_wall, force_partner, 0.5 * (force_wall + force_partner), displacement, gap
+
+
 def wall_curve(results, wall=None):
     """Force-displacement curve of the plates of an open ``Results``.
 
@@ -46,9 +76,11 @@ def wall_curve(results, wall=None):
     "force": (F,) N (mean compressive force of both plates, or of the one wall; |F| for
     a wall that stays), "force_wall", "force_partner": (F,) N each plate's compressive
     force (force_partner None without a partner), "force_magnitude": (F,) N |F| of the
-    loading wall, "peak_index", "peak_force" N, "displacement_at_peak_force" m,
-    "gap_at_peak_force" m or None, "force_mismatch": max |F_wall - F_partner| up to the
-    peak over the peak force (None without a partner), "first_break_index": first frame
+    loading wall, "peak_index" (the frame nearest the peak), "peak_time" s, "peak_force"
+    N, "displacement_at_peak_force" m (None for a wall that stays), "gap_at_peak_force" m
+    or None, "force_mismatch": max |F_wall - F_partner| up to the peak over the peak force
+    (None without a partner); the peak and the mismatch come from /walls/history (every
+    step) where the file has it, else from the frames; "first_break_index": first frame
     with a broken bond or None, "first_break_force" N, "first_break_displacement" m}.
     """
     if results.n_walls == 0 or results.n_frames == 0:
@@ -60,35 +92,43 @@ def wall_curve(results, wall=None):
     if not 0 <= wall < results.n_walls:
         raise IndexError(f"wall {wall} out of range: the file has {results.n_walls} walls")
     magnitude = np.linalg.norm(force[:, wall], axis=-1)
-    partner, gap, force_partner = None, None, None
+    partner, direction = None, None
     if travel[wall] > 0.0:
         direction = (position[-1, wall] - position[0, wall]) / travel[wall]
-        displacement = (position[:, wall] - position[0, wall]) @ direction
-        force_wall = -(force[:, wall] @ direction)
         partner = _counterpart(force, position, travel, wall, direction)
+    plates = _Plates(position[0], travel, wall, partner, direction, position[-1])
+    force_wall, force_partner, compressive, displacement, gap = plates.curve(force, position)
+    # The peak between frames: /walls/history holds every step whose wall forces changed,
+    # the frames only every save_every (a peak between two frames was read 9 % low).
+    peak_time, peak_force, peak_displacement, peak_gap, mismatch = None, None, None, None, None
+    if results.has("walls/history/time") and len(results.frames("walls/history/time")):
+        h_time = np.asarray(results.frames("walls/history/time"), dtype=np.float64)
+        h_wall, h_partner, h_force, h_displacement, h_gap = plates.curve(
+            np.asarray(results.frames("walls/history/force"), dtype=np.float64),
+            np.asarray(results.frames("walls/history/position"), dtype=np.float64))
+        h_peak = int(np.argmax(h_force))
+        peak_time, peak_force = float(h_time[h_peak]), float(h_force[h_peak])
+        peak_displacement = float(h_displacement[h_peak])
+        peak_gap = None if h_gap is None else float(h_gap[h_peak])
+        if partner is not None and peak_force > 0.0:
+            mismatch = float(np.max(np.abs(h_wall - h_partner)[:h_peak + 1]) / peak_force)
+        peak = int(np.argmin(np.abs(results.time - peak_time)))
     else:
-        displacement = np.zeros(len(magnitude))
-        force_wall = magnitude
-    compressive = force_wall
-    if partner is not None:
-        if travel[partner] > 0.0:
-            u_partner = (position[-1, partner] - position[0, partner]) / travel[partner]
-            displacement = displacement + (position[:, partner] - position[0, partner]) @ u_partner
-        force_partner = force[:, partner] @ direction
-        compressive = 0.5 * (force_wall + force_partner)
-        gap = abs(float((position[0, partner] - position[0, wall]) @ direction)) - displacement
-    peak = int(np.argmax(compressive))
-    mismatch = None
-    if partner is not None and compressive[peak] > 0.0:
-        mismatch = float(np.max(np.abs(force_wall - force_partner)[:peak + 1])
-                         / compressive[peak])
+        peak = int(np.argmax(compressive))
+        peak_time, peak_force = float(results.time[peak]), float(compressive[peak])
+        peak_displacement = float(displacement[peak])
+        peak_gap = None if gap is None else float(gap[peak])
+        if partner is not None and peak_force > 0.0:
+            mismatch = float(np.max(np.abs(force_wall - force_partner)[:peak + 1])
+                             / peak_force)
     out = {"wall": wall, "partner": partner, "time": results.time,
            "displacement": displacement, "gap": gap, "force": compressive,
            "force_wall": force_wall, "force_partner": force_partner,
-           "force_magnitude": magnitude, "peak_index": peak,
-           "peak_force": float(compressive[peak]),
-           "displacement_at_peak_force": float(displacement[peak]),
-           "gap_at_peak_force": None if gap is None else float(gap[peak]),
+           "force_magnitude": magnitude, "peak_index": peak, "peak_time": peak_time,
+           "peak_force": peak_force,
+           # a wall that stays has no displacement to report (not 0 m)
+           "displacement_at_peak_force": (peak_displacement if plates.moving else None),
+           "gap_at_peak_force": peak_gap,
            "force_mismatch": mismatch, "first_break_index": None,
            "first_break_force": None, "first_break_displacement": None}
     broken = results.any_broken()
