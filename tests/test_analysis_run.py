@@ -136,6 +136,14 @@ def test_report_and_cli(run_file, tmp_path):
     assert 'id="energy"' in text and 'id="wall"' not in text  # radial, energy, sizes
     assert "<link" not in text and "<script" not in text      # self-contained
     assert numbers["fragments"] == 2
+    import h5py
+    import shutil
+    for periodic, shown in (([False] * 3, False), ([True, False, False], True)):
+        copy = shutil.copy(path, tmp_path / f"periodic{sum(periodic)}.h5")
+        with h5py.File(copy, "a") as f:
+            f.attrs["periodic"], f.attrs["box_length"] = periodic, [7e-3, 1.0, 1.0]
+        text = write_report(copy, tmp_path / "box.html", frames=(0,))[0].read_text()
+        assert ("box_length" in text) == shown   # the placeholder of a box not periodic
     runner = CliRunner()
     result = runner.invoke(main, ["analyze", str(path), "--out", str(tmp_path / "a"),
                                   "--json"])
@@ -159,6 +167,32 @@ def test_report_and_cli(run_file, tmp_path):
         assert result.exit_code == 2 and "--frames" in result.output
     result = runner.invoke(main, ["analyze", str(tmp_path / "missing.h5")])
     assert result.exit_code == 2 and "missing.h5" in result.output
+
+
+def test_body_plot_of_fragments_spread_along_one_axis_stays_readable():
+    """Fragments 120 mm apart along x and 2 mm tall: the panel keeps its size (not a thin
+    strip, as equal axes by shrinking the box drew it) and no two tick labels overlap."""
+    from bondem.analysis.figures import plot_bodies
+    rng = np.random.default_rng(3)
+    x = np.r_[rng.uniform(-0.061, -0.059, 20), rng.uniform(0.059, 0.061, 20)]
+    picture = {"x": x, "y": rng.uniform(0.0, 2e-3, 40), "depth": rng.uniform(size=40),
+               "radius": np.full(40, 2.5e-4), "labels": np.repeat([0, 1], 20),
+               "sizes": np.array([20, 20]), "time": 1e-3, "n_fragments": 2, "view": "xz"}
+    fig = plot_bodies([picture, picture])
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    for ax in fig.axes:
+        box = ax.get_window_extent()
+        assert 0.5 < box.width / box.height < 2.0, (box.width, box.height)
+        for axis in (ax.xaxis, ax.yaxis):
+            boxes = [t.get_window_extent(renderer) for t in axis.get_ticklabels()
+                     if t.get_visible() and t.get_text()]
+            assert len(boxes) >= 2
+            for a, b in zip(boxes, boxes[1:]):
+                assert not a.overlaps(b), (a, b)
+        assert ax.get_xlabel() == "x (mm)"
+        low, high = ax.get_xlim()
+        assert low <= -60.0 and high >= 60.0          # every particle shown, in mm
 
 
 def test_first_break_time_is_the_exact_break_time(run_file):

@@ -186,20 +186,27 @@ def plot_bodies(pictures):
     for ax, pic in zip(axes[0], pictures):
         order = np.argsort(pic["depth"])[::-1]
         colours = fragment_colours(pic["labels"], pic["sizes"])[order]
-        diameter = 2 * pic["radius"][order]
+        # mm: metres gave tick labels like 0.0125 that ran into each other
+        x, y = 1e3 * pic["x"], 1e3 * pic["y"]
+        diameter = 2e3 * pic["radius"][order]
         ax.add_collection(EllipseCollection(
             diameter, diameter, np.zeros(len(order)), units="xy",
-            offsets=np.column_stack([pic["x"][order], pic["y"][order]]),
+            offsets=np.column_stack([x[order], y[order]]),
             offset_transform=ax.transData, facecolors=colours, edgecolors="k",
             linewidths=0.3))
-        pad = pic["radius"].max() if len(order) else 1.0
-        ax.set_xlim(pic["x"].min() - pad, pic["x"].max() + pad)
-        ax.set_ylim(pic["y"].min() - pad, pic["y"].max() + pad)
-        ax.set_aspect("equal")
+        pad = 1e3 * pic["radius"].max() if len(order) else 1.0
+        ax.update_datalim([(x.min() - pad, y.min() - pad), (x.max() + pad, y.max() + pad)])
+        ax.margins(0.0)
+        ax.autoscale_view()
+        # equal scales by widening the data range, not by shrinking the axes: fragments
+        # spread along one axis drew as a thin strip
+        ax.set_aspect("equal", adjustable="datalim")
+        ax.xaxis.set_major_locator(MaxNLocator(nbins=4))
+        ax.yaxis.set_major_locator(MaxNLocator(nbins=5))
         ax.set_title(f"t = {pic['time'] * 1e3:.4g} ms, {pic['n_fragments']} fragments",
                      fontsize=9)
-        ax.set_xlabel(f"{pic['view'][0]} (m)")
-        ax.set_ylabel(f"{pic['view'][1]} (m)")
+        ax.set_xlabel(f"{pic['view'][0]} (mm)")
+        ax.set_ylabel(f"{pic['view'][1]} (mm)")
     return fig
 
 

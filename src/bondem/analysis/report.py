@@ -9,6 +9,7 @@ from datetime import datetime, timezone
 from pathlib import Path
 
 import matplotlib.pyplot as plt
+import numpy as np
 
 from .figures import build_figures
 from .results import Results
@@ -178,6 +179,8 @@ def write_report(path, out=None, frames=(0, -1)):
         figures = build_figures(results, frames, data=data)
         all_attrs = results.attrs
         attrs = {k: v for k, v in all_attrs.items() if k not in ("scene", "scene_name")}
+        if not np.any(attrs.get("periodic", False)):
+            attrs.pop("box_length", None)   # a placeholder of 1 m without a periodic cell
         scene_text = str(all_attrs.get("scene", ""))
         scene_name = str(all_attrs.get("scene_name", "")) or (
             path.parent.name if path.name == "results.h5" else path.name)
