@@ -135,6 +135,14 @@ def test_unbalanced_energy_is_reported(tmp_path):
         balance = energy_balance(results)
     assert balance["relative_error"] == pytest.approx([0.0, -0.05, -0.1])
     assert balance["max_relative_error"] == pytest.approx(0.1)
+    # bondem run says so at the end of such a run, with what to change
+    from bondem.commands.run import energy_warning
+    message = energy_warning(path)
+    assert "off by 10.0% of the reference energy" in message and "safety_factor" in message
+    energy["bond_elastic"] = np.array([0.0, 0.48, 0.96])      # 4 %: within the tolerance
+    fine = write_static(tmp_path / "fine.h5", [[0, 0, 0], [1, 0, 0]], 0.5, [[0, 1]],
+                        np.ones((3, 1), bool), energy=energy)
+    assert energy_warning(fine) is None
     no_energy = write_static(tmp_path / "bare.h5", [[0, 0, 0]], 0.5, np.zeros((0, 2)),
                              np.ones((2, 0), bool))
     with Results(no_energy) as results:

@@ -251,3 +251,47 @@ def test_first_hour_inputs(tmp_path):
         assert result.exit_code == 2 and key in result.stderr, (extra, result.output)
         assert len(result.stderr.strip().splitlines()) == 1
     assert not (tmp_path / "o").exists()
+
+
+def test_a_units_slip_is_warned_about_at_load_time(tmp_path):
+    """CSV radii of 1.0 m at 2 mm spacing (mm meant as m): every bonded pair overlaps by
+    ~500 radii and the spacing is 1/500 of a radius; a plane and a mesh triangle cut
+    through the bottom layer (centres 0.5 mm from them, radius 1 mm: 50 % deep). Each is
+    a warning naming what to check; the same scene with its walls 1.2 mm off (20 %) and
+    mm radii warns of nothing."""
+    import trimesh
+    corners = np.array([[-0.05, -0.05, 0.0], [0.05, -0.05, 0.0], [0.0, 0.05, 0.0]])
+    walls = """
+        [[walls]]
+        type = "plane"
+        point = [0.0, 0.0, -{gap}]
+        normal = [0.0, 0.0, 1.0]
+        material = "glass"
+
+        [[walls]]
+        type = "mesh"
+        file = "roof.stl"
+        material = "glass"
+        """
+    path = cube_scene(tmp_path, end_time=0.1, save_every=0.01, extra=walls.format(gap=1.2e-3))
+    top = 4e-3 + 1.2e-3
+    trimesh.Trimesh(corners + [0.0, 0.0, top], [[0, 1, 2]], process=False).export(
+        tmp_path / "roof.stl")
+    assert load_scene(path).warnings == []
+    path.write_text(path.read_text().replace("-1.2e-3", "-0.0005")
+                    .replace("-0.0012", "-0.0005"))
+    trimesh.Trimesh(corners + [0.0, 0.0, 4.5e-3], [[0, 1, 2]], process=False).export(
+        tmp_path / "roof.stl")
+    warnings = load_scene(path).warnings
+    assert len(warnings) == 2, warnings
+    assert "walls.0: 9 particle(s) overlap the wall" in warnings[0]
+    assert "walls.1: 9 particle(s) overlap the wall" in warnings[1]
+    csv = tmp_path / "particles.csv"
+    csv.write_text(csv.read_text().replace(",0.001,glass,", ",1.0,glass,"))
+    warnings = load_scene(path).warnings
+    assert any("54 of 54 bonded pairs overlap by more than the smaller radius" in w
+               and "particles.csv line" in w and "wrong unit" in w for w in warnings)
+    assert any("median spacing 0.002 m is less than half their median radius 1 m" in w
+               for w in warnings)
+    result = CliRunner().invoke(main, ["info", str(path)])
+    assert "wrong unit" in result.stderr

@@ -405,6 +405,8 @@ def _build(data, text, path):
                              f"{2.0 * cutoff:.4g} m", file=path, key="simulation.box_high")
     warnings = _check_overlaps(position, radius, bonds, where, "contact" in options,
                                sim["bonded_contacts"], path, particle_key)
+    warnings += _check_plausible(position, radius, bonds, options.get("walls", []), where,
+                                 path, particle_key)
     if sim["backend"] != "cpu":
         _require_parameter("backend", path, "simulation.backend", sim["backend"])
         options["backend"] = sim["backend"]
@@ -742,6 +744,54 @@ def _check_overlaps(position, radius, bonds, where, contacts, bonded_contacts, p
             f"{DEEP_OVERLAP:.0%} of the smaller radius at t = 0 (the most: {name(a)} and "
             f"{name(b)}, {depth[worst]:.0%}); their contact forces will throw them apart. "
             "Check the positions and radii, or bond them"]
+
+
+def _check_plausible(position, radius, bonds, walls, where, path, key):
+    """Warnings (list of str) for input that runs but is most likely a slip of units:
+    bonded particles that overlap by more than the smaller radius, particles that sit
+    closer than half a radius to their nearest neighbour, and particles that overlap a
+    wall by more than DEEP_OVERLAP of their radius at t = 0. ``where``: the CSV file and
+    line of each particle, or None (generated)."""
+    from scipy.spatial import cKDTree
+    from .walls import TRIANGLE, WallSet, _triangle_distance_sq, build_wall_pairs
+    name = (lambda k: where[k]) if where else (lambda k: f"particle {k}")  # noqa: E731
+    hint = ("radii or positions in the wrong unit (all lengths are in m)?")
+    out = []
+    n = position.shape[0]
+    if bonds.shape[0]:
+        i, j = bonds[:, 0], bonds[:, 1]
+        overlap = radius[i] + radius[j] - np.linalg.norm(position[j] - position[i], axis=1)
+        depth = overlap / np.minimum(radius[i], radius[j])
+        deep = np.flatnonzero(depth > 1.0)
+        if deep.size:
+            worst = deep[np.argmax(depth[deep])]
+            out.append(f"{path}: {key}: {deep.size} of {bonds.shape[0]} bonded pairs overlap by "
+                       f"more than the smaller radius at t = 0 (the most: {name(int(i[worst]))} "
+                       f"and {name(int(j[worst]))}, {depth[worst]:.3g} radii): {hint}")
+    if n >= 2:
+        spacing = cKDTree(position).query(position, k=2)[0][:, 1]
+        if np.median(spacing) < 0.5 * np.median(radius):
+            out.append(f"{path}: {key}: the particles' median spacing {np.median(spacing):.3g} "
+                       f"m is less than half their median radius {np.median(radius):.3g} m: "
+                       f"{hint}")
+    if walls and n:
+        wall_set = WallSet(walls)
+        rows, types = wall_set.elements(0.0), wall_set.element_type
+        inside = {}     # wall index: the particles that overlap it deeply
+        for p, e in build_wall_pairs(position, radius, 0.0, rows, types):
+            if types[e] == TRIANGLE:
+                distance = math.sqrt(_triangle_distance_sq(position[p], rows[e, 0],
+                                                           rows[e, 1], rows[e, 2]))
+            else:
+                distance = float((position[p] - rows[e, 0]) @ rows[e, 1])
+            if distance < (1.0 - DEEP_OVERLAP) * radius[p]:
+                inside.setdefault(int(wall_set.element_wall[e]), set()).add(int(p))
+        for w, particles in sorted(inside.items()):
+            out.append(f"{path}: walls.{w}: {len(particles)} particle(s) overlap the wall by "
+                       f"more than {DEEP_OVERLAP:.0%} of their radius at t = 0 (the first: "
+                       f"{name(min(particles))}); the wall will throw them off. Move the "
+                       f"wall or the particles, or: {hint}")
+    return out
 
 
 def _bonds(table, position, radius, bond_material_names, path):

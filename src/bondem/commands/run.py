@@ -57,6 +57,29 @@ def command(scene, out_dir, backend, resume, overwrite, checkpoint_minutes, over
         click.echo(f"bondem: run failed: {error}", err=True)
         sys.exit(1)
     click.echo(f"results: {path}")
+    warning = energy_warning(path)
+    if warning:
+        click.echo(f"bondem: warning: {warning}", err=True)
     click.echo(f"next: bondem analyze {path}   (fragments, broken bonds, energy, wall force)")
     click.echo(f"      bondem report {path}    (one HTML page with the figures)")
     click.echo(f"      bondem export vtk {path}   (ParaView files)")
+
+
+ENERGY_TOLERANCE = 0.05    # of the reference energy: beyond it a run's numbers are suspect
+
+
+def energy_warning(path):
+    """What to say about the energy balance of results file ``path`` when its error
+    exceeds ENERGY_TOLERANCE (None: within it, or no energy recorded)."""
+    from ..analysis.energy import energy_balance
+    from ..analysis.results import Results
+    with Results(path) as results:
+        balance = energy_balance(results)
+    if balance is None or not balance["max_relative_error"] > ENERGY_TOLERANCE:
+        return None
+    return (f"the energy balance is off by {balance['max_relative_error']:.1%} of the "
+            f"reference energy ({balance['reference']:.3g} J; allowed "
+            f"{ENERGY_TOLERANCE:.0%}): the run's forces are not to be trusted. Lower "
+            "simulation.safety_factor (a smaller time step), check for particles that "
+            "start inside each other or inside a wall, and see bondem analyze for the "
+            "terms")
