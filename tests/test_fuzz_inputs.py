@@ -206,3 +206,23 @@ def test_csv_cells(tmp_path):
             assert len(lines) == 1, (label, result.stderr)
             assert name in lines[0] and "line 4" in lines[0], (label, lines[0])
     assert len(codes) == 130 and codes.count(2) > 0.7 * len(codes)
+
+
+def test_generator_values(tmp_path):
+    """Each number of a packing generator (container centre and radius, particle radius,
+    solids fraction, seed, overlap) set to each bad value: exit 0 or 2 with one line
+    naming the file, never a traceback (radius = 1e300 overflowed the container's volume,
+    particle_radius = 1e-300 divided by zero)."""
+    scene = tomllib.loads((EXAMPLES / "compression.toml").read_text())
+    scene["particles"]["generator"].update(particle_radius=8e-4, max_overlap=1e-3)
+    scene["simulation"]["end_time"] = 1e-5
+    codes = []
+    for key in ("center", "radius", "particle_radius", "solids_fraction", "seed",
+                "max_overlap"):
+        for value in BAD_VALUES + [1e-300, 1e-30, 10 ** 19]:
+            if not _dumpable(value):
+                continue
+            changed = tomllib.loads(tomli_w.dumps(scene))
+            changed["particles"]["generator"][key] = value
+            codes.append(_check(["info", str(_write(tmp_path, changed))], "scene.toml"))
+    assert codes.count(2) > 0.8 * len(codes)

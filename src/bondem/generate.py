@@ -58,7 +58,7 @@ def _vector(value, name, length=3):
 
 def _positive(value, name):
     if not (isinstance(value, (int, float, np.integer, np.floating))
-            and not isinstance(value, bool) and math.isfinite(value) and value > 0):
+            and not isinstance(value, bool) and _finite(value) and value > 0):
         raise ValueError(f"{name} = {value!r} must be a finite number > 0")
     return float(value)
 
@@ -217,7 +217,13 @@ def sample_radii(target_volume, *, radius=None, radius_distribution=None, rng=No
         raise ValueError("give exactly one of radius and radius_distribution")
     if radius is not None:
         radius = _positive(radius, "radius")
-        n = max(int(round(target_volume / (SPHERE_VOLUME * radius ** 3))), 1)
+        # in logarithms: radius ** 3 overflows (1e300 m) or vanishes (1e-300 m) in doubles
+        log_count = (math.log(target_volume) - math.log(SPHERE_VOLUME) - 3.0 * math.log(radius)
+                     if target_volume > 0.0 else -math.inf)
+        if log_count > math.log(MAX_PARTICLES) + 1.0:
+            raise ValueError(f"about 10^{log_count / math.log(10.0):.0f} particles of radius "
+                             f"{radius:.3g} m fill this container; at most {MAX_PARTICLES}")
+        n = max(int(round(math.exp(log_count))), 1)
         _check_count(n)
         return np.full(n, radius)
     dist = dict(radius_distribution)
@@ -251,7 +257,7 @@ def sample_radii(target_volume, *, radius=None, radius_distribution=None, rng=No
                          "'monodisperse'")
     mean = _positive(dist.get("mean"), "mean")
     std = dist.get("std", 0.0)
-    if not (isinstance(std, (int, float)) and math.isfinite(std) and std >= 0):
+    if not (isinstance(std, (int, float)) and _finite(std) and std >= 0):
         raise ValueError(f"std = {std!r} must be a finite number >= 0")
     low = float(dist.get("min", max(mean - 3 * std, 0.1 * mean)))
     high = float(dist.get("max", mean + 3 * std))
@@ -517,6 +523,20 @@ _GENERATOR_KEYS = {"shape", "center", "radius", "size", "height", "axis", "low",
 _DISTRIBUTION_KEYS = {"type", "mean", "std", "min", "max", "radius", "fraction", "basis"}
 
 
+def _finite(value):
+    """True for a number a double holds (an integer past 1.8e308 is not one)."""
+    try:
+        return math.isfinite(value)
+    except OverflowError:
+        return False
+
+
+def _show(value):
+    """``repr`` of a bad value, cut to a readable length (a 400-digit integer)."""
+    text = repr(value)
+    return text if len(text) <= 40 else text[:37] + "..."
+
+
 def _number(table, key, file, prefix, low, high, *, include_low=False, include_high=False,
             default=None, integer=False):
     value = table.get(key, default)
@@ -525,11 +545,11 @@ def _number(table, key, file, prefix, low, high, *, include_low=False, include_h
         raise InputError(f"missing; give a number in {'[' if include_low else '('}{low}, "
                          f"{high}{']' if include_high else ')'}", file=file, key=where)
     ok_type = isinstance(value, int) if integer else isinstance(value, (int, float))
-    if isinstance(value, bool) or not ok_type or not math.isfinite(value) or \
+    if isinstance(value, bool) or not ok_type or not _finite(value) or \
             not (value >= low if include_low else value > low) or \
             not (value <= high if include_high else value < high):
         kind = "an integer" if integer else "a number"
-        raise InputError(f"{value!r} is not {kind} in {'[' if include_low else '('}{low}, "
+        raise InputError(f"{_show(value)} is not {kind} in {'[' if include_low else '('}{low}, "
                          f"{high}{']' if include_high else ')'}", file=file, key=where)
     return value
 
@@ -541,9 +561,9 @@ def _triple(table, key, file, prefix, default=None, positive=False):
         value = [value] * 3
     if (not isinstance(value, (list, tuple)) or len(value) != 3
             or not all(isinstance(v, (int, float)) and not isinstance(v, bool)
-                       and math.isfinite(v) and (v > 0 or not positive) for v in value)):
+                       and _finite(v) and (v > 0 or not positive) for v in value)):
         what = "three numbers > 0 (or one)" if positive else "a list of three numbers"
-        raise InputError(f"{value!r} is not {what}", file=file, key=where)
+        raise InputError(f"{_show(value)} is not {what}", file=file, key=where)
     return [float(v) for v in value]
 
 
@@ -611,7 +631,7 @@ def _distribution_from_table(table, file, prefix):
             value = table.get(key)
             if (not isinstance(value, list) or not value
                     or not all(isinstance(v, (int, float)) and not isinstance(v, bool)
-                               and math.isfinite(v) and (v > 0 if key == "radius" else v >= 0)
+                               and _finite(v) and (v > 0 if key == "radius" else v >= 0)
                                for v in value)):
                 raise InputError(f"{value!r} is not a list of numbers "
                                  f"{'> 0 (m)' if key == 'radius' else '>= 0'}", file=file,
@@ -678,6 +698,10 @@ def particles_from_generator(table, file="<scene>", prefix="particles.generator"
                                        max_overlap=overlap)
     except (ValueError, RuntimeError) as error:
         raise InputError(str(error), file=file, key=prefix) from None
+    except ArithmeticError:
+        raise InputError("the container's volume overflows or vanishes in double precision: "
+                         "its size is out of any physical range (lengths are in m)",
+                         file=file, key=prefix) from None
     return position, radii, np.full(radii.size, material, dtype=object)
 
 
