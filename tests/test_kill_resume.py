@@ -100,3 +100,48 @@ def test_blow_up_exits_nonzero_and_keeps_last_good_state(tmp_path):
     assert 1 <= frames == r["time"].shape[0] < 101
     assert np.all(np.isfinite(state.position)) and state.time == r["time"][-1]
     np.testing.assert_array_equal(state.position, r["particles/position"][-1])
+
+
+def test_ctrl_c_and_sigterm_keep_a_checkpoint_and_say_how_to_resume(tmp_path):
+    """SIGINT (Ctrl-C) and SIGTERM mid-run, with checkpoints 10 minutes apart (none would
+    be written before the end): the run writes a checkpoint of the state it stopped at,
+    closes the results file (plain h5py opens it), exits 128 + the signal and prints the
+    --resume command, which finishes the run bit for bit like an uninterrupted one."""
+    import shlex
+    scene_path = cube_scene(tmp_path, end_time=2e-2, save_every=2e-4)
+    reference = run_scene(load_scene(scene_path), tmp_path / "reference", progress=False)
+    env = dict(os.environ, PYTHONPATH=str(Path(bondem.__file__).parents[1]),
+               NUMBA_NUM_THREADS="1")
+    for number in (signal.SIGINT, signal.SIGTERM):
+        out = tmp_path / f"stopped {number.name}"     # a space: the command is quoted
+        process = subprocess.Popen(
+            [sys.executable, "-m", "bondem", "run", str(scene_path), "--out", str(out),
+             "--no-progress", "--checkpoint-minutes", "10"], env=env,
+            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+        deadline = time.monotonic() + 120
+        while _frames(out / "results.h5") < 4 and time.monotonic() < deadline:
+            assert process.poll() is None, process.stderr.read()
+            time.sleep(0.02)
+        process.send_signal(number)
+        stderr = process.communicate(timeout=120)[1]
+        assert process.returncode == 128 + number, stderr
+        assert f"stopped by {number.name}" in stderr and "Traceback" not in stderr
+        (command,) = [line for line in stderr.splitlines()
+                      if line.startswith("continue with: ")]
+        words = shlex.split(command[len("continue with: "):])
+        assert words[:2] == ["bondem", "run"] and "--resume" in words
+        assert Path(words[words.index("--out") + 1]) == out
+        with h5py.File(out / "results.h5", "r") as f:      # closed cleanly, no SWMR needed
+            frames = f["time"].shape[0]
+        assert 4 <= frames < 101
+        from bondem.io.checkpoint import read_checkpoint
+        state, kept_frames, _, _ = read_checkpoint(out / "checkpoint.npz")
+        # the signal's checkpoint, not the one at t = 0 (the next was 10 minutes away)
+        assert kept_frames == frames
+        assert state.time >= float(read_results(out / "results.h5")["time"][-1]) > 0.0
+        result = CliRunner().invoke(main, words[1:] + ["--no-progress"])
+        assert result.exit_code == 0, result.output
+        a, b = read_results(reference), read_results(out / "results.h5")
+        for name in a:
+            if name != "attrs":
+                np.testing.assert_array_equal(a[name], b[name], err_msg=name)

@@ -82,6 +82,46 @@ class RunFailed(RuntimeError):
     """The simulation blew up; the message says where the last good state was kept."""
 
 
+class RunInterrupted(RuntimeError):
+    """SIGINT (Ctrl-C) or SIGTERM stopped the run after its current batch of steps: the
+    checkpoint holds that state and the results file every frame so far (the message
+    says both); ``signal_number`` is the signal's."""
+
+    def __init__(self, message, signal_number):
+        super().__init__(message)
+        self.signal_number = signal_number
+
+
+class _StopSignals:
+    """Within ``with``: the first SIGINT or SIGTERM only asks the run to stop after its
+    batch (``requested`` holds the signal), so the run can write a checkpoint and close
+    the results file; a second one stops at once as Python would. Outside the main thread
+    (where handlers cannot be set) nothing changes."""
+
+    def __init__(self):
+        self.requested = None
+        self._previous = {}
+
+    def _handle(self, number, frame):
+        if self.requested is not None:      # asked twice: do not wait for the batch
+            raise KeyboardInterrupt
+        self.requested = number
+
+    def __enter__(self):
+        import signal
+        for number in (signal.SIGINT, signal.SIGTERM):
+            try:
+                self._previous[number] = signal.signal(number, self._handle)
+            except ValueError:    # not the main thread
+                break
+        return self
+
+    def __exit__(self, *exc):
+        import signal
+        for number, handler in self._previous.items():
+            signal.signal(number, handler)
+
+
 def default_out_dir(scene_path) -> Path:
     """Next to the scene, named after it: ``dir/impact.toml`` -> ``dir/impact``."""
     scene_path = Path(scene_path)
@@ -247,7 +287,9 @@ def _run_locked(scene, out_dir, progress, resume, checkpoint_minutes, stop_after
     last_checkpoint = time.monotonic()
     good = sim.state.copy()
     frames_here = 0
+    stop = _StopSignals()
     try:
+        stop.__enter__()
         batch = FIRST_BATCH
         rate = float("inf")   # steps/s of the last batch (unknown before the first)
         while sim.state.step < total:
@@ -317,12 +359,35 @@ def _run_locked(scene, out_dir, progress, resume, checkpoint_minutes, stop_after
                                     f"frame up to t = {good.time:.6g} s"
                                     f"{_kept_previous(out_dir)}") from None
                 last_checkpoint = now
+            if stop.requested is not None and sim.state.step < total:
+                _interrupted(stop.requested, sim, writer, good, total, checkpoint_path,
+                             scene.text, out_dir)
     finally:
+        stop.__exit__()
         writer.close()
         if bar is not None:
             bar.close()
     _finished(out_dir)
     return results_path
+
+
+def _interrupted(number, sim, writer, good, total, checkpoint_path, scene_text, out_dir):
+    """Write the checkpoint of a run stopped by signal ``number`` and raise
+    RunInterrupted saying what was kept."""
+    import signal
+    name = signal.Signals(number).name
+    try:
+        write_checkpoint(checkpoint_path, sim.state, frames=writer.n_frames,
+                         scene_text=scene_text)
+    except OSError as error:
+        raise RunFailed(f"stopped by {name}, but cannot write {checkpoint_path} "
+                        f"({error.strerror or error}); the results hold every frame up to "
+                        f"t = {good.time:.6g} s{_kept_previous(out_dir)}") from None
+    raise RunInterrupted(
+        f"stopped by {name} at t = {sim.state.time:.6g} s (step {sim.state.step} of "
+        f"{total}); kept: {writer.n_frames} frames up to t = {good.time:.6g} s in "
+        f"{writer.path}, and the state at t = {sim.state.time:.6g} s in {checkpoint_path}"
+        f"{_kept_previous(out_dir)}", number)
 
 
 def _check_checkpoint_shapes(scene, state, path):

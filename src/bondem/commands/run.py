@@ -36,7 +36,7 @@ def command(scene, out_dir, backend, resume, overwrite, checkpoint_minutes, over
     """Run SCENE (a TOML scene file, docs/scene.md) and write OUT/results.h5 with a
     checkpoint beside it. An output folder that holds results is refused unless
     --overwrite or --resume is given."""
-    from ..runner import RunFailed, default_out_dir, run_scene
+    from ..runner import RunFailed, RunInterrupted, default_out_dir, run_scene
     from ..scene import load_scene, parse_override
 
     from ..errors import InputError
@@ -56,6 +56,11 @@ def command(scene, out_dir, backend, resume, overwrite, checkpoint_minutes, over
     except RunFailed as error:
         click.echo(f"bondem: run failed: {error}", err=True)
         sys.exit(1)
+    except RunInterrupted as error:
+        click.echo(f"bondem: {error}", err=True)
+        click.echo("continue with: " + resume_command(scene, out_dir, overrides, backend),
+                   err=True)
+        sys.exit(128 + error.signal_number)   # the shell's status for a signal
     click.echo(f"results: {path}")
     warning = energy_warning(path)
     if warning:
@@ -83,3 +88,15 @@ def energy_warning(path):
             "simulation.safety_factor (a smaller time step), check for particles that "
             "start inside each other or inside a wall, and see bondem analyze for the "
             "terms")
+
+
+def resume_command(scene, out_dir, overrides, backend):
+    """The command line that continues an interrupted run: the same scene, folder, --set
+    options and backend, with --resume."""
+    import shlex
+    words = ["bondem", "run", str(scene), "--out", str(out_dir), "--resume"]
+    for text in overrides:
+        words += ["--set", text]
+    if backend is not None:
+        words += ["--backend", backend]
+    return " ".join(shlex.quote(w) for w in words)
