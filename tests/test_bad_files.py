@@ -275,3 +275,53 @@ def test_usage_errors_are_one_line():
     for args in (["run"], ["run", "--bogus", "x.toml"], ["frobnicate"]):
         line = _fails_cleanly(args, "bondem")
         assert "--help" in line
+
+
+def test_first_hour_slips_get_messages_that_say_what_to_do(tmp_path):
+    """A repeated CSV column is named; '--set =1' is an empty key; a misspelt key gets
+    the nearest allowed one; a scene given where results are wanted is named as a scene
+    with the results file to give; a folder is taken when it holds results.h5, else
+    named as a folder without one."""
+    doubled = PARTICLES.replace(b"fixed", b"z", 1)
+    line = _fails_cleanly(["info", str(_cantilever(tmp_path, particles=doubled))], "p.csv")
+    assert "the column 'z' appears 2 times" in line
+    scene = _cantilever(tmp_path)
+    assert "empty key" in _fails_cleanly(["info", str(scene), "--set", "=1"], "--set")
+    (tmp_path / "typo").mkdir()
+    typo = _cantilever(tmp_path / "typo", scene_edit=lambda s: s.replace("young_modulus",
+                                                                          "young_modulis", 1))
+    assert "did you mean 'young_modulus'?" in _fails_cleanly(["info", str(typo)],
+                                                             "young_modulis")
+    line = _fails_cleanly(["info", str(scene), "--set", "simulation.end_tiem=1"],
+                          "simulation.end_tiem")
+    assert "did you mean 'end_time'?" in line
+    for command in (["report"], ["analyze"], ["export", "vtk"], ["export", "musen"]):
+        line = _fails_cleanly(command + [str(scene)], "scene.toml")
+        assert "this is a scene file" in line and str(tmp_path / "scene" / "results.h5") \
+            in line
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    for command in (["report"], ["analyze"], ["export", "vtk"]):
+        assert "folder without results.h5" in _fails_cleanly(command + [str(empty)], "empty")
+    run = CliRunner().invoke(main, ["run", str(scene), "--no-progress"])
+    assert run.exit_code == 0, run.output
+    done = CliRunner().invoke(main, ["export", "vtk", str(tmp_path / "scene")])
+    assert done.exit_code == 0 and (tmp_path / "scene" / "vtk" / "results.pvd").is_file()
+
+
+def test_a_reader_that_goes_away_is_no_error(tmp_path):
+    """'bondem analyze ... | head -1': no 'Broken pipe' message when head stops reading."""
+    import subprocess
+    import sys
+    scene = _cantilever(tmp_path)
+    assert CliRunner().invoke(main, ["run", str(scene), "--no-progress"]).exit_code == 0
+    code = ("import sys; from bondem.cli import main; "
+            "sys.argv = ['bondem', 'analyze', sys.argv[1], '--out', sys.argv[2]]; main()")
+    reader = subprocess.Popen([sys.executable, "-c", code, str(tmp_path / "scene"),
+                               str(tmp_path / "a")], stdout=subprocess.PIPE,
+                              stderr=subprocess.PIPE)
+    reader.stdout.close()                 # the reader goes away before the first line
+    stderr = reader.stderr.read().decode()
+    reader.wait(timeout=120)
+    assert "Broken pipe" not in stderr and "Traceback" not in stderr, stderr
+    assert reader.returncode == 1

@@ -62,6 +62,8 @@ class LazyGroup(click.Group):
         except InputError as error:
             click.echo(f"bondem: error: {error}", err=True)
             sys.exit(2)
+        except BrokenPipeError:
+            _quiet_broken_pipe()
         except OSError as error:
             # a file that opened but cannot be read (damaged HDF5 data), or cannot be
             # written: named by the error, else the command's first argument that is a file
@@ -80,6 +82,9 @@ class LazyGroup(click.Group):
         try:
             result = super().main(args, prog_name, complete_var, standalone_mode=False,
                                   **extra)
+            sys.stdout.flush()    # here, so that a reader that went away is caught below
+        except BrokenPipeError:
+            _quiet_broken_pipe()
         except click.UsageError as error:
             if type(error).__name__ == "NoArgsIsHelpError":   # bare 'bondem': the help
                 click.echo(error.ctx.get_help())
@@ -95,6 +100,15 @@ class LazyGroup(click.Group):
             click.echo("Aborted!", err=True)
             sys.exit(1)
         sys.exit(result if isinstance(result, int) else 0)
+
+
+def _quiet_broken_pipe():
+    """The reader of our output went away (``bondem analyze ... | head``): that is no
+    error to report. Python's own recipe: point stdout at /dev/null so that the flush at
+    exit is quiet, and exit 1."""
+    devnull = os.open(os.devnull, os.O_WRONLY)
+    os.dup2(devnull, sys.stdout.fileno())
+    sys.exit(1)
 
 
 @click.group(cls=LazyGroup, context_settings={"help_option_names": ["-h", "--help"]})

@@ -13,6 +13,16 @@ class InputError(ValueError):
         super().__init__(f"{where}: {message}" if where else message)
 
 
+def unknown(name, allowed, what="key"):
+    """The message for an unknown key (or column) ``name``: the nearest allowed one when
+    there is a close one (a typo), then every allowed one."""
+    import difflib
+    allowed = [str(a) for a in allowed]
+    close = difflib.get_close_matches(str(name), allowed, n=1, cutoff=0.6)
+    hint = f"did you mean {close[0]!r}? " if close else ""
+    return f"unknown {what} {str(name)!r}; {hint}allowed: {', '.join(allowed)}"
+
+
 class BackendUnavailable(InputError, RuntimeError):
     """The requested backend cannot run on this machine (an input error for the command
     line: one line, exit status 2)."""

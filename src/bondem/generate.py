@@ -43,7 +43,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from . import _packing_kernels as K
-from .errors import InputError
+from .errors import InputError, unknown as unknown_key
 
 SPHERE_VOLUME = 4.0 / 3.0 * math.pi
 
@@ -619,8 +619,7 @@ def _distribution_from_table(table, file, prefix):
         raise InputError(f"{table!r} is not a table", file=file, key=prefix)
     unknown = sorted(set(table) - _DISTRIBUTION_KEYS)
     if unknown:
-        raise InputError(f"unknown key {unknown[0]!r}; allowed: "
-                         + ", ".join(sorted(_DISTRIBUTION_KEYS)), file=file,
+        raise InputError(unknown_key(unknown[0], sorted(_DISTRIBUTION_KEYS)), file=file,
                          key=f"{prefix}.{unknown[0]}")
     kind = table.get("type")
     if kind not in ("normal", "lognormal", "table"):
@@ -670,8 +669,7 @@ def particles_from_generator(table, file="<scene>", prefix="particles.generator"
         raise InputError(f"{table!r} is not a table", file=file, key=prefix)
     unknown = sorted(set(table) - _GENERATOR_KEYS)
     if unknown:
-        raise InputError(f"unknown key {unknown[0]!r}; allowed: "
-                         + ", ".join(sorted(_GENERATOR_KEYS)), file=file,
+        raise InputError(unknown_key(unknown[0], sorted(_GENERATOR_KEYS)), file=file,
                          key=f"{prefix}.{unknown[0]}")
     volume = volume_from_table(table, file, prefix)
     if ("particle_radius" in table) == ("size_distribution" in table):
@@ -714,8 +712,7 @@ def bonds_from_table(table, position, radius, file="<scene>", prefix="bonds"):
     Returns (pairs (B,2) int64, diameter (B,) m, material_names (B,) str)."""
     unknown = sorted(set(table) - _BOND_KEYS)
     if unknown:
-        raise InputError(f"unknown key {unknown[0]!r}; allowed: "
-                         + ", ".join(sorted(_BOND_KEYS)), file=file,
+        raise InputError(unknown_key(unknown[0], sorted(_BOND_KEYS)), file=file,
                          key=f"{prefix}.{unknown[0]}")
     max_gap = _number(table, "max_gap", file, prefix, 0, math.inf, include_low=True)
     if ("diameter" in table) == ("diameter_ratio" in table):

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import InputError, decode_text
+from .errors import InputError, decode_text, unknown
 from .generate import bonds_from_gap, particles_from_generator
 from .io.csv_files import read_bonds, read_particles
 from .model import BondMaterial, Material, bond_material_schema, make_system
@@ -181,6 +181,9 @@ def parse_override(text, file="--set"):
     if "=" not in text:
         raise InputError(f"{text!r} is not KEY=VALUE", file=file)
     key, raw = (part.strip() for part in text.split("=", 1))
+    if not key:
+        raise InputError(f"{text!r}: empty key before '='; give KEY=VALUE, e.g. "
+                         "simulation.end_time=1e-3", file=file)
     try:
         value = tomllib.loads(f"v = {raw}")["v"]
     except tomllib.TOMLDecodeError:
@@ -222,8 +225,7 @@ def _check_table(table, schema, where, path):
         raise InputError(f"expected a table, got {table!r}", file=path, key=where)
     for key in table:
         if key not in schema:
-            raise InputError(f"unknown key; allowed: {', '.join(schema)}", file=path,
-                             key=f"{where}.{key}")
+            raise InputError(unknown(key, schema), file=path, key=f"{where}.{key}")
     out = {}
     for key, (kind, default, low, high, inc_low, inc_high) in schema.items():
         full = f"{where}.{key}"
@@ -324,7 +326,7 @@ def _check_value(value, kind, low, high, inc_low, inc_high, key, path):
 def _build(data, text, path):
     for key in data:
         if key not in TOP_KEYS:
-            raise InputError(f"unknown key; allowed: {', '.join(TOP_KEYS)}", file=path, key=key)
+            raise InputError(unknown(key, TOP_KEYS), file=path, key=key)
     for key in ("simulation", "materials", "particles"):
         if key not in data:
             raise InputError("missing required table", file=path, key=key)
@@ -775,7 +777,8 @@ def _check_plausible(position, radius, bonds, walls, where, path, key):
                        f"m is less than half their median radius {np.median(radius):.3g} m: "
                        f"{hint}")
     if walls and n:
-        wall_set = WallSet(walls)
+        with np.errstate(all="ignore"):   # a wall speed of 1e300 m/s: refused further on
+            wall_set = WallSet(walls)
         rows, types = wall_set.elements(0.0), wall_set.element_type
         inside = {}     # wall index: the particles that overlap it deeply
         for p, e in build_wall_pairs(position, radius, 0.0, rows, types):

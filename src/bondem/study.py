@@ -44,7 +44,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import InputError
+from .errors import InputError, unknown
 
 STUDY_KEYS = {"scene", "runner", "quantities", "combine", "repeats", "seed", "seed_key"}
 DEFAULT_QUANTITIES = ("broken_bond_fraction", "largest_fragment_fraction", "peak_wall_force")
@@ -98,8 +98,8 @@ def load_study(path) -> Study:
         raise InputError("missing [study] section", file=path, key="study")
     for key in section:
         if key not in STUDY_KEYS:
-            raise InputError(f"unknown key; allowed: {', '.join(sorted(STUDY_KEYS))}",
-                             file=path, key=f"study.{key}")
+            raise InputError(unknown(key, sorted(STUDY_KEYS)), file=path,
+                             key=f"study.{key}")
 
     scene = section.get("scene")
     runner = section.get("runner")

@@ -5,11 +5,12 @@ from pathlib import Path
 
 import click
 
+from . import results_file
 from ..errors import InputError
 
 
 @click.command("analyze")
-@click.argument("results", type=click.Path(dir_okay=False, path_type=Path))
+@click.argument("results", type=click.Path(path_type=Path), callback=results_file)
 @click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path),
               help="Folder for figures, timeseries.csv and summary.json "
                    "[default: RESULTS_analysis next to the file].")

@@ -3,6 +3,7 @@ from pathlib import Path
 
 import click
 
+from . import results_file
 from ..errors import InputError
 
 
@@ -27,7 +28,7 @@ def command():
 
 
 @command.command(name="vtk")
-@click.argument("results", type=click.Path(dir_okay=False, path_type=Path))
+@click.argument("results", type=click.Path(path_type=Path), callback=results_file)
 @click.option("--out", "out_dir", type=click.Path(file_okay=False, path_type=Path),
               help="Output folder (default: 'vtk' next to the results file).")
 @click.option("--every", type=click.IntRange(min=1), default=1, show_default=True,
@@ -46,7 +47,7 @@ def vtk_command(results, out_dir, every):
 
 
 @command.command(name="musen")
-@click.argument("results", type=click.Path(dir_okay=False, path_type=Path))
+@click.argument("results", type=click.Path(path_type=Path), callback=results_file)
 @click.option("--out", "out_file", type=click.Path(dir_okay=False, path_type=Path),
               help="Output file (default: musen.txt next to the results file).")
 @click.option("--every", type=click.IntRange(min=1), default=1, show_default=True,

@@ -14,6 +14,16 @@ SHOWN = ("n_particles", "n_bonds", "ucs", "tensile_strength", "peak_deviator_str
          "platen_force_mismatch", "kinetic_energy_ratio", "broken_bonds_final", "fragments",
          "steps", "wall_time")
 
+# Why a number can be missing (NaN) from a test's results, as the command line says it.
+NOT_FOUND = {
+    "crack_initiation_stress": "no bond broke before the peak stress",
+    "young_modulus_secant": "the loading curve never reached half its peak stress",
+    "young_modulus_tangent": "too few samples around half the peak stress",
+    "poisson_ratio": "the loading curve never reached half its peak stress",
+    "platen_force_mismatch": "no sample above 20 % of the peak force",
+    "kinetic_energy_ratio": "no elastic energy was stored",
+}
+
 
 @click.command(name="lab")
 @click.argument("test", type=click.Choice(TESTS))
@@ -52,6 +62,10 @@ def command(test, spec, out_dir, overrides, overwrite):
         if key in result.numbers:
             value = result.numbers[key]
             unit = result.units.get(key, "")
+            if isinstance(value, float) and value != value:   # NaN: say why, not "nan Pa"
+                click.echo(f"  {key.replace('_', ' ')}: none ("
+                           f"{NOT_FOUND.get(key, 'the test did not reach it')})")
+                continue
             shown = f"{value:.4g}" if isinstance(value, float) else str(value)
             click.echo(f"  {key.replace('_', ' ')}: {shown}"
                        + (f" {unit}" if unit not in ("", "1") else ""))

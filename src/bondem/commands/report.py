@@ -4,11 +4,13 @@ from pathlib import Path
 
 import click
 
+from . import results_file
+
 from .analyze import check_frames, parse_frames
 
 
 @click.command("report")
-@click.argument("results", type=click.Path(dir_okay=False, path_type=Path))
+@click.argument("results", type=click.Path(path_type=Path), callback=results_file)
 @click.option("--out", type=click.Path(dir_okay=False, path_type=Path),
               help="HTML file to write [default: RESULTS_report.html next to the file].")
 @click.option("--frames", default="0,-1", show_default=True,

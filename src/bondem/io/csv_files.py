@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputError, decode_text
+from ..errors import InputError, decode_text, unknown
 
 PARTICLE_COLUMNS = ("x", "y", "z", "radius", "material")
 VELOCITY_COLUMNS = ("vx", "vy", "vz")
@@ -43,10 +43,13 @@ def _read(path, required, optional_groups, kinds):
         allowed = set(required).union(*optional_groups)
         for name in header:
             if name not in allowed:
-                raise InputError(f"line 1: unknown column {name!r}; allowed: "
-                                 + ", ".join(sorted(allowed)), file=str(path), key=name)
-        if len(set(header)) != len(header):
-            raise InputError("line 1: a column name repeats", file=str(path))
+                raise InputError("line 1: " + unknown(name, sorted(allowed), "column"),
+                                 file=str(path), key=name)
+        repeated = [name for k, name in enumerate(header) if name in header[:k]]
+        if repeated:
+            raise InputError(f"line 1: the column {repeated[0]!r} appears "
+                             f"{header.count(repeated[0])} times; give each column once",
+                             file=str(path), key=repeated[0])
         for name in required:
             if name not in header:
                 raise InputError(f"line 1: missing column {name!r}; the header must name "

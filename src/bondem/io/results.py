@@ -416,6 +416,16 @@ def _hdf5_reason(error):
 
 
 def _unreadable(path, error, what="cannot open as HDF5"):
+    path = Path(path)
+    if "signature" in str(error) and path.is_file():
+        # not HDF5 at all: most often a scene file given where its results were meant
+        if path.suffix.lower() == ".toml":
+            return UnreadableResults(
+                "this is a scene file, not results: give the results file its run wrote, "
+                f"{path.with_suffix('') / 'results.h5'} (bondem run {path} writes it)",
+                file=str(path))
+        return UnreadableResults("not a results file (not HDF5): give the results.h5 that "
+                                 "bondem run wrote", file=str(path))
     return UnreadableResults(f"{what} ({_hdf5_reason(error)})", file=str(path))
 
 
