@@ -191,8 +191,10 @@ def run_scene(scene, out_dir, *, progress=True, resume=False, checkpoint_minutes
     (as if killed) after that many frames in this call, for tests; overwrite: replace an
     earlier run's results in ``out_dir`` (and its stale analysis, report and vtk output)
     instead of refusing them. Returns the results path. Raises InputError (bad resume, or
-    a folder with results without overwrite) or RunFailed (blow-up; the last good state is
-    kept in ``out_dir/last_good_state.npz`` and every frame up to it in the results).
+    a folder with results without overwrite), RunFailed (blow-up; the last good state is
+    kept in ``out_dir/last_good_state.npz`` and every frame up to it in the results) or
+    RunInterrupted (SIGINT or SIGTERM in the main thread: a checkpoint of the state
+    reached is written and the results file closed first).
     """
     out_dir = Path(out_dir)
     try:
@@ -205,8 +207,9 @@ def run_scene(scene, out_dir, *, progress=True, resume=False, checkpoint_minutes
                          key="--out") from None
     lock = _lock_folder(out_dir)
     try:
-        return _run_locked(scene, out_dir, progress, resume, checkpoint_minutes,
-                           stop_after_frames, overwrite)
+        with _StopSignals() as stop:
+            return _run_locked(scene, out_dir, progress, resume, checkpoint_minutes,
+                               stop_after_frames, overwrite, stop)
     finally:
         lock.close()
 
@@ -234,7 +237,7 @@ def _lock_folder(out_dir):
 
 
 def _run_locked(scene, out_dir, progress, resume, checkpoint_minutes, stop_after_frames,
-                overwrite):
+                overwrite, stop):
     results_path = out_dir / RESULTS_NAME
     checkpoint_path = out_dir / CHECKPOINT_NAME
     minutes = scene.checkpoint_minutes if checkpoint_minutes is None else checkpoint_minutes
@@ -287,9 +290,7 @@ def _run_locked(scene, out_dir, progress, resume, checkpoint_minutes, stop_after
     last_checkpoint = time.monotonic()
     good = sim.state.copy()
     frames_here = 0
-    stop = _StopSignals()
     try:
-        stop.__enter__()
         batch = FIRST_BATCH
         rate = float("inf")   # steps/s of the last batch (unknown before the first)
         while sim.state.step < total:
@@ -363,7 +364,6 @@ def _run_locked(scene, out_dir, progress, resume, checkpoint_minutes, stop_after
                 _interrupted(stop.requested, sim, writer, good, total, checkpoint_path,
                              scene.text, out_dir)
     finally:
-        stop.__exit__()
         writer.close()
         if bar is not None:
             bar.close()
