@@ -232,3 +232,19 @@ def test_real_musen_kelvin_run_passes_in_both_modes():
         assert len(rows) == 4 and all(r.passed is True for r in rows), rows
         worst = max(abs(r.error) for r in rows if "particles/" in r.quantity)
         assert worst < 1e-10, rows
+
+
+def test_an_installed_bondem_names_no_folder_it_does_not_have(monkeypatch):
+    """Without ../shared (a pip install): the reference row says how to add reference runs,
+    not a path of our repository; the MUSEN rows that are information in SPEC mode are
+    explained, with the command that checks them."""
+    real = refdata.reference_directory
+    monkeypatch.setattr(refdata, "reference_directory",
+                        lambda p=None, key="search": None if key != "packaged"
+                        else real(p, key))
+    (row,) = [r for r in run_suite(cases=["refdata"], quick=True) if r.case == "refdata"]
+    assert "shared" not in row.note and "BONDEM_REFDATA" in row.note
+    result = CliRunner().invoke(main, ["validate", "--quick", "--case", "refdata"])
+    assert result.exit_code == 0, result.output
+    assert "shared" not in result.output
+    assert "'bondem validate --compat musen' reproduces MUSEN" in result.output

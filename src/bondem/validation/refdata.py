@@ -205,8 +205,12 @@ def run(p, compat, quick=False):
         runs = discover(directory)
         if not runs:
             if key == "search":
-                where = directory if directory is not None else "../shared/refdata"
-                rows.append(skipped("refdata", "reference runs", f"none found in {where}"))
+                rows.append(skipped("refdata", "reference runs of other codes",
+                                    f"none found in {Path(directory).resolve()}"
+                                    if directory is not None
+                                    else "none installed: set BONDEM_REFDATA to a folder "
+                                    "of them to compare (docs/validation.md); the real "
+                                    "MUSEN's runs shipped with bondem are the rows below"))
             continue
         for r in runs:
             if not r.spec:
