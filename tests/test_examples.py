@@ -112,6 +112,31 @@ def test_compression_example_loads_both_plates(tmp_path):
     assert curve["force_wall"].max() > 0 and curve["force_partner"].max() > 0
 
 
+def test_the_readme_s_generated_body_feeds_its_scene(tmp_path):
+    """The README's 'bondem generate' command (as written there, into a copy of examples/)
+    and then examples/generated_body.toml: the scene reads the body's CSV files, every
+    generated particle and bond, and its plates both press the body."""
+    import shutil
+    from bondem.analysis import Results, wall_curve
+    text = (ROOT / "README.md").read_text().replace("\\\n", " ")
+    (line,) = [l for l in text.splitlines() if l.startswith("bondem generate ")]
+    words = shlex.split(line.split("#")[0])
+    assert words[words.index("--out") + 1] == "examples/body"
+    words[words.index("--out") + 1] = str(tmp_path / "body")
+    made = CliRunner().invoke(main, words[1:])
+    assert made.exit_code == 0, made.output
+    shutil.copy(EXAMPLES / "generated_body.toml", tmp_path)
+    n = len((tmp_path / "body" / "particles.csv").read_text().splitlines()) - 1
+    bonds = len((tmp_path / "body" / "bonds.csv").read_text().splitlines()) - 1
+    assert 300 < n < 1000 and bonds > n
+    results = _run(tmp_path / "generated_body.toml", tmp_path / "g",
+                   "simulation.end_time=1.5e-3")
+    with Results(results) as opened:
+        assert (opened.n_particles, opened.n_bonds) == (n, bonds)
+        curve = wall_curve(opened)
+    assert curve["force_wall"].max() > 0 and curve["force_partner"].max() > 0
+
+
 def test_impact_example_runs_and_breaks_bonds(tmp_path):
     results = _run(EXAMPLES / "impact.toml", tmp_path / "i", "simulation.end_time=2e-4",
                    "particles.velocity=[0,0,-20]")

@@ -133,7 +133,12 @@ def test_command_line_writes_the_files_and_takes_set(tmp_path):
     result = CliRunner().invoke(main, ["export", "lammps", str(path), "--out", str(out),
                                        "--set", "simulation.end_time=5e-5"])
     assert result.exit_code == 0, result.output
-    assert "variable        steps index 500" in (out / "in.lammps").read_text()
+    deck = (out / "in.lammps").read_text()
+    assert "variable        steps index 500" in deck
+    # a run writes something to look at, every save_every (1e-5 s of 1e-7 s steps)
+    assert "dump            particles all custom 100 dump.particles.* id type radius" in deck
+    assert "dump            bonds all local 100 dump.bonds.*" in deck
+    assert deck.index("dump ") < deck.index("run ")
     assert (out / "data.lammps").is_file() and (out / "bond_coeffs.lammps").is_file()
     missing = CliRunner().invoke(main, ["export", "lammps", str(tmp_path / "no.toml"),
                                         "--out", str(out)])

@@ -122,6 +122,12 @@ def test_export_then_import_gives_the_same_scene(tmp_path):
     done = runner.invoke(main, ["import", "musen", str(tmp_path / "musen.txt"), "--script",
                                 str(script), "--out", str(tmp_path / "b")])
     assert done.exit_code == 0, done.output
+    # the printed next step puts the results beside the imported files, not in b/scene/
+    (next_step,) = [line for line in done.output.splitlines() if line.startswith("next: ")]
+    import shlex
+    words = shlex.split(next_step[len("next: "):].split("   (")[0])
+    assert CliRunner().invoke(main, words[1:] + ["--no-progress"]).exit_code == 0
+    assert (tmp_path / "b" / "results.h5").is_file() and not (tmp_path / "b" / "scene").exists()
     for name in ("scene.toml", "particles.csv", "bonds.csv"):
         assert (tmp_path / "a" / name).read_text() == (tmp_path / "b" / name).read_text(), \
             name

@@ -30,7 +30,12 @@ def musen_command(text_file, script, out_dir, end_time):
 
     if script is not None and not script.is_file():
         raise InputError("no such file", file=script, key="--script")
+    import shlex
     path, notes = import_musen(text_file, out_dir, script, end_time=end_time)
     click.echo(f"scene: {path}")
     for note in notes:
         click.echo(f"note: {note}")
+    # --out: the results beside the imported files (a run's folder would otherwise be
+    # OUT/scene, one level below them)
+    click.echo(f"next: bondem run {shlex.quote(str(path))} --out {shlex.quote(str(out_dir))}"
+               f"   (writes {out_dir / 'results.h5'})")

@@ -230,6 +230,16 @@ def write_lammps(model, state, options, out_dir, *, end_time, save_every, title=
         size = float(np.linalg.norm(g))
         deck.append(f"fix             gravity all gravity {_number(size)} vector "
                     + " ".join(_number(c / size) for c in g))
+    # what a run leaves to look at, every save_every as bondem's frames: one text dump per
+    # frame of the particles and one of the intact bonds (OVITO and ParaView read both)
+    deck += [f"dump            particles all custom {save} dump.particles.* id type radius "
+             "mass x y z vx vy vz omegax omegay omegaz fx fy fz",
+             "dump_modify     particles sort id format float %.17g"]
+    if nb:
+        deck += ["compute         bonds all property/local batom1 batom2 btype",
+                 f"dump            bonds all local {save} dump.bonds.* c_bonds[1] c_bonds[2] "
+                 "c_bonds[3]",
+                 "dump_modify     bonds colname 1 atom1 colname 2 atom2 colname 3 type"]
     deck += [f"timestep        {_number(dt)}",
              "thermo_style    custom step time ke",
              f"thermo          {save}",
