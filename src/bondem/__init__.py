@@ -8,7 +8,7 @@ from .scene import load_scene
 from .runner import run_scene
 from .timestep import stable_time_step, time_scales
 
-__version__ = "0.1.0"
+from ._version import __version__
 
 __all__ = ["BondMaterial", "Material", "Model", "State", "make_system", "Simulation",
            "SimulationBlowUp", "ContactSettings", "PlaneWall", "MeshWall", "load_scene",

@@ -2,7 +2,7 @@
 
 ``ContactSettings`` chooses the pair law (``physics.contact_hertz`` / ``contact_linear``);
 the backend's contact law (``backends.cpu_contacts.ContactLaw``, ``cuda_contacts.
-ContactLawGpu``; ``contacts.ContactLaw`` names the CPU one) is the object in
+ContactLawGpu``, which import this module, never the other way round) is the object in
 ``Simulation.laws``: each step it refreshes the Verlet lists
 (``neighbors``, ``walls``) when some particle or wall moved more than skin/2, computes every
 listed contact and adds the loads per particle.
@@ -101,11 +101,3 @@ def contact_time_scales(model, settings):
                      * 0.5 * model.radius)
     return {"contact_linear": float(np.sqrt(0.5 * model.mass / stiffness).min())}
 
-
-def __getattr__(name):
-    """``contacts.ContactLaw``: the CPU law, which lives with its kernels (backends/
-    cpu_contacts.py); imported on first use so that this module needs no backend."""
-    if name == "ContactLaw":
-        from .backends.cpu_contacts import ContactLaw
-        return ContactLaw
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -112,13 +112,15 @@ def lab_html(folder):
     path = Path(folder) / "lab.json"
     if not path.is_file():
         return ""
-    from ..lab.output import CAPTIONS as LAB_CAPTIONS
     data = json.loads(path.read_text())
+    # lab.json names its figures and their captions (lab/output.py writes them)
+    captions = data.get("captions") or dict.fromkeys(
+        ("stress_strain", "volumetric", "cracks", "specimen"), "")
     units = data.get("units", {})
     rows = [(k.replace("_", " "), "n/a" if v is None else v, units.get(k, ""))
             for k, v in data.get("numbers", {}).items()]
     figures = []
-    for name, caption in LAB_CAPTIONS.items():
+    for name, caption in captions.items():
         png = Path(folder) / f"lab_{name}.png"
         if png.is_file():
             figures.append(f'<figure id="lab_{name}"><img alt="lab {name}" '

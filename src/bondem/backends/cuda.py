@@ -30,8 +30,7 @@ from ..integrate import step_plan
 from ..status import STATUS_OK, blow_up
 from . import loops
 from .cpu import bodies, bond_state, bond_tuples, box, has_model_state, particles
-
-K = loops.compile_loops(cuda.jit(device=True), cuda.jit(device=True))
+from .cuda_device import THREADS, K, blocks as _blocks
 add = K.add
 row3 = K.row3
 advance_bond = K.advance_bond
@@ -39,12 +38,6 @@ bond_ends_sum = K.bond_ends_sum
 bond_energy = K.bond_energy
 integrate_particle = K.integrate_particle
 minimum_image = K.minimum_image
-
-THREADS = 128  # threads per block: a multiple of the warp, small enough for any register use
-
-
-def _blocks(n):
-    return max(1, (n + THREADS - 1) // THREADS)
 
 
 # ---------------------------------------------------------------------------------------

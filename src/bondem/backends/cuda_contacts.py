@@ -1,6 +1,6 @@
 """Particle contacts and walls on the CUDA backend: the CPU ContactLaw's loops as kernels.
 
-``ContactLawGpu`` is ``contacts.ContactLaw`` with its per-step loops moved to the device;
+``ContactLawGpu`` is ``cpu_contacts.ContactLaw`` with its per-step loops moved to the device;
 the kernels run the CPU's loop bodies (``backends/loops.py``: pair_contact,
 pair_rows_sum, wall_contacts_of, add_wall_rows), compiled with ``cuda.jit(device=True)``.
 
@@ -35,7 +35,7 @@ from ..contacts import MUSEN_PAIR_HISTORY, MUSEN_WALL_HISTORY
 from .cpu_contacts import NO_TANGENTIAL, ContactLaw, csr_by, pair_rows
 from . import cpu_contacts, loops
 from .cpu import particles
-from .cuda import THREADS, K, _blocks
+from .cuda_device import THREADS, K, blocks as _blocks
 
 pair_contact = K.pair_contact
 pair_rows_sum = K.pair_rows_sum

@@ -177,7 +177,7 @@ def write_lammps(model, state, options, out_dir, *, end_time, save_every, title=
     contact = options.get("contact")
     dt = float(options["time_step"]) if not isinstance(options["time_step"], str) else None
     if dt is None:
-        from .. import Simulation
+        from ..simulation import Simulation
         dt = Simulation(model, state.copy(), **options).time_step
     steps = max(1, step_count(end_time, dt))
     save = max(1, int(round(save_every / dt)))

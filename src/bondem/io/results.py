@@ -292,7 +292,7 @@ def _create_layout(f, sim, *, scene_text, backend, scene_name, material_names,
     n, b, w = model.n_particles, model.n_bonds, count_walls(sim)
     f.attrs["scene"] = scene_text
     f.attrs["scene_name"] = scene_name
-    from .. import __version__
+    from .._version import __version__
     f.attrs["bondem_version"] = __version__
     f.attrs["backend"] = backend
     f.attrs["time_step"] = float(sim.time_step)

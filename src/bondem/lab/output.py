@@ -54,7 +54,9 @@ def write_result(result, out_dir, figures=True):
     path.write_text(json.dumps(_json_value({
         "test": result.test, "numbers": result.numbers,
         "units": {k: result.units.get(k, "") for k in result.numbers},
-        "settings": result.settings, "notes": result.notes}), indent=2) + "\n")
+        "settings": result.settings, "notes": result.notes,
+        # the report (analysis/report.py, a layer below the lab) reads them from here
+        "captions": CAPTIONS}), indent=2) + "\n")
     paths["json"] = path
     if figures:
         for name, fig in build_lab_figures(result).items():
