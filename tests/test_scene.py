@@ -295,3 +295,6 @@ def test_a_units_slip_is_warned_about_at_load_time(tmp_path):
                for w in warnings)
     result = CliRunner().invoke(main, ["info", str(path)])
     assert "wrong unit" in result.stderr
+    path.write_text(path.read_text().replace("density = 2500.0", "density = 2.5"))
+    (warning,) = [w for w in load_scene(path).warnings if "density" in w]
+    assert "materials.glass.density: 2.5 kg/m^3" in warning and "g/cm^3" in warning

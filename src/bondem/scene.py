@@ -409,6 +409,13 @@ def _build(data, text, path):
                                sim["bonded_contacts"], path, particle_key)
     warnings += _check_plausible(position, radius, bonds, options.get("walls", []), where,
                                  path, particle_key)
+    for name, values in materials.items():
+        density = values["density"]
+        if not DENSITY_RANGE[0] <= density <= DENSITY_RANGE[1]:
+            warnings.append(f"{path}: materials.{name}.density: {density:.4g} kg/m^3 is "
+                            f"outside the densities of solids ({DENSITY_RANGE[0]:g} to "
+                            f"{DENSITY_RANGE[1]:g} kg/m^3): g/cm^3 (x 1000) or another unit "
+                            "instead of kg/m^3?")
     if sim["backend"] != "cpu":
         _require_parameter("backend", path, "simulation.backend", sim["backend"])
         options["backend"] = sim["backend"]
@@ -701,6 +708,7 @@ def _check_radius_spread(radius, where, path, key):
                          key=key)
 
 
+DENSITY_RANGE = (10.0, 25000.0)   # kg/m^3: aerogels to osmium; beyond, a unit slip
 COINCIDENT = 1e-6      # centres closer than this times the smallest radius: the same place
 DEEP_OVERLAP = 0.25    # overlap / smaller radius above which a contact starts violently
 
