@@ -28,7 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import InputError, decode_text, unknown
+from .errors import InputError, decode_text, unknown_key
 
 MODULUS_TARGETS = ("young_modulus_secant", "young_modulus_tangent")
 STRENGTH_TARGETS = ("ucs", "tensile_strength", "peak_deviator_stress", "breakage_force",
@@ -128,7 +128,7 @@ def load_calibration(path) -> Calibration:
         raise InputError(f"not valid TOML: {error}", file=path)
     for key in data:
         if key not in TOP_KEYS:
-            raise InputError(unknown(key, TOP_KEYS), file=path,
+            raise InputError(unknown_key(key, TOP_KEYS), file=path,
                              key=key)
     if not isinstance(data.get("spec"), str):
         raise InputError("missing: the lab spec file (docs/lab.md)", file=path, key="spec")

@@ -13,7 +13,7 @@ class InputError(ValueError):
         super().__init__(f"{where}: {message}" if where else message)
 
 
-def unknown(name, allowed, what="key"):
+def unknown_key(name, allowed, what="key"):
     """The message for an unknown key (or column) ``name``: the nearest allowed one when
     there is a close one (a typo), then every allowed one."""
     import difflib

@@ -43,7 +43,7 @@ import numpy as np
 from scipy.spatial import cKDTree
 
 from . import _packing_kernels as K
-from .errors import InputError, unknown as unknown_key
+from .errors import InputError, unknown_key
 
 SPHERE_VOLUME = 4.0 / 3.0 * math.pi
 

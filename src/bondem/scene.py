@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import InputError, decode_text, unknown
+from .errors import InputError, decode_text, unknown_key
 from .generate import bonds_from_gap, particles_from_generator
 from .io.csv_files import read_bonds, read_particles
 from .model import BondMaterial, Material, bond_material_schema, make_system
@@ -225,7 +225,7 @@ def _check_table(table, schema, where, path):
         raise InputError(f"expected a table, got {table!r}", file=path, key=where)
     for key in table:
         if key not in schema:
-            raise InputError(unknown(key, schema), file=path, key=f"{where}.{key}")
+            raise InputError(unknown_key(key, schema), file=path, key=f"{where}.{key}")
     out = {}
     for key, (kind, default, low, high, inc_low, inc_high) in schema.items():
         full = f"{where}.{key}"
@@ -326,7 +326,7 @@ def _check_value(value, kind, low, high, inc_low, inc_high, key, path):
 def _build(data, text, path):
     for key in data:
         if key not in TOP_KEYS:
-            raise InputError(unknown(key, TOP_KEYS), file=path, key=key)
+            raise InputError(unknown_key(key, TOP_KEYS), file=path, key=key)
     for key in ("simulation", "materials", "particles"):
         if key not in data:
             raise InputError("missing required table", file=path, key=key)

@@ -44,7 +44,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import InputError, unknown
+from .errors import InputError, unknown_key
 
 STUDY_KEYS = {"scene", "runner", "quantities", "combine", "repeats", "seed", "seed_key"}
 DEFAULT_QUANTITIES = ("broken_bond_fraction", "largest_fragment_fraction", "peak_wall_force")
@@ -98,7 +98,7 @@ def load_study(path) -> Study:
         raise InputError("missing [study] section", file=path, key="study")
     for key in section:
         if key not in STUDY_KEYS:
-            raise InputError(unknown(key, sorted(STUDY_KEYS)), file=path,
+            raise InputError(unknown_key(key, sorted(STUDY_KEYS)), file=path,
                              key=f"study.{key}")
 
     scene = section.get("scene")

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import InputError, decode_text, unknown
+from ..errors import InputError, decode_text, unknown_key
 
 PARTICLE_COLUMNS = ("x", "y", "z", "radius", "material")
 VELOCITY_COLUMNS = ("vx", "vy", "vz")
@@ -43,7 +43,7 @@ def _read(path, required, optional_groups, kinds):
         allowed = set(required).union(*optional_groups)
         for name in header:
             if name not in allowed:
-                raise InputError("line 1: " + unknown(name, sorted(allowed), "column"),
+                raise InputError("line 1: " + unknown_key(name, sorted(allowed), "column"),
                                  file=str(path), key=name)
         repeated = [name for k, name in enumerate(header) if name in header[:k]]
         if repeated:

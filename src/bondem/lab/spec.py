@@ -23,7 +23,7 @@ from __future__ import annotations
 import copy
 from pathlib import Path
 
-from ..errors import InputError, unknown
+from ..errors import InputError, unknown_key
 from ..model import BondMaterial, Material
 from .procedures import LabSettings
 from .specimen import lattice_specimen, make_specimen, specimen_from_scene
@@ -74,7 +74,7 @@ def _check(table, schema, where, path):
         raise InputError("expected a table", file=path, key=where)
     for key in table:
         if key not in schema:
-            raise InputError(unknown(key, schema), file=path,
+            raise InputError(unknown_key(key, schema), file=path,
                              key=f"{where}.{key}")
     loose = {k for k, v in schema.items() if v[0] == "any"}
     out = _check_table({k: v for k, v in table.items() if k not in loose},
@@ -119,7 +119,7 @@ def load_spec(path, overrides=None):
     data, text = read_toml(path, overrides, "lab spec")
     for key in data:
         if key not in ("specimen", "test"):
-            raise InputError(unknown(key, ("specimen", "test")), file=path, key=key)
+            raise InputError(unknown_key(key, ("specimen", "test")), file=path, key=key)
     if "specimen" not in data:
         raise InputError("missing required table", file=path, key="specimen")
     spec = _check(data["specimen"], SPECIMEN_KEYS, "specimen", path)
