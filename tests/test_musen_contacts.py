@@ -20,7 +20,8 @@ import pytest
 import bondem
 from bondem.backends.cpu_contacts import ContactLaw
 from bondem.physics.contact_hertz import contact_moments, hertz_mindlin, restitution_beta
-from bondem.physics.contact_hertz_musen import (hertz_mindlin_musen_pp,
+from bondem.physics.contact_hertz_musen import (MUSEN_1_70, MUSEN_1_74,
+                                                hertz_mindlin_musen_pp,
                                                 hertz_mindlin_musen_pw, musen_alpha,
                                                 musen_shear_modulus)
 from bondem.validation import refdata
@@ -33,11 +34,13 @@ RUNS = Path(bondem.__file__).parent / "data" / "validation" / "musen-runs"
 
 def pp(cv, overlap, r_i=1e-3, r_j=1e-3, vi=(0, 0, 0), vj=(0, 0, 0), wi=(0, 0, 0),
        wj=(0, 0, 0), xi=(0, 0, 0), f_t_prev=(0, 0, 0), restitution=0.5, friction=0.3,
-       rolling=0.0, dt=1e-7, mass=1e-5):
-    """MUSEN's particle-particle law for two equal materials, as plain Python."""
+       rolling=0.0, dt=1e-7, mass=1e-5, version=MUSEN_1_70):
+    """MUSEN's particle-particle law for two equal materials, as plain Python (1.70.0's
+    unless ``version`` says otherwise)."""
     return hertz_mindlin_musen_pp(
         cv, overlap, r_i, r_j, vi, vj, wi, wj, xi, f_t_prev, E_STAR, G_STAR,
-        musen_alpha(restitution), friction, rolling, r_i * r_j / (r_i + r_j), mass / 2, dt)
+        musen_alpha(restitution), friction, rolling, r_i * r_j / (r_i + r_j), mass / 2, dt,
+        version)
 
 
 def test_a_contact_at_rest_carries_the_hertz_force():
@@ -51,7 +54,8 @@ def test_a_contact_at_rest_carries_the_hertz_force():
     x, q = (0.0, 0.0, r - delta), (0.0, 0.0, 0.0)
     force = hertz_mindlin_musen_pw(x, q, (0.0, 0.0, 1.0), r, (0, 0, 0), (0, 0, 0), (0, 0, 0),
                                    (0, 0, 0), (0, 0, 0), (0, 0, 0), (0, 0, 0), E_STAR,
-                                   G_STAR, musen_alpha(0.5), 0.3, 0.0, 1e-5, 1e-7)[0]
+                                   G_STAR, musen_alpha(0.5), 0.3, 0.0, 1e-5, 1e-7,
+                                   MUSEN_1_70)[0]
     assert force[2] == pytest.approx(4.0 / 3.0 * E_STAR * math.sqrt(r) * delta ** 1.5,
                                      rel=1e-13)
 
@@ -106,6 +110,31 @@ def test_the_slip_test_ignores_the_dashpot():
     assert force[1] == f_t[1]
 
 
+def test_musen_1_74_slides_at_the_coulomb_force_of_the_damped_normal_force():
+    """MUSEN 1.74.2: a sliding contact carries its spring force cut to mu |F_n + F_n,d| (the
+    normal force with its dashpot), not the previous step's; the spring is set to it."""
+    r, delta, friction, v_n = 1e-3, 1e-5, 0.3, -0.2      # approaching at 0.2 m/s
+    previous = (0.0, 1.234e-3, -0.5e-3)
+    force, _, _, xi, f_t, _ = pp((2 * r - delta, 0.0, 0.0), delta, vj=(v_n, 0.0, 0.0),
+                                 xi=(0.0, 1e-4, 0.0), f_t_prev=previous, friction=friction,
+                                 version=MUSEN_1_74)
+    f_n = 4.0 / 3.0 * E_STAR * math.sqrt(r / 2) * delta ** 1.5
+    k_n = 2.0 * E_STAR * math.sqrt(r / 2 * delta)
+    alpha = math.log(0.5) / math.sqrt(math.pi ** 2 + math.log(0.5) ** 2)
+    dashpot = 2.0 * math.sqrt(5.0 / 6.0) * alpha * v_n * math.sqrt(k_n * 1e-5 / 2)
+    assert dashpot > 0.0                                  # approaching: the dashpot pushes
+    coulomb = friction * (f_n + dashpot)
+    assert f_t != previous and abs(f_t[2]) < 1e-30
+    assert f_t[1] == pytest.approx(coulomb, rel=1e-12)
+    assert force[1] == f_t[1] and force[0] == pytest.approx(-(f_n + dashpot), rel=1e-12)
+    k_t = 8.0 * G_STAR * math.sqrt(r / 2 * delta)
+    assert k_t * xi[1] == pytest.approx(coulomb, rel=1e-12)
+    # 1.70.0 keeps the previous force and cuts the spring to the undamped normal force
+    old = pp((2 * r - delta, 0.0, 0.0), delta, vj=(v_n, 0.0, 0.0), xi=(0.0, 1e-4, 0.0),
+             f_t_prev=previous, friction=friction)
+    assert old[4] == previous and k_t * old[3][1] == pytest.approx(friction * f_n, rel=1e-12)
+
+
 def test_rolling_friction_acts_against_each_particles_own_spin():
     """Two spheres spinning alike (no relative rolling): MUSEN brakes each one by
     mu_r f_n r_k against its own spin; the SPEC's law, on relative rolling, not at all."""
@@ -130,7 +159,7 @@ def test_a_wall_edge_scales_the_normal_force_by_the_cosine():
     force = hertz_mindlin_musen_pw(x, (0.0, 0.0, 0.0), (0.0, 0.0, 1.0), r, (0, 0, 0),
                                    (0, 0, 0), (0, 0, 0), (0, 0, 0), (0, 0, 0), (0, 0, 0),
                                    (0, 0, 0), E_STAR, G_STAR, musen_alpha(0.5), 0.3, 0.0,
-                                   1e-5, 1e-7)[0]
+                                   1e-5, 1e-7, MUSEN_1_70)[0]
     hertz = 4.0 / 3.0 * E_STAR * math.sqrt(r) * delta ** 1.5
     assert force[2] == pytest.approx(0.5 * hertz, rel=1e-12)
     assert force[0] == force[1] == 0.0
@@ -166,7 +195,8 @@ def worst_rows(name, compat):
     return refdata.compare_run(run, compat, compat_only=True)
 
 
-@pytest.mark.parametrize("name", ["contacts", "moving_wall", "rotating_wall", "impact"])
+@pytest.mark.parametrize("name", ["contacts", "moving_wall", "rotating_wall", "impact",
+                                  "contacts_1.74.2"])
 def test_real_musen_contact_runs_are_reproduced_to_round_off(name):
     """Positions, velocities and spins in every frame of MUSEN's run (impact: 14 of its 369
     particles, and every bond's break step): in compat mode within 1e-10 of the largest
@@ -209,3 +239,26 @@ def test_a_linear_law_keeps_bondems_own_numerics_in_compat_mode():
     assert sim.contacts.musen_compat is False
     sim.step(3)
     assert sim.state.velocity[0, 0] < 0.0
+
+
+def test_the_1_74_2_run_needs_its_own_release_numerics(tmp_path):
+    """The same scene run by MUSEN 1.70.0 and 1.74.2 parts by up to 73 % in velocity: the
+    1.74.2 run compared with the 1.70.0 numerics (musen_version) fails its 1e-9 rows, so
+    each release's run checks its own branch of the law."""
+    import shutil
+    folder = tmp_path / "contacts_1.74.2"
+    shutil.copytree(RUNS / "contacts_1.74.2", folder)
+    scene = folder / "scene.toml"
+    scene.write_text(scene.read_text().replace('musen_version = "1.74.2"',
+                                               'musen_version = "1.70.0"'))
+    run = next(r for r in refdata.discover(tmp_path) if r.name == "contacts_1.74.2")
+    rows = refdata.compare_run(run, "musen", compat_only=True)
+    velocity = max(abs(r.error) for r in rows if r.quantity.startswith("particles/velocity"))
+    assert not all(r.passed for r in rows) and velocity > 1e-2
+
+
+def test_an_unknown_musen_version_is_refused(tmp_path):
+    glass = bondem.Material(density=2500.0, young_modulus=E, poisson_ratio=NU)
+    model, state = bondem.make_system(np.array([[0.0, 0.0, 0.0]]), 1e-3, glass)
+    with pytest.raises(ValueError, match="1.74.2"):
+        bondem.Simulation(model, state, musen_compat=True, musen_version="1.72")

@@ -35,9 +35,11 @@ def musen_particles(folder):
     return time, position, velocity
 
 
-def run_imported(folder, tmp_path):
+def run_imported(folder, tmp_path, musen_version="1.70.0"):
+    """Import a reference folder's MUSEN scene and script (made with MUSEN 1.70.0 unless
+    ``musen_version`` says otherwise) and follow MUSEN's saved frames."""
     scene_path, notes = import_musen(folder / "musen_scene.txt", tmp_path / "scene",
-                                     folder / "musen_script.txt")
+                                     folder / "musen_script.txt", musen_version=musen_version)
     scene = load_scene(scene_path)
     assert scene.simulation_options["musen_compat"] is True
     sim = bondem.Simulation(scene.model, scene.state, **scene.simulation_options)
@@ -72,12 +74,20 @@ def test_imported_shared_runs_reproduce_the_real_musen(tmp_path, run):
     assert int(np.sum(~sim.state.bond_active)) == sum(1 for b in breaks if b.strip())
 
 
-@pytest.mark.parametrize("run", ["contacts", "moving_wall", "rotating_wall"])
+@pytest.mark.parametrize("run", ["contacts", "moving_wall", "rotating_wall",
+                                 "contacts_1.74.2"])
 def test_imported_contact_scenes_reproduce_the_real_musen(tmp_path, run):
     """MUSEN's text scenes with contacts: the plane becomes a two-triangle mesh wall (the
     moving one with its velocity, the turning one with its spin), the contacts MUSEN's
-    Hertz-Mindlin; trajectories to round-off (docs/musen_compat.md, Contacts)."""
-    sim, worst_x, worst_v, notes = run_imported(KELVIN.parent / run, tmp_path)
+    Hertz-Mindlin of the release that made the run; trajectories to round-off
+    (docs/musen_compat.md, Contacts). contacts_1.74.2 is MUSEN 1.74.2's text (every
+    object's activity written out), imported with the default release."""
+    if run.endswith("1.74.2"):
+        sim, worst_x, worst_v, notes = run_imported(KELVIN.parent / run, tmp_path,
+                                                    musen_version="1.74.2")
+        assert sim.musen_version == "1.74.2"
+    else:
+        sim, worst_x, worst_v, notes = run_imported(KELVIN.parent / run, tmp_path)
     assert worst_x < 1e-11 and worst_v < 1e-10, (worst_x, worst_v)
     assert sim.walls and sim.contacts.musen_compat
     assert not any("Hertz-Mindlin" in note or "motion" in note for note in notes), notes
@@ -219,7 +229,15 @@ def test_export_with_plane_and_mesh_walls_imports_back(tmp_path):
                                 "--out", str(out)])
     assert done.exit_code == 0, done.output
     assert "np." not in out.read_text()
+    # MUSEN 1.74.2 reads it too: every object has its activity interval (1.74 makes one
+    # without it inactive) and every result file a folder (1.74 fails on a bare name)
+    objects = [line.split() for line in out.read_text().splitlines() if line.startswith("0 ")]
+    assert objects and all("24" in words[:16] for words in objects)
+    walls = [w for w in objects if w[3] == "14"]
+    assert len(walls) == 2 + 2 and all(w[w.index("23") + 2:w.index("23") + 5] ==
+                                       ["24", "0", "1e+300"] for w in walls)
     script = (tmp_path / "musen_script.txt").read_text()
+    assert "RESULT_FILE ./result.mdem" in script and "SOURCE_FILE ./scene_t0.mdem" in script
     end = float(script.split("END_TIME ")[1].split()[0])
     assert end == pytest.approx(32.5 * 3e-7, rel=1e-12)   # MUSEN stops once it reaches it
     scene_path, _ = import_musen(out, tmp_path / "back", tmp_path / "musen_script.txt")

@@ -21,6 +21,7 @@ from .io.csv_files import read_bonds, read_particles
 from .model import BondMaterial, Material, bond_material_schema, make_system
 from .physics import bond_models
 from .physics._registry import REQUIRED as _REQUIRED
+from .physics.contact_hertz_musen import MUSEN_VERSION, MUSEN_VERSIONS
 
 BACKENDS = ("cpu", "gpu")
 CONTACT_MODELS = ("hertz_mindlin", "linear", "none")
@@ -40,6 +41,7 @@ SIMULATION_KEYS = {
     "safety_factor": ("number", 0.2, 0.0, 1.0, False, True),
     "force_time_step": ("bool", False, None, None, None, None),
     "musen_compat": ("bool", False, None, None, None, None),
+    "musen_version": ("str", MUSEN_VERSION, tuple(MUSEN_VERSIONS), None, None, None),
     "damping": ("number", 0.0, 0.0, 1.0, True, False),
     "periodic": ("bool3", [False, False, False], None, None, None, None),
     "box_low": ("vector3", None, -INF, INF, False, False),
@@ -393,7 +395,8 @@ def _build(data, text, path):
     walls = [_wall(w, k, material_names, path) for k, w in enumerate(walls_data)]
 
     options = {"time_step": sim["time_step"], "safety_factor": sim["safety_factor"],
-               "force_time_step": sim["force_time_step"], "musen_compat": sim["musen_compat"]}
+               "force_time_step": sim["force_time_step"], "musen_compat": sim["musen_compat"],
+               "musen_version": sim["musen_version"]}
     _contact_and_walls(options, sim, walls, material_objects, material_names, path)
     if "contact" in options and any(model.periodic):
         from .contacts import contact_cutoff

@@ -7,6 +7,7 @@ import math
 import numpy as np
 
 from .physics import bond_models
+from .physics.contact_hertz_musen import MUSEN_VERSION, musen_code
 
 from .backends import select_backend
 from .integrate import extra_start_up_steps
@@ -21,7 +22,9 @@ class Simulation:
     model, state: from ``make_system`` or a scene; time_step: s, or "auto" (safety_factor
     times the smallest time scale, see ``timestep``); a given step above the smallest time
     scale raises ValueError unless force_time_step; musen_compat: reproduce MUSEN's
-    numerical choices where they differ from the SPEC; laws: extra force laws (contacts,
+    numerical choices where they differ from the SPEC; musen_version: the MUSEN release
+    reproduced, "1.74.2" (default) or "1.70.0" (their Hertz-Mindlin contacts differ,
+    docs/musen_compat.md); laws: extra force laws (contacts,
     walls) with ``accumulate(model, state, force, moment, increment_dt)``; contact: a
     ``ContactSettings`` (None: no particle contacts); walls: PlaneWall / MeshWall objects;
     backend: "cpu" or "gpu" (CUDA; the state then lives on the device and ``self.state``
@@ -31,8 +34,8 @@ class Simulation:
     """
 
     def __init__(self, model, state, *, time_step="auto", safety_factor=0.2,
-                 force_time_step=False, musen_compat=False, laws=(), contact=None, walls=(),
-                 backend="cpu"):
+                 force_time_step=False, musen_compat=False, musen_version=MUSEN_VERSION,
+                 laws=(), contact=None, walls=(), backend="cpu"):
         self.model = model
         self.state = state
         stable, cause = stable_time_step(model, safety_factor, musen_compat)
@@ -56,6 +59,10 @@ class Simulation:
         self.time_step = time_step
         self.time_step_cause = cause
         self.musen_compat = bool(musen_compat)
+        # the MUSEN release whose numerics musen_compat reproduces (ValueError if unknown);
+        # only the contacts differ between the releases
+        self.musen_version = str(musen_version)
+        musen_contacts = musen_code(True, self.musen_version)
         if self.musen_compat:
             for material in model.bond_materials:
                 values = {k: getattr(material, k) for k in bond_models.bond_material_schema()}
@@ -75,6 +82,7 @@ class Simulation:
             # MUSEN's Hertz-Mindlin numerics (physics/contact_hertz_musen.py); the linear
             # law has no MUSEN counterpart here and stays bondem's own
             self.contacts.musen_compat = self.musen_compat and contact.model != "linear"
+            self.contacts.musen_code = musen_contacts
             laws = (self.contacts, *laws)
         self.walls = list(walls)
         self._servos = [(k, w.motion) for k, w in enumerate(self.walls)

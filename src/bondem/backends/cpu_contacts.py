@@ -13,6 +13,7 @@ from ..contacts import (MODELS, MUSEN_PAIR_HISTORY, MUSEN_WALL_HISTORY, PAIR_HIS
                         WALL_HISTORY, ContactSettings, contact_cutoff)
 from ..neighbors import (build_pairs, carry_history, counting_sort, history_map,
                          max_displacement)
+from ..physics.contact_hertz_musen import MUSEN_VERSION, MUSEN_VERSIONS
 from ..physics.contact_linear import MODEL_HERTZ
 from ..walls import PLANE, WallSet, build_wall_pairs
 from . import cpu, loops
@@ -85,7 +86,8 @@ def particle_contacts(live, quiet, pairs, pair_bond, bond_active, particles, gra
     a run), so skipping them saves the memory traffic of every bonded neighbour.
     linear_stiffness: None for Hertz-Mindlin (the linear law is then not compiled), else
     k_n (N/m, 0 for the default) of the linear law. musen: None for the SPEC's law (MUSEN's
-    is then not compiled), True for MUSEN's Hertz-Mindlin.
+    is then not compiled), else the MUSEN release's code (contact_hertz_musen.MUSEN_1_70,
+    MUSEN_1_74).
     work (one per CHUNK of ``live``): each chunk's work in the last call, which shares
     the chunks out among ``threads`` (``numba.get_num_threads()``, read by the caller: the
     call inside would make the kernel uncachable) with ``cpu.balanced_shares``, and is
@@ -147,7 +149,7 @@ def wall_contacts(near, wall_start, wall_pairs, walls, particles, grains, materi
     """Loads of every particle-wall candidate (``loops.wall_contacts_of``; rows sorted by
     particle, ``wall_start`` their CSR offsets), added to force (N) and moment (N m).
     triangles: None when every wall element is a plane (the triangle code is then not
-    compiled), else True. musen: None for the SPEC's law, True for MUSEN's. near: the
+    compiled), else True. musen: None for the SPEC's law, the MUSEN release's code. near: the
     particles that have wall candidates (the others have nothing to do)."""
     n = near.shape[0]
     for c in prange(chunks(n)):
@@ -335,8 +337,10 @@ class ContactLaw:
     """
 
     name = "contacts"
-    # True: MUSEN's Hertz-Mindlin (contact_hertz_musen), set by Simulation(musen_compat=True).
+    # True: MUSEN's Hertz-Mindlin (contact_hertz_musen), set by Simulation(musen_compat=True);
+    # musen_code: which MUSEN release's (contact_hertz_musen.MUSEN_VERSIONS)
     musen_compat = False
+    musen_code = MUSEN_VERSIONS[MUSEN_VERSION]
 
     def __init__(self, model, settings=None, walls=()):
         self.settings = settings if settings is not None else ContactSettings()
@@ -560,7 +564,7 @@ class ContactLaw:
             state.bond_active, cpu.particles(state), self.grains(model), self._materials,
             self.pair_law, self._linear_stiffness, bool(self.settings.rolling_resistance),
             cpu.box(model), rows, increment_dt, moved_dt,
-            True if self.musen_compat else None, self._chunk_work, numba.get_num_threads())
+            self.musen_code if self.musen_compat else None, self._chunk_work, numba.get_num_threads())
         gather_pair_loads(
             loops.PairIndex(self._i_start, self._i_order, self._j_start, self._j_order,
                             self._quiet),
@@ -588,7 +592,7 @@ class ContactLaw:
                                self._w_point, self._w_feature,
                                extra.get("wall_tangential", NO_TANGENTIAL)),
                 increment_dt, moved_dt, force, moment,
-                True if self.musen_compat else None)
+                self.musen_code if self.musen_compat else None)
             counters[0] += float(self._w_dissipated.sum())
             counters[1] += float(self._w_work.sum())
         wall_totals(wall_pairs, self.walls.element_wall, self._w_point,

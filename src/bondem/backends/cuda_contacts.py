@@ -276,7 +276,7 @@ class ContactLawGpu(ContactLaw):
             particle_contacts_kernel[_blocks(self._counts[0]), THREADS](
                 dev["pairs"], dev["pair_bond"], d.bond_active, particles(d), self._d_grains,
                 self._d_materials, self.pair_law, self._k_linear, use_rolling, g.box,
-                dev["pair_rows"], increment_dt, moved_dt, bool(self.musen_compat))
+                dev["pair_rows"], increment_dt, moved_dt, self.musen_code if self.musen_compat else 0)
             gather_pairs_kernel[_blocks(n), THREADS](dev["index"], dev["pair_rows"], force,
                                                      moment, self._d_lost)
         if self.walls.n_walls:
@@ -291,5 +291,5 @@ class ContactLawGpu(ContactLaw):
                 self._d_grains, self._d_materials, self.wall_law, self._k_linear,
                 use_rolling, dev["wall_rows"], increment_dt, moved_dt, force, moment,
                 self._d_lost, self._d_work, self._evaluated_position,
-                bool(self.musen_compat))
+                self.musen_code if self.musen_compat else 0)
             self._evaluated_time = self._t_wall

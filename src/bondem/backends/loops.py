@@ -18,7 +18,10 @@ slower). The serial chunk loops use NumPy's error model, as parfor bodies do.
 Choices made at compile time, not per item: ``musen`` and ``linear_stiffness`` are None
 on the CPU for the SPEC's bond law and for Hertz-Mindlin, so Numba prunes the other law
 from the kernel it compiles (``x is None`` on an argument is decided by its type); the
-CUDA kernels cannot take None, so they pass a flag and compile both branches.
+CUDA kernels cannot take None, so they pass a flag and compile both branches. For the
+contacts ``musen`` is the MUSEN release's code (physics/contact_hertz_musen.py:
+MUSEN_1_70, MUSEN_1_74; 0 on the GPU for the SPEC's law), for the bonds True (their law
+is the same in both releases).
 """
 import math
 from collections import namedtuple
@@ -484,7 +487,7 @@ def pair_contact(c, pairs, pair_bond, bond_active, particles, grains, materials,
             musen_alpha(0.5 * (materials.restitution[a] + materials.restitution[b])),
             table[q, PAIR_FRICTION], table[q, PAIR_ROLLING] if use_rolling else 0.0,
             radius[i] * radius[j] / (radius[i] + radius[j]),
-            grains.mass[i] * grains.mass[j] / (grains.mass[i] + grains.mass[j]), dt)
+            grains.mass[i] * grains.mass[j] / (grains.mass[i] + grains.mass[j]), dt, musen)
         store3(rows.tangential, c, f_t)
     else:
         force_i, moment_i, moment_j, xi, energy = spec_pair_loads(
@@ -697,7 +700,7 @@ def wall_contacts_of(p, wall_start, wall_pairs, walls, particles, grains, materi
                                     walls.young[w], walls.poisson[w]),
                 musen_alpha(0.5 * (materials.restitution[a] + walls.restitution[w])),
                 0.5 * (materials.friction[a] + walls.friction[w]), mu_r, grains.mass[p],
-                dt)
+                dt, musen)
             store3(rows.tangential, c, f_t)
         else:
             if types[e] == PLANE:

@@ -21,7 +21,11 @@ def command():
 @click.option("--end-time", type=click.FloatRange(min=0.0, min_open=True),
               help="Simulated time (s) if the script gives none [default: END_TIME, "
                    "else 1e-3].")
-def musen_command(text_file, script, out_dir, end_time):
+@click.option("--musen-version", type=click.Choice(["1.74.2", "1.70.0"]), default="1.74.2",
+              show_default=True,
+              help="The MUSEN release whose numerics the scene reproduces (musen_compat; "
+                   "their contacts differ).")
+def musen_command(text_file, script, out_dir, end_time, musen_version):
     """A MUSEN text file (what MUSEN's GUI and cmusen export and IMPORT_FROM_TEXT reads:
     spheres, solid bonds, triangular walls and their geometries, compounds, interactions,
     domain, periodic boundaries) and its cmusen script as a bondem scene with
@@ -31,7 +35,8 @@ def musen_command(text_file, script, out_dir, end_time):
     if script is not None and not script.is_file():
         raise InputError("no such file", file=script, key="--script")
     import shlex
-    path, notes = import_musen(text_file, out_dir, script, end_time=end_time)
+    path, notes = import_musen(text_file, out_dir, script, end_time=end_time,
+                               musen_version=musen_version)
     click.echo(f"scene: {path}")
     for note in notes:
         click.echo(f"note: {note}")

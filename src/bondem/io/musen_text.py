@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
+from ..physics.contact_hertz_musen import MUSEN_VERSION, MUSEN_VERSIONS
 from ..timestep import step_count
 
 SPHERE, SOLID_BOND, LIQUID_BOND, TRIANGULAR_WALL = 1, 9, 10, 14
@@ -32,8 +33,10 @@ RESTITUTION, FRICTION, ROLLING = 200, 201, 202
 # MUSEN 1.70's interaction defaults (its export writes them for pairs a scene leaves out).
 MUSEN_INTERACTION = {RESTITUTION: 0.6, FRICTION: 0.45, ROLLING: 0.05}
 # Values of each command after its id; None: the rest is read by the command's own rule.
+# numbers after each object command; 42-45 are MUSEN 1.71's on (principal stresses, a
+# bond's torque, a wall's three corners, a bond's tangential overlap)
 _WIDTH = {2: 1, 12: 3, 15: 3, 16: 3, 17: 3, 10: 3, 11: 3, 18: 1, 20: 3, 31: 4, 36: 9,
-          37: 1, 23: 1, 24: 2}
+          37: 1, 23: 1, 24: 2, 42: 3, 43: 1, 44: 9, 45: 3}
 _NAMES = {SPHERE: "sphere", SOLID_BOND: "solid bond", LIQUID_BOND: "liquid bond",
           TRIANGULAR_WALL: "triangular wall"}
 BOND_MODELS = {"ModelSBElastic": "elastic", "ModelSBKelvin": "kelvin"}
@@ -190,6 +193,12 @@ def _object_line(scene, tokens, path, number):
             obj.angular_velocity = tuple(values)
         elif first_time and command == 31:
             obj.quaternion = tuple(values)
+        elif first_time and command == 44:
+            # MUSEN 1.71 on writes a wall's corners as one command; 1.70 spread them over
+            # the coordinates, quaternion and angular velocity, where the walls read them
+            obj.coordinates = tuple(values[0:3])
+            obj.quaternion = (*values[3:6], 0.0)
+            obj.angular_velocity = tuple(values[6:9])
 
 
 def read_script(path) -> dict:
@@ -260,7 +269,8 @@ def wall_motion(motion, end_time):
     return {"velocity_profile": profile}, None
 
 
-def to_bondem(scene: MusenScene, script: dict | None, out_dir, *, end_time=None):
+def to_bondem(scene: MusenScene, script: dict | None, out_dir, *, end_time=None,
+              musen_version=MUSEN_VERSION):
     """Write scene.toml, particles.csv, bonds.csv (and walls_N.stl) in ``out_dir``;
     returns the notes: every MUSEN setting that was not mapped, or mapped with a loss."""
     import tomli_w
@@ -369,7 +379,7 @@ def to_bondem(scene: MusenScene, script: dict | None, out_dir, *, end_time=None)
 
     simulation = {"end_time": end_time or float(script.get("END_TIME", 1e-3)),
                   "time_step": float(script["SIMULATION_STEP"]) if "SIMULATION_STEP" in script
-                  else "auto", "musen_compat": True}
+                  else "auto", "musen_compat": True, "musen_version": musen_version}
     if end_time is None and "END_TIME" in script and "SIMULATION_STEP" in script:
         # MUSEN stops once its summed time reaches END_TIME, which scripts put half a step
         # short of a whole number of steps: bondem's end time is that whole number.
@@ -444,16 +454,22 @@ def _is_number(text):
         return False
 
 
-def import_musen(text_file, out_dir, script_file=None, *, end_time=None):
+def import_musen(text_file, out_dir, script_file=None, *, end_time=None,
+                 musen_version=MUSEN_VERSION):
     """``bondem import musen``: a MUSEN text file (and its cmusen script) as a bondem scene
-    in ``out_dir``; returns (scene path, notes)."""
+    in ``out_dir`` whose musen_compat follows MUSEN release ``musen_version`` (a text file
+    does not say which MUSEN wrote it); returns (scene path, notes)."""
+    if musen_version not in MUSEN_VERSIONS:
+        raise InputError(f"value {musen_version!r}; allowed: "
+                         + ", ".join(MUSEN_VERSIONS), key="--musen-version")
     text_file = Path(text_file)
     if not text_file.is_file():
         raise InputError("no such file", file=text_file)
     scene = read_text(text_file)
     script = read_script(script_file) if script_file else None
     try:
-        notes = to_bondem(scene, script, out_dir, end_time=end_time)
+        notes = to_bondem(scene, script, out_dir, end_time=end_time,
+                          musen_version=musen_version)
     except InputError as error:
         if error.file is None:
             raise InputError(error.reason, file=text_file, key=error.key) from None
@@ -485,9 +501,10 @@ def write_script(scene, time_step, text_name, path):
     contacts = simulation.get("contact_model", "hertz_mindlin") != "none"
     if simulation.get("contact_model") == "linear":
         notes.append("contact_model = 'linear': written as MUSEN's Hertz-Mindlin")
+    # "./": MUSEN 1.74 creates a result file's folder and fails on an empty name
     lines = ["JOB", "COMPONENT IMPORT_FROM_TEXT", f"SOURCE_FILE {text_name}",
-             "RESULT_FILE scene_t0.mdem", "JOB", "COMPONENT SIMULATOR",
-             "SOURCE_FILE scene_t0.mdem", "RESULT_FILE result.mdem", "SIMULATOR_TYPE CPU",
+             "RESULT_FILE ./scene_t0.mdem", "JOB", "COMPONENT SIMULATOR",
+             "SOURCE_FILE ./scene_t0.mdem", "RESULT_FILE ./result.mdem", "SIMULATOR_TYPE CPU",
              f"MODEL_SB {sb}", f"MODEL_SB_PARAMS {params}"]
     if contacts:
         lines += ["MODEL_PP ModelPPHertzMindlin", "MODEL_PW ModelPWHertzMindlin",
@@ -557,8 +574,10 @@ def export_musen(results_path, out_file, every=1):
         triangles = _wall_triangles(data, w, wall, size)
         first = ident
         for a, b, c in triangles:
+            # the activity interval: MUSEN 1.74 makes an object without one inactive
             lines.append(" ".join(["0", str(ident), "1", str(TRIANGULAR_WALL), "5", "23",
-                                   wall["material"], "2", _number(time[0]), "12",
+                                   wall["material"], "24", "0", "1e+300",
+                                   "2", _number(time[0]), "12",
                                    *map(_number, a), "31", *map(_number, b), "0", "16",
                                    *map(_number, c)]))
             ident += 1
@@ -603,6 +622,7 @@ def export_musen(results_path, out_file, every=1):
             lines.append(f"33 {keys[a]} {keys[b]} {RESTITUTION} {_number(values[0])} "
                          f"{FRICTION} {_number(values[1])} {ROLLING} {_number(values[2])}")
     out_file = Path(out_file)
+    out_file.parent.mkdir(parents=True, exist_ok=True)
     out_file.write_text("\n".join(lines) + "\n")
     script = out_file.with_name(out_file.stem + "_script.txt")
     notes = write_script(scene, float(data["attrs"]["time_step"]), out_file.name, script)

@@ -6,7 +6,8 @@ damping, Coulomb limit, rolling friction), with the choices read from MUSEN 1.70
 ModelPWHertzMindlin.cpp, SimplifiedScene.cpp ``CalculateInteractionProperty``,
 CPUSimulator.cpp ``CalculateForcesPP/PW``; docs/musen_compat.md lists them):
 - the damping constant is the literal 1.8257, not 2 sqrt(5/6) = 1.825742;
-- the slip test takes the spring force k_t xi alone, without its dashpot;
+- the slip test takes the spring force k_t xi alone, without its dashpot, against the
+  Coulomb force of the elastic normal force alone;
 - while sliding, the tangential force applied is the one of the previous step (MUSEN
   keeps ``vTangForce`` from the last sticking step; 0 for a contact that slides from its
   first step), and the spring is set to the Coulomb force over k_t;
@@ -20,6 +21,16 @@ CPUSimulator.cpp ``CalculateForcesPP/PW``; docs/musen_compat.md lists them):
 - G* = 1 / ((2 - nu_1)/G_1 + (2 - nu_2)/G_2) with G = E / (2 (1 + nu)) (the same value as
   ``contact_hertz.effective_shear_modulus``; written as MUSEN writes it for its round-off).
 
+MUSEN 1.74.2 (tag v1.74.2: Models/ParticleParticle/HertzMindlin, Models/ParticleWall/
+PWHertzMindlin) changed three of these, selected by ``version`` = MUSEN_1_74 below:
+- the damping constant is 2 sqrt(5/6) (``_2_SQRT_5_6``, MUSENDefinitions.h);
+- the Coulomb limit is mu |F_n + F_n,d|, the normal force with its dashpot;
+- while sliding, the tangential force applied is the spring's, scaled to the Coulomb limit
+  (no longer the previous step's); the spring is that force over k_t, as before;
+and it rescales the carried tangential overlap by old length / new length as one factor
+(1.70: times the old length, then divided by the new) and tests the projected overlap for
+being significant in both laws (1.70's particle pairs: squared length > 0).
+
 Every expression keeps MUSEN's order of operations, so that the results agree with MUSEN's
 to round-off. Signs: MUSEN's contact vector is x_j - x_i (j the higher index), the force
 returned is the one on i; MUSEN's alpha = ln e / sqrt(pi^2 + ln^2 e) is <= 0.
@@ -29,8 +40,27 @@ import math
 from ._registry import physics
 from .vector import add, cross, dot, norm, scale, sub
 
-# ModelPPHertzMindlin.cpp / ModelPWHertzMindlin.cpp write 2 sqrt(5/6) as this literal.
+# ModelPPHertzMindlin.cpp / ModelPWHertzMindlin.cpp of 1.70.0 write 2 sqrt(5/6) as this
+# literal; 1.74.2 as MUSENDefinitions.h's _2_SQRT_5_6.
 MUSEN_DAMPING = 1.8257
+MUSEN_DAMPING_1_74 = 1.825741858350553711523232609336
+
+# The MUSEN releases whose numerics musen_compat reproduces, by the code the kernels get
+# (0: bondem's own SPEC numerics). The newest is the default.
+MUSEN_1_70, MUSEN_1_74 = 1, 2
+MUSEN_VERSIONS = {"1.70.0": MUSEN_1_70, "1.74.2": MUSEN_1_74}
+MUSEN_VERSION = "1.74.2"
+
+
+def musen_code(musen_compat, version=MUSEN_VERSION):
+    """The kernels' code of a run: 0 for the SPEC's numerics, else that of MUSEN release
+    ``version`` (a key of MUSEN_VERSIONS; ValueError naming the allowed ones)."""
+    if not musen_compat:
+        return 0
+    if version not in MUSEN_VERSIONS:
+        raise ValueError(f"musen_version {version!r}; allowed: "
+                         + ", ".join(repr(v) for v in MUSEN_VERSIONS))
+    return MUSEN_VERSIONS[version]
 
 
 @physics
@@ -64,25 +94,30 @@ def musen_rolling_torque(w, rolling, f_n, radius):
 
 
 @physics
-def musen_carry_overlap(overlap_t, n, pp):
+def musen_carry_overlap(overlap_t, n, pp, version):
     """The tangential overlap (m) projected onto the plane normal to n and rescaled to its
-    old length; pp: True for the particle-particle test (squared length > 0), False for
-    the wall's (IsSignificant)."""
+    old length; pp: True for 1.70's particle-particle test (squared length > 0), False for
+    the wall's (IsSignificant, every test of 1.74); version: MUSEN_1_70 or MUSEN_1_74."""
     projected = sub(overlap_t, scale(n, dot(n, overlap_t)))
-    rescale = dot(projected, projected) > 0.0 if pp else musen_significant(projected)
+    rescale = (dot(projected, projected) > 0.0 if pp and version < MUSEN_1_74
+               else musen_significant(projected))
     if not rescale:
         return projected
     old = norm(overlap_t)
     new = norm(projected)     # MUSEN's sqrt of the squared length: the same operations
+    if version >= MUSEN_1_74:
+        return scale(projected, old / new)
     return (projected[0] * old / new, projected[1] * old / new, projected[2] * old / new)
 
 
 @physics
 def hertz_mindlin_musen_pp(cv, overlap, r_i, r_j, vi, vj, wi, wj, overlap_t, f_t_prev,
-                           e_star, g_star, alpha, friction, rolling, r_star, m_star, dt):
+                           e_star, g_star, alpha, friction, rolling, r_star, m_star, dt,
+                           version):
     """One step of MUSEN's ModelPPHertzMindlin for particles i < j touching with overlap
     (m) > 0; cv = x_j - x_i (m); overlap_t: tangential overlap (m); f_t_prev: the
-    tangential force (N) of the last sticking step; alpha from ``musen_alpha``.
+    tangential force (N) of the last sticking step; alpha from ``musen_alpha``; version:
+    MUSEN_1_70 or MUSEN_1_74 (module docstring).
 
     Returns (force on i N, moment on i N m, moment on j N m, new overlap_t m, new
     tangential force N, elastic energy J). The force on j is minus the force on i."""
@@ -94,17 +129,27 @@ def hertz_mindlin_musen_pp(cv, overlap, r_i, r_j, vi, vj, wi, wj, overlap_t, f_t
     rel = sub(add(vj, cross(wj, rc_j)), add(vi, cross(wi, rc_i)))
     v_n = dot(n, rel)
     rel_t = sub(rel, scale(n, v_n))
+    newer = version >= MUSEN_1_74
+    constant = MUSEN_DAMPING_1_74 if newer else MUSEN_DAMPING
     root = math.sqrt(r_star * overlap)
     k_n = 2.0 * e_star * root
-    damping = -MUSEN_DAMPING * alpha * v_n * math.sqrt(k_n * m_star)
     f_n = -overlap * k_n * 2.0 / 3.0
+    damping = -constant * alpha * v_n * math.sqrt(k_n * m_star)
     k_t = 8.0 * g_star * root
-    damping_t = scale(rel_t, -MUSEN_DAMPING * alpha * math.sqrt(k_t * m_star))
-    xi = add(musen_carry_overlap(overlap_t, n, True), scale(rel_t, dt))
+    xi = add(musen_carry_overlap(overlap_t, n, True, version), scale(rel_t, dt))
     f_t = scale(xi, k_t)
+    damping_t = scale(rel_t, -constant * alpha * math.sqrt(k_t * m_star))
     magnitude = norm(f_t)
     f_t_new = f_t_prev
-    if magnitude > friction * abs(f_n):
+    if newer:
+        limit = friction * abs(f_n + damping)
+        if magnitude > limit:
+            f_t_new = (f_t[0] * limit / magnitude, f_t[1] * limit / magnitude,
+                       f_t[2] * limit / magnitude)
+            xi = (f_t_new[0] / k_t, f_t_new[1] / k_t, f_t_new[2] / k_t)
+        else:
+            f_t_new = add(f_t, damping_t)
+    elif magnitude > friction * abs(f_n):
         f_t = scale(f_t, friction * abs(f_n) / magnitude)
         xi = (f_t[0] / k_t, f_t[1] / k_t, f_t[2] / k_t)
     else:
@@ -120,11 +165,12 @@ def hertz_mindlin_musen_pp(cv, overlap, r_i, r_j, vi, vj, wi, wj, overlap_t, f_t
 @physics
 def hertz_mindlin_musen_pw(x, q, n_wall, radius, v, w, v_wall, omega_wall, center,
                            overlap_t, f_t_prev, e_star, g_star, alpha, friction, rolling,
-                           mass, dt):
+                           mass, dt, version):
     """One step of MUSEN's ModelPWHertzMindlin for a particle at x (m) touching a wall at
     its point q (m), |x - q| < radius; n_wall: the wall element's unit normal towards the
     particle; v_wall, omega_wall, center: the wall's velocity (m/s), spin (rad/s) and
-    centre of rotation (m); v, w, mass: the particle's (m/s, rad/s, kg).
+    centre of rotation (m); v, w, mass: the particle's (m/s, rad/s, kg); version:
+    MUSEN_1_70 or MUSEN_1_74 (module docstring).
 
     Returns (force on the particle N, moment N m, its rolling torque N m, new overlap_t m,
     new tangential force N, elastic energy J)."""
@@ -138,16 +184,26 @@ def hertz_mindlin_musen_pw(x, q, n_wall, radius, v, w, v_wall, omega_wall, cente
     rel = add(add(sub(v, v_wall), spin_velocity), scale(cross(n_rc, w), radius))
     v_n = dot(n_wall, rel)
     rel_t = sub(rel, scale(n_wall, v_n))
+    newer = version >= MUSEN_1_74
+    constant = MUSEN_DAMPING_1_74 if newer else MUSEN_DAMPING
     k_n = 2.0 * e_star * math.sqrt(radius * overlap)
-    damping = MUSEN_DAMPING * alpha * v_n * math.sqrt(k_n * mass)
     f_n = 2.0 / 3.0 * overlap * k_n * abs(dot(n_rc, n_wall))
+    damping = constant * alpha * v_n * math.sqrt(k_n * mass)
+    xi = add(musen_carry_overlap(overlap_t, n_wall, False, version), scale(rel_t, dt))
     k_t = 8.0 * g_star * math.sqrt(radius * overlap)
-    damping_t = scale(rel_t, MUSEN_DAMPING * alpha * math.sqrt(k_t * mass))
-    xi = add(musen_carry_overlap(overlap_t, n_wall, False), scale(rel_t, dt))
     f_t = scale(xi, -k_t)
+    damping_t = scale(rel_t, constant * alpha * math.sqrt(k_t * mass))
     magnitude = norm(f_t)
     f_t_new = f_t_prev
-    if magnitude > friction * abs(f_n):
+    if newer:
+        limit = friction * abs(f_n + damping)
+        if magnitude > limit:
+            f_t_new = (f_t[0] * limit / magnitude, f_t[1] * limit / magnitude,
+                       f_t[2] * limit / magnitude)
+            xi = (f_t_new[0] / -k_t, f_t_new[1] / -k_t, f_t_new[2] / -k_t)
+        else:
+            f_t_new = add(f_t, damping_t)
+    elif magnitude > friction * abs(f_n):
         f_t = scale(f_t, friction * abs(f_n) / magnitude)
         xi = (f_t[0] / -k_t, f_t[1] / -k_t, f_t[2] / -k_t)
     else:
