@@ -193,6 +193,8 @@ def test_body_plot_of_fragments_spread_along_one_axis_stays_readable():
         assert ax.get_xlabel() == "x (mm)"
         low, high = ax.get_xlim()
         assert low <= -60.0 and high >= 60.0          # every particle shown, in mm
+    import matplotlib.pyplot as plt
+    plt.close(fig)
 
 
 def test_first_break_time_is_the_exact_break_time(run_file):
