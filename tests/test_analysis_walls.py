@@ -148,3 +148,110 @@ def test_unbalanced_energy_is_reported(tmp_path):
     with Results(no_energy) as results:
         assert energy_balance(results) is None and wall_curve(results) is None
         assert key_numbers(results)["fragments"] == 1
+
+
+def _file(tmp_path, name, force, position, time=None):
+    frames = force.shape[0]
+    return write_static(tmp_path / name, [[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]], 0.5, [[0, 1]],
+                        np.ones((frames, 1), bool),
+                        time=np.arange(frames) * 1e-4 if time is None else time,
+                        walls=(force, position))
+
+
+def test_the_facing_plate_is_found_among_other_walls_away_from_the_origin(tmp_path):
+    """Four walls, none at the origin (module docstring's definitions, three frames):
+    wall 0 loads along u = (0.6, 0, -0.8) by 0.2 mm per frame; wall 1 slides across it
+    (u . u1 = 0: no partner; it travels less than wall 0); wall 2 stands still and is pushed along u by 40 mN; wall 3
+    closes along -u by 0.1 mm per frame (the partner: moving walls come first). The
+    displacement is the gap's decrease 0.3 mm per frame, the gap starts at
+    |(p3 - p0) . u| = 5.2 mm, forces are mN (below 1 N)."""
+    u = np.array([0.6, 0.0, -0.8])
+    k = np.arange(3)
+    start = np.array([[1e-3, 2e-3, 5e-3], [-4e-3, 1e-3, 2e-3], [7e-3, -3e-3, -1e-3],
+                      [4.12e-3, 2e-3, 0.84e-3]])
+    position = np.repeat(start[None], 3, axis=0)
+    position[:, 0] += 2e-4 * k[:, None] * u
+    position[:, 1] += 1e-4 * k[:, None] * np.array([0.0, 1.0, 0.0])
+    position[:, 3] -= 1e-4 * k[:, None] * u
+    push = np.array([0.010, 0.030, 0.020])            # N, compressive on wall 0
+    force = np.zeros((3, 4, 3))
+    force[:, 0] = -push[:, None] * u                   # the body pushes wall 0 back
+    force[:, 3] = np.array([0.012, 0.024, 0.020])[:, None] * u   # and wall 3 along +u
+    force[:, 2] = 0.040 * u                            # the anvil that is not the partner
+    path = _file(tmp_path, "four.h5", force, position)
+    with Results(path) as results:
+        curve = wall_curve(results)
+        with pytest.raises(IndexError, match="out of range: the file has 4 walls"):
+            wall_curve(results, wall=4)
+    gap0 = abs(float((start[3] - start[0]) @ u))
+    assert gap0 == pytest.approx(5.2e-3, rel=1e-12)
+    assert curve["wall"] == 0 and curve["partner"] == 3
+    np.testing.assert_allclose(curve["displacement"], 3e-4 * k, rtol=1e-12, atol=1e-18)
+    np.testing.assert_allclose(curve["gap"], gap0 - 3e-4 * k, rtol=1e-12)
+    mean = 0.5 * (push + np.array([0.012, 0.024, 0.020]))
+    np.testing.assert_allclose(curve["force"], mean, rtol=1e-12)
+    np.testing.assert_allclose(curve["force_magnitude"], push, rtol=1e-12)
+    np.testing.assert_allclose(curve["time"], k * 1e-4)
+    assert curve["peak_index"] == 1 and curve["peak_force"] == pytest.approx(0.027)
+    # mismatch up to the peak over the peak force: |0.010 - 0.012|, |0.030 - 0.024|
+    assert curve["force_mismatch"] == pytest.approx(0.006 / 0.027, rel=1e-12)
+    assert curve["gap_at_peak_force"] == pytest.approx(gap0 - 3e-4, rel=1e-12)
+    for key in ("first_break_index", "first_break_force", "first_break_displacement"):
+        assert curve[key] is None                          # no bond broke
+
+
+def test_the_anvil_is_the_still_wall_pushed_hardest(tmp_path):
+    """No wall closes in: of two still walls the one the body pushes along u (mean 5 mN)
+    is the counterpart, not the one without load nor one pushed the other way; a single
+    frame is a curve too (its own peak), no frames none. Wall 0 loads along -z."""
+    position = np.zeros((2, 3, 3))
+    position[:, 0] = [[0.0, 0.0, 3e-3], [0.0, 0.0, 2.9e-3]]
+    position[:, 1] = [2e-3, 0.0, -1e-3]
+    position[:, 2] = [-2e-3, 0.0, -1e-3]
+    force = np.zeros((2, 3, 3))
+    force[:, 0] = [[0.0, 0.0, 0.004], [0.0, 0.0, 0.006]]
+    force[:, 1] = [[0.0, 0.0, 0.0], [0.0, 0.0, 0.0]]   # still and unloaded
+    force[:, 2] = [[0.0, 0.0, -0.004], [0.0, 0.0, -0.006]]   # pushed along u
+    with Results(_file(tmp_path, "anvil.h5", force, position)) as results:
+        curve = wall_curve(results)
+    assert curve["partner"] == 2
+    assert curve["gap"] == pytest.approx([4e-3, 3.9e-3])
+    one = _file(tmp_path, "one.h5", force[:1], position[:1])
+    with Results(one) as results:
+        single = wall_curve(results)
+    assert single["peak_force"] == pytest.approx(0.004) and single["partner"] is None
+    with Results(_file(tmp_path, "none.h5", force[:0], position[:0], time=np.zeros(0))) \
+            as results:
+        assert wall_curve(results) is None
+
+
+def test_the_mismatch_stops_at_the_peak_and_a_curve_without_load_has_none(tmp_path):
+    """Two plates closing, per-step history: the mismatch counts the rows up to and with
+    the peak (0.3 of the peak force there; 0.5 right after it does not count), frames and
+    history alike; with no load at all there is no peak force to compare with."""
+    k = np.arange(6)
+    position = np.zeros((6, 2, 3))
+    position[:, 0, 2] = 1e-3 + 1e-4 * k
+    position[:, 1, 2] = 5e-3 - 1e-4 * k
+    lower = np.array([0.0, 1.0, 2.0, 4.0, 3.0, 1.0])     # N on the lower plate
+    upper = lower + np.array([0.0, 0.1, 0.2, 1.2, 2.0, 0.1])
+    force = np.zeros((6, 2, 3))
+    force[:, 0, 2], force[:, 1, 2] = -lower, upper
+    path = _file(tmp_path, "frames.h5", force, position)
+    with Results(path) as results:
+        curve = wall_curve(results)
+    peak = 0.5 * (4.0 + 5.2)
+    assert curve["peak_index"] == 3 and curve["peak_force"] == pytest.approx(peak)
+    assert curve["force_mismatch"] == pytest.approx(1.2 / peak, rel=1e-12)
+    import h5py
+    with h5py.File(path, "a") as f:
+        f["walls/history/time"] = k * 1e-4
+        f["walls/history/force"] = force
+        f["walls/history/position"] = position
+    with Results(path) as results:
+        curve = wall_curve(results)
+    assert curve["force_mismatch"] == pytest.approx(1.2 / peak, rel=1e-12)
+    quiet = _file(tmp_path, "quiet.h5", np.zeros((6, 2, 3)), position)
+    with Results(quiet) as results:
+        curve = wall_curve(results)
+    assert curve["peak_force"] == 0.0 and curve["force_mismatch"] is None
