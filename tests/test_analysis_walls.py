@@ -223,12 +223,16 @@ def test_the_anvil_is_the_still_wall_pushed_hardest(tmp_path):
     with Results(_file(tmp_path, "none.h5", force[:0], position[:0], time=np.zeros(0))) \
             as results:
         assert wall_curve(results) is None
+    # a still wall the body does not push is no anvil (the only other wall here)
+    with Results(_file(tmp_path, "unloaded.h5", force[:, :2], position[:, :2])) as results:
+        assert wall_curve(results)["partner"] is None
 
 
 def test_the_mismatch_stops_at_the_peak_and_a_curve_without_load_has_none(tmp_path):
     """Two plates closing, per-step history: the mismatch counts the rows up to and with
-    the peak (0.3 of the peak force there; 0.5 right after it does not count), frames and
+    the peak (1.2 N apart there; 2.0 N right after it does not count), frames and
     history alike; with no load at all there is no peak force to compare with."""
+    import h5py
     k = np.arange(6)
     position = np.zeros((6, 2, 3))
     position[:, 0, 2] = 1e-3 + 1e-4 * k
@@ -243,7 +247,6 @@ def test_the_mismatch_stops_at_the_peak_and_a_curve_without_load_has_none(tmp_pa
     peak = 0.5 * (4.0 + 5.2)
     assert curve["peak_index"] == 3 and curve["peak_force"] == pytest.approx(peak)
     assert curve["force_mismatch"] == pytest.approx(1.2 / peak, rel=1e-12)
-    import h5py
     with h5py.File(path, "a") as f:
         f["walls/history/time"] = k * 1e-4
         f["walls/history/force"] = force
@@ -255,3 +258,47 @@ def test_the_mismatch_stops_at_the_peak_and_a_curve_without_load_has_none(tmp_pa
     with Results(quiet) as results:
         curve = wall_curve(results)
     assert curve["peak_force"] == 0.0 and curve["force_mismatch"] is None
+    # the history's branch too: no load, then loads of mN (the mismatch still counts)
+    for scale, expected in ((0.0, None), (1e-3, 1.2 / peak)):
+        quiet = _file(tmp_path, f"quiet{scale}.h5", scale * force, position)
+        with h5py.File(quiet, "a") as f:
+            f["walls/history/time"] = k * 1e-4
+            f["walls/history/force"] = scale * force
+            f["walls/history/position"] = position
+        with Results(quiet) as results:
+            curve = wall_curve(results)
+        assert curve["peak_force"] == pytest.approx(scale * peak)
+        assert curve["force_mismatch"] == (None if expected is None else
+                                           pytest.approx(expected, rel=1e-12))
+
+
+def test_the_curve_is_computed_in_double_precision_whatever_the_file_stores(tmp_path):
+    """A file whose wall datasets are float32 (another writer's): gap, forces and the peak
+    are the float64 arithmetic of the stored values, not float32's (1e-7 apart)."""
+    import h5py
+    k = np.arange(4)
+    position = np.zeros((4, 2, 3))
+    position[:, 0, 2] = 1.1e-3 + 1.3e-4 * k
+    position[:, 1, 2] = 5.3e-3 - 0.7e-4 * k
+    force = np.zeros((4, 2, 3))
+    force[:, 0, 2] = -np.array([0.1, 0.7, 1.3, 0.9])
+    force[:, 1, 2] = np.array([0.11, 0.73, 1.37, 0.93])
+    path = _file(tmp_path, "single.h5", force, position)
+    with h5py.File(path, "a") as f:
+        for name, values in (("force", force), ("position", position)):
+            del f[f"walls/{name}"]
+            f[f"walls/{name}"] = values.astype(np.float32)
+            f[f"walls/history/{name}"] = values.astype(np.float32)
+        f["walls/history/time"] = (k * 1e-4).astype(np.float32)
+    stored_f = force.astype(np.float32).astype(np.float64)
+    stored_x = position.astype(np.float32).astype(np.float64)
+    with Results(path) as results:
+        curve = wall_curve(results)
+    gap = (stored_x[0, 1, 2] - stored_x[0, 0, 2]) - (
+        (stored_x[:, 0, 2] - stored_x[0, 0, 2]) - (stored_x[:, 1, 2] - stored_x[0, 1, 2]))
+    np.testing.assert_allclose(curve["gap"], gap, rtol=1e-15)
+    mean = 0.5 * (-stored_f[:, 0, 2] + stored_f[:, 1, 2])
+    np.testing.assert_allclose(curve["force"], mean, rtol=1e-15)
+    assert curve["peak_force"] == pytest.approx(mean[2], rel=1e-15)
+    assert curve["gap_at_peak_force"] == pytest.approx(gap[2], rel=1e-15)
+    assert curve["peak_time"] == float(np.float32(2e-4))

@@ -1,0 +1,135 @@
+"""Mutation testing of bondem's Python modules with mutmut (issue 43, docs/testing.md).
+
+    python scripts/mutate.py src/bondem/analysis/walls.py            # one module, its tests
+    python scripts/mutate.py src/bondem/calibrate.py tests/test_calibrate.py
+    python scripts/mutate.py --all                                   # every module in MODULES
+
+mutmut (3.x) runs in a scratch copy of the repository, with the module as the only one
+mutated and its tests (MODULES, or those given) as the only ones run. The script prints
+each surviving mutant and the score, killed / (killed + survived); a timeout counts as
+killed and a mutant no test reaches as survived. It is not part of CI: a module takes
+minutes to hours.
+
+The Python that runs it needs bondem's dependencies, pytest and mutmut, but not bondem
+itself: an installed bondem (an editable install above all) would be imported instead of
+the mutated copy. ``--make-venv DIR`` makes such an environment:
+
+    python scripts/mutate.py --make-venv ~/.cache/bondem-mutation
+    ~/.cache/bondem-mutation/bin/python scripts/mutate.py src/bondem/analysis/walls.py
+
+Numba kernels are not mutated this way (mutmut's trampolines cannot be compiled); the
+loop bodies and physics have a planted-bug table of their own in docs/testing.md.
+"""
+import argparse
+import json
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import tomllib
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+# module -> the tests that guard it (run for every mutant: keep them fast)
+MODULES = {
+    "src/bondem/analysis/walls.py": ["tests/test_analysis_walls.py"],
+    "src/bondem/analysis/energy.py": ["tests/test_analysis_walls.py",
+                                      "tests/test_energy_counters.py"],
+    "src/bondem/analysis/fragments.py": ["tests/test_analysis_fragments.py"],
+    "src/bondem/timestep.py": ["tests/test_model.py", "tests/test_bond_kelvin.py"],
+    "src/bondem/io/csv_files.py": ["tests/test_bad_files.py", "tests/test_generate_io.py"],
+    "src/bondem/calibrate.py": ["tests/test_calibrate.py"],
+}
+COPIED = ["tests/", "examples/", "docs/", "README.md", "benchmarks/", "scripts/"]
+
+
+def make_venv(folder):
+    """A virtual environment with bondem's dependencies, its test extras and mutmut."""
+    data = tomllib.loads((ROOT / "pyproject.toml").read_text())
+    project = data["project"]
+    requirements = project["dependencies"] + project["optional-dependencies"]["test"]
+    subprocess.run([sys.executable, "-m", "venv", str(folder)], check=True)
+    subprocess.run([str(Path(folder) / "bin" / "python"), "-m", "pip", "install", "-q",
+                    *requirements, "mutmut>=3.8"], check=True)
+
+
+def mutate(module, tests, keep=False):
+    """Run mutmut on ``module`` (a path below src/) with ``tests``; returns
+    (killed, survived, surviving mutant names)."""
+    try:
+        import bondem  # noqa: F401
+        raise SystemExit("bondem is importable in this Python; run the script with a "
+                         "Python that lacks it (--make-venv)")
+    except ImportError:
+        pass
+    work = Path(tempfile.mkdtemp(prefix="bondem-mutate-"))
+    files = subprocess.run(["git", "ls-files"], cwd=ROOT, capture_output=True, text=True,
+                           check=True).stdout.split()
+    for name in files:
+        target = work / name
+        target.parent.mkdir(parents=True, exist_ok=True)
+        shutil.copy2(ROOT / name, target)
+    others = [name for name in files if name.startswith("src/") and name.endswith(".py")
+              and name != module]
+    config = ("\n[tool.mutmut]\n"
+              f"paths_to_mutate = [\"src/\"]\n"
+              f"do_not_mutate = {json.dumps(others)}\n"
+              f"tests_dir = {json.dumps(tests)}\n"
+              f"also_copy = {json.dumps(COPIED)}\n"
+              "pytest_add_cli_args = [\"-p\", \"no:cacheprovider\", \"-o\", \"addopts=\"]\n")
+    with open(work / "pyproject.toml", "a") as handle:
+        handle.write(config)
+    # the mutated package, made by mutmut: the folder must exist when Python starts, or
+    # the import system remembers it as missing
+    (work / "mutants" / "src").mkdir(parents=True)
+    env = dict(os.environ, PYTHONPATH=str(work / "mutants" / "src"), NUMBA_NUM_THREADS="1")
+    subprocess.run([sys.executable, "-m", "mutmut", "run"], cwd=work, env=env)
+    subprocess.run([sys.executable, "-m", "mutmut", "export-cicd-stats"], cwd=work, env=env,
+                   capture_output=True)
+    stats = json.loads((work / "mutants" / "mutmut-cicd-stats.json").read_text())
+    listing = subprocess.run([sys.executable, "-m", "mutmut", "results"], cwd=work, env=env,
+                             capture_output=True, text=True).stdout
+    survivors = [line.split(":")[0].strip() for line in listing.splitlines()
+                 if line.strip().endswith(("survived", "no tests"))]
+    killed = stats["killed"] + stats.get("timeout", 0)
+    survived = stats["survived"] + stats.get("no_tests", 0)
+    if not keep:
+        shutil.rmtree(work, ignore_errors=True)
+    else:
+        print(f"kept: {work} (mutmut show NAME there)")
+    return killed, survived, survivors
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("module", nargs="?", help="a module below src/bondem")
+    parser.add_argument("tests", nargs="*", help="its tests [default: MODULES]")
+    parser.add_argument("--all", action="store_true", help="every module in MODULES")
+    parser.add_argument("--keep", action="store_true", help="keep the scratch copy")
+    parser.add_argument("--make-venv", metavar="DIR", help="make the environment and stop")
+    args = parser.parse_args()
+    if args.make_venv:
+        make_venv(args.make_venv)
+        return
+    jobs = (list(MODULES.items()) if args.all else
+            [(args.module, args.tests or MODULES.get(args.module))])
+    if not jobs or jobs[0][0] is None or jobs[0][1] is None:
+        parser.error("give a module (and its tests if it is not in MODULES), or --all")
+    rows = []
+    for module, tests in jobs:
+        killed, survived, survivors = mutate(module, tests, args.keep)
+        total = killed + survived
+        rows.append((module, killed, total))
+        for name in survivors:
+            print(f"survived: {name}")
+        print(f"{module}: {killed} of {total} mutants killed "
+              f"({100.0 * killed / max(total, 1):.1f} %)")
+    if len(rows) > 1:
+        for module, killed, total in rows:
+            print(f"| {module} | {killed} / {total} | {100.0 * killed / max(total, 1):.1f} % |")
+
+
+if __name__ == "__main__":
+    main()
