@@ -302,3 +302,55 @@ def test_the_curve_is_computed_in_double_precision_whatever_the_file_stores(tmp_
     assert curve["peak_force"] == pytest.approx(mean[2], rel=1e-15)
     assert curve["gap_at_peak_force"] == pytest.approx(gap[2], rel=1e-15)
     assert curve["peak_time"] == float(np.float32(2e-4))
+
+
+def test_energy_balance_by_its_definition_on_constructed_records(tmp_path):
+    """stored(t) - stored(0) = work - losses + residual; the reference is the initial
+    kinetic energy, translational plus rotational (3 J here), else the largest |work|, else
+    none (relative error 0). Groups without a recorded term are zero series, and a file
+    with no frames gives the same keys with empty series."""
+    two = [[0, 0, 0], [1, 0, 0]]
+    energy = {"kinetic_translational": np.array([2.0, 1.5, 1.0]),
+              "kinetic_rotational": np.array([1.0, 0.25, 0.5]),
+              "bond_elastic": np.array([0.0, 0.9, 1.2])}
+    path = write_static(tmp_path / "spin.h5", two, 0.5, [[0, 1]], np.ones((3, 1), bool),
+                        energy=energy)
+    with Results(path) as results:
+        balance = energy_balance(results)
+    stored = np.array([3.0, 2.65, 2.7])
+    np.testing.assert_allclose(balance["stored"], stored)
+    np.testing.assert_array_equal(balance["work"], np.zeros(3))
+    np.testing.assert_array_equal(balance["losses"], np.zeros(3))   # no loss recorded
+    np.testing.assert_allclose(balance["residual"], stored - 3.0)
+    assert balance["reference"] == 3.0
+    np.testing.assert_allclose(balance["relative_error"], (stored - 3.0) / 3.0)
+    assert balance["max_relative_error"] == pytest.approx(0.35 / 3.0)
+    # only rotation at the start and a wall's work: the reference is the spin's energy
+    spin_only = {"kinetic_rotational": np.array([4.0, 3.0]), "work_walls": np.array([0.0, -6.0]),
+                 "dissipated_contacts": np.array([0.0, 0.5])}
+    path = write_static(tmp_path / "spin_only.h5", two, 0.5, [[0, 1]],
+                        np.ones((2, 1), bool), energy=spin_only)
+    with Results(path) as results:
+        balance = energy_balance(results)
+    assert balance["reference"] == 4.0
+    np.testing.assert_allclose(balance["residual"], [0.0, -1.0 + 6.0 + 0.5])
+    # nothing moving and no work: no reference to measure against
+    still = {"kinetic_translational": np.zeros(2), "bond_elastic": np.array([0.0, 1e-9])}
+    path = write_static(tmp_path / "still.h5", two, 0.5, [[0, 1]], np.ones((2, 1), bool),
+                        energy=still)
+    with Results(path) as results:
+        balance = energy_balance(results)
+    assert balance["reference"] == 0.0 and balance["max_relative_error"] == 0.0
+    assert balance["relative_error"].shape == (2,)
+    np.testing.assert_array_equal(balance["relative_error"], np.zeros(2))
+    # no frames at all
+    path = write_static(tmp_path / "empty.h5", two, 0.5, [[0, 1]], np.ones((0, 1), bool),
+                        time=np.zeros(0), energy={"kinetic_translational": np.zeros(0)})
+    with Results(path) as results:
+        balance = energy_balance(results)
+    assert set(balance) == {"time", "terms", "stored", "work", "losses", "residual",
+                            "reference", "relative_error", "max_relative_error"}
+    assert balance["reference"] == 0.0 and balance["max_relative_error"] == 0.0
+    for key in ("time", "stored", "work", "losses", "residual", "relative_error"):
+        assert balance[key].shape == (0,), key
+    assert set(balance["terms"]) == {"kinetic_translational"}
