@@ -171,3 +171,105 @@ def test_series_over_many_frames_match_frame_by_frame(tmp_path):
     for code, name in enumerate(("tension", "compression", "shear"), start=1):
         assert np.array_equal(broken[name], (~active & (mode == code)).sum(axis=1))
     assert np.array_equal(broken["broken"], (~active).sum(axis=1))
+
+
+def _line_body(tmp_path, mode=(1, 0, 3)):
+    """Four spheres (radius 0.5 mm) on a line off the origin, masses 1, 1, 1, 3: at t = 0
+    the centre of mass is 6 mm along the line, the outer radius 6 + 0.5 mm (later frames
+    move particle 3 away: the shells are those of t = 0). Bonds (0,1), (1,2), (2,3) have
+    their centres 5, 3 and 1 mm from it: relative radii 10/13, 6/13, 2/13. Bonds 0 and 2
+    break between the frames at 1e-4 and 2e-4 s (tension at 1.1e-4 s, shear at 1.5e-4 s),
+    bond 1 never."""
+    offset = np.array([5e-3, -3e-3, 2e-3])
+    x = np.array([0.0, 2e-3, 4e-3, 10e-3])
+    position = np.repeat((offset + x[:, None] * np.array([1.0, 0.0, 0.0]))[None], 3, axis=0)
+    position[1:, 3, 0] += np.array([2e-3, 6e-3])
+    active = np.array([[1, 1, 1], [1, 1, 1], [0, 1, 0]], bool)
+    path = write_static(tmp_path / "line.h5", position, 0.5e-3, [[0, 1], [1, 2], [2, 3]],
+                        active, time=np.array([0.0, 1e-4, 2e-4]), mass=[1.0, 1.0, 1.0, 3.0],
+                        break_mode=None if mode is None else list(mode))
+    with h5py.File(path, "a") as f:
+        f["bonds/break_time"] = [1.1e-4, np.nan, 1.5e-4]
+    return path, offset
+
+
+def test_radial_breakage_by_its_definition(tmp_path):
+    path, offset = _line_body(tmp_path)
+    with Results(path) as results:
+        shells = radial_breakage(results)
+        coarse = radial_breakage(results, frame=1, bins=4)
+        halves = radial_breakage(results, bins=2)
+    np.testing.assert_allclose(shells["centre"], offset + [6e-3, 0.0, 0.0], rtol=1e-12)
+    assert shells["outer_radius"] == pytest.approx(6.5e-3, rel=1e-12)
+    np.testing.assert_allclose(shells["radius"], [10 / 13, 6 / 13, 2 / 13], rtol=1e-12)
+    assert shells["broken"].tolist() == [True, False, True]
+    assert shells["mode"].tolist() == [1, 0, 3]
+    np.testing.assert_allclose(shells["edges"], np.linspace(0.0, 1.0, 11))
+    expected_all = np.zeros(10, int)
+    expected_all[[7, 4, 1]] = 1
+    assert shells["all"].tolist() == expected_all.tolist()
+    expected_hit = np.zeros(10, int)
+    expected_hit[[7, 1]] = 1
+    assert shells["broken_count"].tolist() == expected_hit.tolist()
+    fraction = shells["broken_fraction"]
+    assert fraction[7] == 1.0 and fraction[1] == 1.0 and fraction[4] == 0.0
+    assert np.isnan(np.delete(fraction, [1, 4, 7])).all()
+    # frame 1: nothing broken yet; four shells of 0.25
+    assert coarse["broken"].tolist() == [False, False, False]
+    assert coarse["all"].tolist() == [1, 1, 0, 1] and coarse["broken_count"].tolist() == \
+        [0, 0, 0, 0]
+    np.testing.assert_allclose(coarse["edges"], [0.0, 0.25, 0.5, 0.75, 1.0])
+    # two shells: the inner one holds two bonds, one broken
+    assert halves["all"].tolist() == [2, 1]
+    np.testing.assert_allclose(halves["broken_fraction"], [0.5, 1.0])
+
+
+def test_breakage_without_recorded_modes_or_bonds(tmp_path):
+    """A file without /bonds/break_mode: broken bonds count as 'unknown', the modes read
+    0; a file without bonds: no fraction to speak of (0, not a division by zero)."""
+    from bondem.analysis import broken_series
+    path, _ = _line_body(tmp_path, mode=None)
+    with Results(path) as results:
+        series = broken_series(results)
+        shells = radial_breakage(results)
+    assert series["unknown"].tolist() == [0, 0, 2] and series["tension"].tolist() == [0, 0, 0]
+    assert series["broken"].dtype.kind == "i" and series["broken"].tolist() == [0, 0, 2]
+    np.testing.assert_allclose(series["fraction"], [0.0, 0.0, 2 / 3])
+    np.testing.assert_allclose(series["time"], [0.0, 1e-4, 2e-4])
+    assert shells["mode"].dtype == np.int8 and shells["mode"].tolist() == [0, 0, 0]
+    assert broken_bond_fraction(path) == pytest.approx(2 / 3)
+    none = write_static(tmp_path / "none.h5", [[0, 0, 0], [3e-3, 0, 0]], 0.5e-3,
+                        np.zeros((0, 2)), np.ones((2, 0), bool), time=np.array([0.0, 1e-4]))
+    with Results(none) as results:
+        series = broken_series(results)
+    assert series["fraction"].tolist() == [0.0, 0.0]
+    assert broken_bond_fraction(none) == 0.0
+    one = write_static(tmp_path / "one.h5", [[0, 0, 0], [1e-3, 0, 0]], 0.5e-3, [[0, 1]],
+                       np.array([[True], [False]]))
+    assert broken_bond_fraction(one) == 1.0
+
+
+def test_the_first_break_time_is_the_earliest_recorded_among_the_broken(tmp_path):
+    """From /bonds/break_time where recorded (1.1e-4 s, not the frame at 2e-4 s where it
+    is first seen), among the bonds broken by the last frame; else the first frame with a
+    broken bond; None when none broke."""
+    from bondem.analysis.breakage import first_break_time
+    path, _ = _line_body(tmp_path)
+    with Results(path) as results:
+        assert first_break_time(results) == 1.1e-4
+    with h5py.File(path, "a") as f:
+        f["bonds/break_time"][...] = [1.1e-4, 0.5e-4, 1.5e-4]   # bond 1: not broken at the end
+    with Results(path) as results:
+        assert first_break_time(results) == 1.1e-4
+    with h5py.File(path, "a") as f:
+        del f["bonds/break_time"]
+    with Results(path) as results:
+        assert first_break_time(results) == 2e-4
+    with h5py.File(path, "a") as f:
+        f["bonds/break_time"] = [np.nan, np.nan, np.nan]      # recorded, but not these
+    with Results(path) as results:
+        assert first_break_time(results) == 2e-4
+    intact = write_static(tmp_path / "intact.h5", [[0, 0, 0], [1e-3, 0, 0]], 0.5e-3, [[0, 1]],
+                          np.ones((3, 1), bool), time=np.array([0.0, 1e-4, 2e-4]))
+    with Results(intact) as results:
+        assert first_break_time(results) is None
