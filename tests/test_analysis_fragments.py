@@ -273,3 +273,79 @@ def test_the_first_break_time_is_the_earliest_recorded_among_the_broken(tmp_path
                           np.ones((3, 1), bool), time=np.array([0.0, 1e-4, 2e-4]))
     with Results(intact) as results:
         assert first_break_time(results) is None
+
+
+def test_fragment_definitions_on_a_small_body_of_unequal_masses(tmp_path):
+    """Five particles of masses 1, 1, 1, 1, 5: the pair {0,1} (2 kg, 2 particles) and the
+    heavy single 4 (5 kg, 1 particle) and the pair {2,3} (2 kg): the heaviest fragment
+    comes first whatever its particle count; of equal masses, more particles first; the
+    largest fraction is by mass (5/9), the largest count that fragment's (1)."""
+    pairs = [[0, 1], [2, 3], [1, 2]]
+    active = [True, True, False]
+    mass = np.array([1.0, 1.0, 1.0, 1.0, 5.0])
+    count, labels = fragment_labels(pairs, active, 5, mass)
+    assert count == 3 and labels.tolist() == [1, 1, 2, 2, 0]
+    # by particle count without masses: the pairs first, the single last
+    count, by_count = fragment_labels(pairs, active, 5)
+    assert by_count.tolist() == [0, 0, 1, 1, 2]
+    counts, masses = fragment_sizes(labels, mass)
+    assert counts.tolist() == [1, 2, 2] and masses.tolist() == [5.0, 2.0, 2.0]
+    # equal masses: the fragment of more particles comes first
+    counts, masses = fragment_sizes([0, 0, 1], [1.0, 1.0, 2.0])
+    assert counts.tolist() == [2, 1] and masses.tolist() == [2.0, 2.0]
+    ascending, fraction = size_distribution([5.0, 2.0, 2.0], total_mass=18.0)
+    assert ascending.tolist() == [2.0, 2.0, 5.0]
+    np.testing.assert_allclose(fraction, [2 / 18, 4 / 18, 9 / 18])   # of a larger total
+    with pytest.raises(ValueError, match="active: length 2, expected 3 "):
+        fragment_labels(pairs, [True, False], 5)
+    assert fragment_labels(np.zeros((0, 2)), [], 0)[0] == 0
+    assert fragment_labels(np.zeros((0, 2)), [], 0)[1].shape == (0,)
+    path = write_static(tmp_path / "five.h5", np.arange(15.0).reshape(5, 3), 0.5, pairs,
+                        np.array([[True, True, True], active]), mass=mass,
+                        time=np.array([0.0, 2.5e-4]))
+    with Results(path) as results:
+        series = fragment_series(results)
+    np.testing.assert_allclose(series["time"], [0.0, 2.5e-4])
+    assert series["fragments"].tolist() == [2, 3]
+    assert series["largest_fraction"] == pytest.approx([5 / 9, 5 / 9])
+    assert series["largest_count"].tolist() == [1, 1]
+    assert series["fragments_multi"].tolist() == [1, 2]
+    for key in ("fragments", "fragments_multi", "largest_count"):
+        assert series[key].dtype == np.int64
+    assert isinstance(series["largest_fraction"], np.ndarray)
+    assert series["largest_fraction"].dtype == np.float64
+
+
+def test_one_particle_no_particle_and_a_file_another_process_writes(tmp_path, monkeypatch):
+    """A single particle is one fragment of itself; a frame's fragments carry their
+    time, labels, counts and masses; a results file that cannot be opened for writing
+    (another process holds it) gets its fragment ids in the sidecar <stem>.fragments.h5
+    with the frames' times."""
+    from bondem.analysis.fragments import frame_fragments
+    count, labels = fragment_labels(np.zeros((0, 2)), [], 1)
+    assert count == 1 and labels.tolist() == [0]
+    path = write_static(tmp_path / "pair.h5", [[0, 0, 0], [1, 0, 0], [3, 0, 0]], 0.5,
+                        [[0, 1]], np.array([[True], [False]]), mass=[1.0, 2.0, 4.0],
+                        time=np.array([0.0, 3e-4]))
+    with Results(path) as results:
+        data = frame_fragments(results, 0)
+    assert data["time"] == 0.0 and data["labels"].tolist() == [1, 1, 0]
+    assert data["counts"].tolist() == [1, 2] and data["masses"].tolist() == [4.0, 3.0]
+    assert data["total_mass"] == 7.0
+    real_file = h5py.File
+
+    def locked(name, mode="r", *args, **kwargs):
+        if mode == "r+":
+            raise OSError("unable to lock file (held by a writer)")
+        return real_file(name, mode, *args, **kwargs)
+
+    import bondem.analysis.fragments as fragments
+    monkeypatch.setattr(fragments.h5py, "File", locked)
+    written = write_fragment_ids(path)
+    monkeypatch.undo()
+    assert written == tmp_path / "pair.fragments.h5"
+    with h5py.File(written, "r") as f:
+        np.testing.assert_array_equal(f["time"][()], [0.0, 3e-4])
+        assert f["particles/fragment"][()].tolist() == [[1, 1, 0], [2, 1, 0]]   # by mass
+    with h5py.File(path, "r") as f:
+        assert "particles/fragment" not in f
