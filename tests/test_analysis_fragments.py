@@ -349,3 +349,36 @@ def test_one_particle_no_particle_and_a_file_another_process_writes(tmp_path, mo
         assert f["particles/fragment"][()].tolist() == [[1, 1, 0], [2, 1, 0]]   # by mass
     with h5py.File(path, "r") as f:
         assert "particles/fragment" not in f
+
+
+def test_fragment_ids_as_written_and_a_body_without_particles(tmp_path):
+    """The ids ParaView reads: int32, one chunk per frame, compressed, described; a
+    results file without particles has no fragments (0, not an error); a wrong bond
+    count names what it expected."""
+    path = write_static(tmp_path / "pair.h5", [[0, 0, 0], [1, 0, 0], [3, 0, 0]], 0.5,
+                        [[0, 1]], np.array([[True], [False]]), mass=[1.0, 2.0, 4.0])
+    write_fragment_ids(path)
+    with h5py.File(path, "r") as f:
+        ids = f["particles/fragment"]
+        assert ids.dtype == np.int32 and ids.chunks == (1, 3)
+        assert ids.compression == "gzip"
+        assert ids.attrs["description"].startswith("fragment id per frame and particle")
+    empty = write_static(tmp_path / "empty.h5", np.zeros((0, 3)), 0.5, np.zeros((0, 2)),
+                         np.ones((2, 0), bool))
+    with Results(empty) as results:
+        series = fragment_series(results)
+    assert series["fragments"].tolist() == [0, 0]
+    assert series["largest_fraction"].tolist() == [0.0, 0.0]
+    assert series["largest_count"].tolist() == [0, 0]
+    with pytest.raises(ValueError, match=r"expected 1 \(one per bond\)"):
+        fragment_labels([[0, 1]], [True, True], 2)
+    # one particle, and none: their ids are written too (one chunk of one particle)
+    single = write_static(tmp_path / "single.h5", [[0.0, 0.0, 0.0]], 0.5, np.zeros((0, 2)),
+                          np.ones((2, 0), bool))
+    write_fragment_ids(single)
+    with h5py.File(single, "r") as f:
+        assert f["particles/fragment"].chunks == (1, 1)
+        assert f["particles/fragment"][()].tolist() == [[0], [0]]
+    write_fragment_ids(empty)
+    with h5py.File(empty, "r") as f:
+        assert f["particles/fragment"].shape == (2, 0)
