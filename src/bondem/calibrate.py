@@ -28,6 +28,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .analysis.calibration import percent
 from .errors import InputError, decode_text, unknown_key
 
 MODULUS_TARGETS = ("young_modulus_secant", "young_modulus_tangent")
@@ -512,11 +513,6 @@ def _clean(value):
     if isinstance(value, np.integer):
         return int(value)
     return value
-
-
-def percent(fraction):
-    """A fraction as a percentage with two significant digits: 0.0024 -> '0.24 %'."""
-    return f"{100.0 * fraction:.2g} %"
 
 
 def linearised_uncertainty(jacobian, null=1e-12):

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 import os
+import signal
 import time
 from pathlib import Path
 
@@ -108,7 +109,6 @@ class _StopSignals:
         self.requested = number
 
     def __enter__(self):
-        import signal
         for number in (signal.SIGINT, signal.SIGTERM):
             try:
                 self._previous[number] = signal.signal(number, self._handle)
@@ -117,7 +117,6 @@ class _StopSignals:
         return self
 
     def __exit__(self, *exc):
-        import signal
         for number, handler in self._previous.items():
             signal.signal(number, handler)
 
@@ -374,7 +373,6 @@ def _run_locked(scene, out_dir, progress, resume, checkpoint_minutes, stop_after
 def _interrupted(number, sim, writer, good, total, checkpoint_path, scene_text, out_dir):
     """Write the checkpoint of a run stopped by signal ``number`` and raise
     RunInterrupted saying what was kept."""
-    import signal
     name = signal.Signals(number).name
     try:
         write_checkpoint(checkpoint_path, sim.state, frames=writer.n_frames,

@@ -62,7 +62,7 @@ class Simulation:
         # the MUSEN release whose numerics musen_compat reproduces (ValueError if unknown);
         # only the contacts differ between the releases
         self.musen_version = str(musen_version)
-        musen_contacts = musen_code(True, self.musen_version)
+        musen_contacts = musen_code(self.musen_version)
         if self.musen_compat:
             for material in model.bond_materials:
                 values = {k: getattr(material, k) for k in bond_models.bond_material_schema()}

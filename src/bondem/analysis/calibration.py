@@ -19,6 +19,11 @@ CAPTIONS = {
 }
 
 
+def percent(fraction):
+    """A fraction as a percentage with two significant digits: 0.0024 -> '0.24 %'."""
+    return f"{100.0 * fraction:.2g} %"
+
+
 def write_figures(calibration, rows, summary, out_dir):
     """calibration_targets.png and calibration_parameters.png in ``out_dir``."""
     import matplotlib
@@ -91,7 +96,7 @@ def write_page(calibration, summary, out_dir):
     target_rows = []
     for t in calibration.targets:
         spread = summary["seed_scatter"].get(t.name, {})
-        target_rows.append((t.name, t.test, t.value, f"+-{100 * t.tolerance:.2g} %",
+        target_rows.append((t.name, t.test, t.value, f"+-{percent(t.tolerance)}",
                             best["predictions"][t.name],
                             spread.get("std", "n/a") if spread else "n/a"))
     figures = "".join(

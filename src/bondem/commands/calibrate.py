@@ -20,7 +20,8 @@ from .run import _folder
 @click.option("--overwrite", is_flag=True, help="Start afresh over an earlier table.")
 def command(calibration, out_dir, scheduler, workers, resume, overwrite):
     """Calibrate the parameters of CALIBRATION (TOML: spec, parameters, targets, budget)."""
-    from ..calibrate import CalibrationFailed, load_calibration, percent, run_calibration
+    from ..analysis.calibration import percent
+    from ..calibrate import CalibrationFailed, load_calibration, run_calibration
     from tqdm import tqdm
 
     loaded = load_calibration(calibration)

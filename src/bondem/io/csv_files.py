@@ -26,6 +26,12 @@ FIXED_COLUMNS = ("fixed",)
 BOND_COLUMNS = ("i", "j", "diameter", "material")
 
 
+
+def float_text(x):
+    """A float as the shortest text that reads back to the same double (``repr`` of a
+    Python float: a NumPy scalar's repr is ``np.float64(...)`` from NumPy 2 on)."""
+    return repr(float(x))
+
 def _read(path, required, optional_groups, kinds):
     """Rows of a CSV file as dict of columns; kinds: column -> 'float' | 'positive' |
     'index' | 'name'."""

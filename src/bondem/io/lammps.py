@@ -34,13 +34,9 @@ from ..contacts import contact_cutoff
 from ..physics.bond_elastic import bond_stiffnesses
 from ..physics.contact_hertz import effective_shear_modulus, effective_young_modulus
 from ..timestep import step_count
+from .csv_files import float_text
 
 BIG = 1e300   # a limit that never breaks: LAMMPS has no infinity in its coefficients
-
-
-def _number(x):
-    """A float as the shortest text that reads back to the same double."""
-    return repr(float(x))
 
 
 def bond_coefficients(model):
@@ -72,9 +68,9 @@ def _granular(material):
     young, poisson = material.young_modulus, material.poisson_ratio
     ratio = 2.0 * math.sqrt(effective_shear_modulus(young, poisson, young, poisson)
                             / effective_young_modulus(young, poisson, young, poisson))
-    return (f"hertz/material {_number(young)} {_number(material.restitution)} "
-            f"{_number(poisson)} tangential mindlin NULL {ratio:.6f} "
-            f"{_number(material.friction)} damping tsuji")
+    return (f"hertz/material {float_text(young)} {float_text(material.restitution)} "
+            f"{float_text(poisson)} tangential mindlin NULL {ratio:.6f} "
+            f"{float_text(material.friction)} damping tsuji")
 
 
 def _notes(model, options):
@@ -152,14 +148,14 @@ def write_lammps(model, state, options, out_dir, *, end_time, save_every, title=
              f"{n} atoms", f"{types} atom types"]
     if nb:
         lines += [f"{intact.size} bonds", f"{len(unique)} bond types"]
-    lines += ["", *(f"{_number(low[k])} {_number(high[k])} {a}lo {a}hi"
+    lines += ["", *(f"{float_text(low[k])} {float_text(high[k])} {a}lo {a}hi"
                     for k, a in enumerate("xyz")), ""]
     lines += ["Atoms # bpm/sphere", ""]
-    lines += [f"{p + 1} 0 {model.material[p] + 1} {_number(2 * radius[p])} "
-              f"{_number(density[p])} " + " ".join(_number(c) for c in position[p])
+    lines += [f"{p + 1} 0 {model.material[p] + 1} {float_text(2 * radius[p])} "
+              f"{float_text(density[p])} " + " ".join(float_text(c) for c in position[p])
               for p in range(n)]
     lines += ["", "Velocities", ""]
-    lines += [f"{p + 1} " + " ".join(_number(c) for c in (*state.velocity[p],
+    lines += [f"{p + 1} " + " ".join(float_text(c) for c in (*state.velocity[p],
                                                            *state.angular_velocity[p]))
               for p in range(n)]
     if nb:
@@ -170,7 +166,7 @@ def write_lammps(model, state, options, out_dir, *, end_time, save_every, title=
     data_path.write_text("\n".join(lines) + "\n")
     if nb:   # bond_style needs the box, so the coefficients follow read_data
         (out / "bond_coeffs.lammps").write_text("".join(
-            f"bond_coeff {t + 1} " + " ".join(_number(v) for v in row) + "\n"
+            f"bond_coeff {t + 1} " + " ".join(float_text(v) for v in row) + "\n"
             for t, row in enumerate(unique)))
 
     # the deck
@@ -187,7 +183,7 @@ def write_lammps(model, state, options, out_dir, *, end_time, save_every, title=
     boundary = " ".join("p" if model.periodic[k] else "m" for k in range(3))
     deck = [f"# {title} exported by bondem (docs/lammps.md)",
             "units           si", "atom_style      bpm/sphere", f"boundary        {boundary}",
-            "newton          on off", f"comm_modify     vel yes cutoff {_number(ghost)}",
+            "newton          on off", f"comm_modify     vel yes cutoff {float_text(ghost)}",
             "special_bonds   lj 0 1 1 coul 1 1 1",
             f"read_data       {data_path.name} extra/bond/per/atom 12 "
             "extra/special/per/atom 60"]
@@ -195,7 +191,7 @@ def write_lammps(model, state, options, out_dir, *, end_time, save_every, title=
         deck += [f"bond_style      bpm/rotational break {'yes' if breakable else 'no'} "
                  "smooth no", "include         bond_coeffs.lammps"]
     if contact is None or contact.model == "none":
-        deck += [f"pair_style      zero {_number(2 * reach + skin)}", "pair_coeff      * *"]
+        deck += [f"pair_style      zero {float_text(2 * reach + skin)}", "pair_coeff      * *"]
     else:
         deck.append("pair_style      granular")
         deck += [f"pair_coeff      {t + 1} {t + 1} {_granular(material)}"
@@ -203,7 +199,7 @@ def write_lammps(model, state, options, out_dir, *, end_time, save_every, title=
         if types > 1:
             notes.append("mixed materials: LAMMPS mixes restitution and friction its own "
                          "way (bondem takes the mean)")
-    deck += [f"neighbor        {_number(skin)} bin", "neigh_modify    every 1 delay 0 check yes"]
+    deck += [f"neighbor        {float_text(skin)} bin", "neigh_modify    every 1 delay 0 check yes"]
     for k, wall in enumerate(options.get("walls", [])):
         if not isinstance(wall, PlaneWall):
             notes.append(f"walls[{k}]: a mesh wall, not exported")
@@ -217,10 +213,10 @@ def write_lammps(model, state, options, out_dir, *, end_time, save_every, title=
         move = ""
         if any(velocity):
             for a, v in zip("xyz", velocity):
-                deck.append(f"variable        wall{k}{a} equal {_number(v)}*time")
+                deck.append(f"variable        wall{k}{a} equal {float_text(v)}*time")
             move = f" move v_wall{k}x v_wall{k}y v_wall{k}z"
         deck.append(f"region          wall{k} plane "
-                    + " ".join(_number(c) for c in (*wall.point, *wall.normal))
+                    + " ".join(float_text(c) for c in (*wall.point, *wall.normal))
                     + f" side in{move}")
         deck.append(f"fix             wall{k} all wall/gran/region granular "
                     f"{_granular(wall.material)} region wall{k}")
@@ -228,8 +224,8 @@ def write_lammps(model, state, options, out_dir, *, end_time, save_every, title=
     g = np.asarray(model.gravity, dtype=float)
     if np.any(g):
         size = float(np.linalg.norm(g))
-        deck.append(f"fix             gravity all gravity {_number(size)} vector "
-                    + " ".join(_number(c / size) for c in g))
+        deck.append(f"fix             gravity all gravity {float_text(size)} vector "
+                    + " ".join(float_text(c / size) for c in g))
     # what a run leaves to look at, every save_every as bondem's frames: one text dump per
     # frame of the particles and one of the intact bonds (OVITO and ParaView read both)
     deck += [f"dump            particles all custom {save} dump.particles.* id type radius "
@@ -240,7 +236,7 @@ def write_lammps(model, state, options, out_dir, *, end_time, save_every, title=
                  f"dump            bonds all local {save} dump.bonds.* c_bonds[1] c_bonds[2] "
                  "c_bonds[3]",
                  "dump_modify     bonds colname 1 atom1 colname 2 atom2 colname 3 type"]
-    deck += [f"timestep        {_number(dt)}",
+    deck += [f"timestep        {float_text(dt)}",
              "thermo_style    custom step time ke",
              f"thermo          {save}",
              f"variable        steps index {steps}",

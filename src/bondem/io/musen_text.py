@@ -26,6 +26,7 @@ import numpy as np
 from ..errors import InputError
 from ..physics.contact_hertz_musen import MUSEN_VERSION, MUSEN_VERSIONS
 from ..timestep import step_count
+from .csv_files import float_text
 
 SPHERE, SOLID_BOND, LIQUID_BOND, TRIANGULAR_WALL = 1, 9, 10, 14
 DENSITY, VISCOSITY, YOUNG, NORMAL_STRENGTH, TANGENTIAL_STRENGTH, POISSON = 0, 2, 7, 8, 9, 10
@@ -522,12 +523,6 @@ def write_script(scene, time_step, text_name, path):
     return notes
 
 
-def _number(value):
-    """A number as MUSEN's text format reads it, to the last bit: ``repr`` of a Python
-    float (a NumPy scalar's repr is ``np.float64(...)`` from NumPy 2 on)."""
-    return repr(float(value))
-
-
 def export_musen(results_path, out_file, every=1):
     """``bondem export musen``: a results file as a MUSEN text file (compounds,
     interactions as the pairs' means, domain, spheres with every frame's coordinates,
@@ -549,21 +544,21 @@ def export_musen(results_path, out_file, every=1):
     material = data["particles/material"]
     n = radius.shape[0]
     for p in range(n):
-        parts = ["0", str(p), "1", str(SPHERE), "5", _number(radius[p]),
-                 _number(radius[p]), "23", names[material[p]], "24", "0", "1e+300"]
+        parts = ["0", str(p), "1", str(SPHERE), "5", float_text(radius[p]),
+                 float_text(radius[p]), "23", names[material[p]], "24", "0", "1e+300"]
         for f in range(len(time)):
-            parts += ["2", _number(time[f]), "12", *map(_number, position[f, p]),
-                      "15", *map(_number, velocity[f, p]),
-                      "16", *map(_number, spin[f, p])]
+            parts += ["2", float_text(time[f]), "12", *map(float_text, position[f, p]),
+                      "15", *map(float_text, velocity[f, p]),
+                      "16", *map(float_text, spin[f, p])]
         lines.append(" ".join(parts))
     pairs = data["bonds/pairs"]
     for b in range(pairs.shape[0]):
         end = data["bonds/break_time"][b]
         parts = ["0", str(n + b), "1", str(SOLID_BOND), "5", str(int(pairs[b, 0])),
-                 str(int(pairs[b, 1])), _number(data["bonds/diameter"][b]),
-                 _number(data["bonds/initial_length"][b]), "23",
+                 str(int(pairs[b, 1])), float_text(data["bonds/diameter"][b]),
+                 float_text(data["bonds/initial_length"][b]), "23",
                  bond_names[data["bonds/material"][b]], "24", "0",
-                 "1e+300" if np.isnan(end) else _number(end), "2", _number(time[0]),
+                 "1e+300" if np.isnan(end) else float_text(end), "2", float_text(time[0]),
                  "12", "0", "0", "0"]
         lines.append(" ".join(parts))
     ident = n + pairs.shape[0]
@@ -577,9 +572,9 @@ def export_musen(results_path, out_file, every=1):
             # the activity interval: MUSEN 1.74 makes an object without one inactive
             lines.append(" ".join(["0", str(ident), "1", str(TRIANGULAR_WALL), "5", "23",
                                    wall["material"], "24", "0", "1e+300",
-                                   "2", _number(time[0]), "12",
-                                   *map(_number, a), "31", *map(_number, b), "0", "16",
-                                   *map(_number, c)]))
+                                   "2", float_text(time[0]), "12",
+                                   *map(float_text, a), "31", *map(float_text, b), "0", "16",
+                                   *map(float_text, c)]))
             ident += 1
         lines.append(f"25 wall{w} wall{w} 0 0 0 0")
         lines.append(f"27 {ident - first} " + " ".join(str(i) for i in range(first, ident)))
@@ -591,26 +586,26 @@ def export_musen(results_path, out_file, every=1):
         span = size
         centre = 0.5 * (extent[0] + extent[1])
         low, high = list(centre - span), list(centre + span)
-    lines.append("22 " + " ".join(_number(v) for v in [*low, *high]))
+    lines.append("22 " + " ".join(float_text(v) for v in [*low, *high]))
     if any(simulation.get("periodic", [False] * 3)):
         lines.append("28 1 " + " ".join(str(int(v)) for v in simulation["periodic"]) + " "
-                     + " ".join(_number(v) for v in [*low, *high]))
+                     + " ".join(float_text(v) for v in [*low, *high]))
     tables = scene.get("materials", {})
     for key in names:
         props = tables.get(key, {})
-        lines.append(f"32 {key} {key} {DENSITY} {_number(props.get('density', 0.0))} "
-                     f"{YOUNG} {_number(props.get('young_modulus', 0.0))} "
-                     f"{POISSON} {_number(props.get('poisson_ratio', 0.3))}")
+        lines.append(f"32 {key} {key} {DENSITY} {float_text(props.get('density', 0.0))} "
+                     f"{YOUNG} {float_text(props.get('young_modulus', 0.0))} "
+                     f"{POISSON} {float_text(props.get('poisson_ratio', 0.3))}")
     density = float(tables.get(names[0], {}).get("density", 1000.0)) if names else 1000.0
     for key in bond_names:
         props = scene.get("bond_materials", {}).get(key, {})
-        line = (f"32 {key} {key} {DENSITY} {_number(density)} "
-                f"{YOUNG} {_number(props.get('young_modulus', 0.0))} "
-                f"{POISSON} {_number(props.get('poisson_ratio', 0.3))}")
+        line = (f"32 {key} {key} {DENSITY} {float_text(density)} "
+                f"{YOUNG} {float_text(props.get('young_modulus', 0.0))} "
+                f"{POISSON} {float_text(props.get('poisson_ratio', 0.3))}")
         for name, prop in (("normal_strength", NORMAL_STRENGTH),
                            ("tangential_strength", TANGENTIAL_STRENGTH)):
             value = float(props.get(name, math.inf))
-            line += f" {prop} {_number(value if math.isfinite(value) else 1e300)}"
+            line += f" {prop} {float_text(value if math.isfinite(value) else 1e300)}"
         lines.append(line)
     defaults = {"restitution": 0.5, "friction": 0.3, "rolling_friction": 0.0}
     keys = sorted(set(names) | set(wall_materials))
@@ -619,8 +614,8 @@ def export_musen(results_path, out_file, every=1):
             pa, pb = tables.get(keys[a], {}), tables.get(keys[b], {})
             values = [0.5 * (float(pa.get(k, d)) + float(pb.get(k, d)))
                       for k, d in defaults.items()]
-            lines.append(f"33 {keys[a]} {keys[b]} {RESTITUTION} {_number(values[0])} "
-                         f"{FRICTION} {_number(values[1])} {ROLLING} {_number(values[2])}")
+            lines.append(f"33 {keys[a]} {keys[b]} {RESTITUTION} {float_text(values[0])} "
+                         f"{FRICTION} {float_text(values[1])} {ROLLING} {float_text(values[2])}")
     out_file = Path(out_file)
     out_file.parent.mkdir(parents=True, exist_ok=True)
     out_file.write_text("\n".join(lines) + "\n")

@@ -52,11 +52,9 @@ MUSEN_VERSIONS = {"1.70.0": MUSEN_1_70, "1.74.2": MUSEN_1_74}
 MUSEN_VERSION = "1.74.2"
 
 
-def musen_code(musen_compat, version=MUSEN_VERSION):
-    """The kernels' code of a run: 0 for the SPEC's numerics, else that of MUSEN release
-    ``version`` (a key of MUSEN_VERSIONS; ValueError naming the allowed ones)."""
-    if not musen_compat:
-        return 0
+def musen_code(version=MUSEN_VERSION):
+    """The kernels' code of MUSEN release ``version`` (a key of MUSEN_VERSIONS;
+    ValueError naming the allowed ones)."""
     if version not in MUSEN_VERSIONS:
         raise ValueError(f"musen_version {version!r}; allowed: "
                          + ", ".join(repr(v) for v in MUSEN_VERSIONS))
@@ -111,6 +109,27 @@ def musen_carry_overlap(overlap_t, n, pp, version):
 
 
 @physics
+def musen_coulomb(xi, k_t, damping_t, f_n, damping, friction, f_t_prev, newer):
+    """MUSEN's slip test on the spring force k_t xi (N; xi in m, k_t in N/m, negative for
+    the particle-wall law's sign): (tangential force applied in N, spring xi in m).
+    Sticking: the spring force plus its dashpot damping_t. Sliding, MUSEN 1.74 (newer):
+    the spring force cut to mu |f_n + damping| (normal force with its dashpot, N); 1.70:
+    the last sticking step's force f_t_prev while the spring is cut to mu |f_n|. In
+    either case the spring is the cut force over k_t, in MUSEN's order of operations."""
+    f_t = scale(xi, k_t)
+    magnitude = norm(f_t)
+    limit = friction * abs(f_n + damping) if newer else friction * abs(f_n)
+    if not magnitude > limit:      # as MUSEN's test reads (a NaN sticks)
+        return add(f_t, damping_t), xi
+    if newer:
+        cut = (f_t[0] * limit / magnitude, f_t[1] * limit / magnitude,
+               f_t[2] * limit / magnitude)
+        return cut, (cut[0] / k_t, cut[1] / k_t, cut[2] / k_t)
+    cut = scale(f_t, limit / magnitude)
+    return f_t_prev, (cut[0] / k_t, cut[1] / k_t, cut[2] / k_t)
+
+
+@physics
 def hertz_mindlin_musen_pp(cv, overlap, r_i, r_j, vi, vj, wi, wj, overlap_t, f_t_prev,
                            e_star, g_star, alpha, friction, rolling, r_star, m_star, dt,
                            version):
@@ -137,23 +156,8 @@ def hertz_mindlin_musen_pp(cv, overlap, r_i, r_j, vi, vj, wi, wj, overlap_t, f_t
     damping = -constant * alpha * v_n * math.sqrt(k_n * m_star)
     k_t = 8.0 * g_star * root
     xi = add(musen_carry_overlap(overlap_t, n, True, version), scale(rel_t, dt))
-    f_t = scale(xi, k_t)
     damping_t = scale(rel_t, -constant * alpha * math.sqrt(k_t * m_star))
-    magnitude = norm(f_t)
-    f_t_new = f_t_prev
-    if newer:
-        limit = friction * abs(f_n + damping)
-        if magnitude > limit:
-            f_t_new = (f_t[0] * limit / magnitude, f_t[1] * limit / magnitude,
-                       f_t[2] * limit / magnitude)
-            xi = (f_t_new[0] / k_t, f_t_new[1] / k_t, f_t_new[2] / k_t)
-        else:
-            f_t_new = add(f_t, damping_t)
-    elif magnitude > friction * abs(f_n):
-        f_t = scale(f_t, friction * abs(f_n) / magnitude)
-        xi = (f_t[0] / k_t, f_t[1] / k_t, f_t[2] / k_t)
-    else:
-        f_t_new = add(f_t, damping_t)
+    f_t_new, xi = musen_coulomb(xi, k_t, damping_t, f_n, damping, friction, f_t_prev, newer)
     lever = cross(n, f_t_new)
     moment_i = add(scale(lever, r_i), musen_rolling_torque(wi, rolling, f_n, r_i))
     moment_j = add(scale(lever, r_j), musen_rolling_torque(wj, rolling, f_n, r_j))
@@ -191,23 +195,10 @@ def hertz_mindlin_musen_pw(x, q, n_wall, radius, v, w, v_wall, omega_wall, cente
     damping = constant * alpha * v_n * math.sqrt(k_n * mass)
     xi = add(musen_carry_overlap(overlap_t, n_wall, False, version), scale(rel_t, dt))
     k_t = 8.0 * g_star * math.sqrt(radius * overlap)
-    f_t = scale(xi, -k_t)
     damping_t = scale(rel_t, constant * alpha * math.sqrt(k_t * mass))
-    magnitude = norm(f_t)
-    f_t_new = f_t_prev
-    if newer:
-        limit = friction * abs(f_n + damping)
-        if magnitude > limit:
-            f_t_new = (f_t[0] * limit / magnitude, f_t[1] * limit / magnitude,
-                       f_t[2] * limit / magnitude)
-            xi = (f_t_new[0] / -k_t, f_t_new[1] / -k_t, f_t_new[2] / -k_t)
-        else:
-            f_t_new = add(f_t, damping_t)
-    elif magnitude > friction * abs(f_n):
-        f_t = scale(f_t, friction * abs(f_n) / magnitude)
-        xi = (f_t[0] / -k_t, f_t[1] / -k_t, f_t[2] / -k_t)
-    else:
-        f_t_new = add(f_t, damping_t)
+    # the wall's spring pushes against its overlap: -k_t
+    f_t_new, xi = musen_coulomb(xi, -k_t, damping_t, f_n, damping, friction, f_t_prev,
+                                newer)
     force = add(f_t_new, scale(n_wall, f_n + damping))
     torque = musen_rolling_torque(w, rolling, f_n, radius)
     moment = add(scale(cross(n_wall, f_t_new), -radius), torque)
