@@ -97,9 +97,16 @@ class Simulation:
         self.backend.check_laws(laws)
         self.bonds = self.backend.bond_law(model)
         self.bonds.musen_compat = self.musen_compat
-        if self.bonds.model_state and "bond_model_state" not in state.extra:
-            # the bond models' per-bond state (a state array: checkpoints keep it)
-            state.extra["bond_model_state"] = np.zeros(model.n_bonds)
+        if self.bonds.model_state:
+            # the bond models' per-bond state (a state array: checkpoints keep it); a
+            # checkpoint of 0.x before SPRINGS holds the energy column only
+            kept = state.extra.get("bond_model_state")
+            columns = np.zeros((model.n_bonds, bond_models.STATE_COLUMNS))
+            if kept is not None and kept.ndim == 1:
+                columns[:, 0] = kept
+                state.extra["bond_model_state"] = columns
+            elif kept is None:
+                state.extra["bond_model_state"] = columns
         self.laws = [self.bonds, *laws]
         self.integrator = self.backend.integrator(model)
         self.force, self.moment = self.backend.load_arrays(model.n_particles)
@@ -229,7 +236,7 @@ class Simulation:
                 if module.STATE:
                     mine = codes == module.CODE
                     terms[module.STATE[1]] = float(
-                        state.extra["bond_model_state"][mine].sum())
+                        state.extra["bond_model_state"][mine, 0].sum())
         for law in self.laws[1:]:
             if hasattr(law, "energy_terms"):
                 terms.update(law.energy_terms(self.model, state))

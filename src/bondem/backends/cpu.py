@@ -10,7 +10,7 @@ import numba
 import numpy as np
 from numba import prange
 
-from ..physics import compile_physics
+from ..physics import bond_models, compile_physics
 from ..status import STATUS_OK
 from ..physics.bond_elastic import CRITERION_NONE
 from ..physics.rotation import SMALL_ANGLE
@@ -392,8 +392,10 @@ def bond_state(state, model_state):
 
 
 def has_model_state(model):
-    """True when a bond of ``model`` uses a bond model with a per-bond state (STATE)."""
-    return bool(model.n_bonds) and any(m.STATE for m in model.bond_models_used())
+    """True when a bond of ``model`` uses a bond model with a per-bond state (STATE or
+    SPRINGS)."""
+    return bool(model.n_bonds) and any(bond_models.has_state(m)
+                                       for m in model.bond_models_used())
 
 
 def particles(state):
@@ -438,7 +440,7 @@ class ElasticBonds:
         self.model_state = has_model_state(model)
         # The vectorised block has the elastic bond only.
         self._vectorisable = all(m.VECTORISED for m in model.bond_models_used())
-        self._no_model_state = np.zeros(1)
+        self._no_model_state = np.zeros((1, bond_models.STATE_COLUMNS))
         n_bonds = model.n_bonds
         self.loads = loops.BondLoads(np.zeros((n_bonds, 3)), np.zeros((n_bonds, 3)),
                                      np.zeros((n_bonds, 3)))

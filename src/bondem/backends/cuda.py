@@ -27,6 +27,7 @@ from numba import cuda
 
 from ..errors import BackendUnavailable, InputError  # noqa: F401
 from ..integrate import step_plan
+from ..physics import bond_models
 from ..status import STATUS_OK, blow_up
 from . import loops
 from .cpu import bodies, bond_state, bond_tuples, box, has_model_state, particles
@@ -307,7 +308,8 @@ class ElasticBondsGpu:
         self.loads = loops.BondLoads(*(cuda.device_array((n_bonds, 3)) for _ in range(3)))
         # The bond models' per-bond state (state.extra["bond_model_state"]), if one has it.
         self.model_state = has_model_state(model)
-        self._model_state = cuda.to_device(np.zeros(n_bonds if self.model_state else 1))
+        self._model_state = cuda.to_device(
+            np.zeros((n_bonds if self.model_state else 1, bond_models.STATE_COLUMNS)))
         self._pending = self.model_state   # take a resumed state's values at the first step
         if self.model_state:
             backend.register_transfers(self)

@@ -48,8 +48,9 @@ Bonds = namedtuple("Bonds", "pairs diameter initial_length material")
 # One array per bond material key (Model.bond_material_table: breakage as criterion codes,
 # model as the bond model's code), whatever the bond models declare.
 BondMaterials = namedtuple("BondMaterials", list(bond_material_schema()))
-# model_state: the per-bond state of bond models that have one (STATE in
-# physics/bond_models.py, e.g. a Kelvin bond's J lost), one unused row when none is used.
+# model_state: (B, 3) the per-bond state of bond models that have one (physics/
+# bond_models.py: column 0 the J of STATE, e.g. a Kelvin bond's J lost, columns 1 and 2
+# SPRINGS' own, e.g. a plastic strain), one unused row when none is used.
 BondState = namedtuple("BondState", "active axis previous_length tangential_force "
                        "normal_moment tangential_moment break_time break_mode break_energy "
                        "model_state")
@@ -175,28 +176,59 @@ def bond_update(musen, r, vi, vj, wi, wj, axis, previous_length, f_t0, m_n0, m_t
     return length, n, f_n, f_t, m_n, m_t, mode, kn, kt, ktw, kb
 
 
-def _model_loads():
-    """``model_loads(code, musen, r, length, l0, diameter, vi, vj, wi, wj, f_n, f_t, m_n,
-    m_t, kn, kt, materials, m)``: (force on i, moment on i, moment on j, rate of the bond
-    model's state) by the LOADS of the bond model with that code (the springs' own loads
-    for the elastic bond), written from physics/bond_models.py's list of models."""
-    arguments = ("musen, r, length, l0, diameter, vi, vj, wi, wj, f_n, f_t, m_n, m_t, kn, "
-                 "kt, materials, m")
-    lines = [f"def model_loads(code, {arguments}):"]
+def _generated(name, signature, dispatch, default, doc):
+    """A loop body ``name(code, signature)`` written from physics/bond_models.py's list of
+    models: ``dispatch(module)`` gives the lines of the branch of a model's code (or
+    None), ``default`` the lines for every other code."""
+    lines = [f"def {name}(code, {signature}):"]
     for module in bond_models.MODELS:
-        if module.LOADS is not None:
-            lines += [f"    if code == {module.CODE}:",
-                      f"        return {module.LOADS}({arguments})"]
-    lines += ["    force_i, moment_i, moment_j = bond_loads_on_particles(r, f_n, f_t, m_n, m_t)",
-              "    return force_i, moment_i, moment_j, 0.0"]
+        branch = dispatch(module)
+        if branch:
+            lines += [f"    if code == {module.CODE}:"] + [f"        {x}" for x in branch]
+    lines += [f"    {x}" for x in default]
     namespace = {}
     exec(compile("\n".join(lines), f"<bond models: {__name__}>", "exec"), namespace)
-    function = namespace["model_loads"]
-    function.__doc__ = _model_loads.__doc__
+    function = namespace[name]
+    function.__doc__ = doc
     return function
 
 
-model_loads = body(_model_loads())
+_LOADS_ARGUMENTS = ("musen, r, length, l0, diameter, vi, vj, wi, wj, f_n, f_t, m_n, m_t, "
+                    "kn, kt, materials, m")
+model_loads = body(_generated(
+    "model_loads", _LOADS_ARGUMENTS,
+    lambda module: module.LOADS and [f"return {module.LOADS}({_LOADS_ARGUMENTS})"],
+    ["force_i, moment_i, moment_j = bond_loads_on_particles(r, f_n, f_t, m_n, m_t)",
+     "return force_i, moment_i, moment_j, 0.0"],
+    """(force on i, moment on i, moment on j, rate of the bond model's energy) by the
+    LOADS of the bond model with that code (the springs' own loads for the elastic
+    bond)."""))
+
+_SPRINGS_ARGUMENTS = ("musen, b, time, dt, length, l0, diameter, n, f_n, f_t, m_n, m_t, "
+                      "mode, kn, kt")
+model_springs = body(_generated(
+    "model_springs", _SPRINGS_ARGUMENTS + ", columns, materials, m",
+    lambda module: getattr(module, "SPRINGS", None) and [
+        f"f_n, f_t, m_n, m_t, mode, s1, s2, lost = {module.SPRINGS}({_SPRINGS_ARGUMENTS}, "
+        "columns[b, 1], columns[b, 2], materials, m)",
+        "columns[b, 1] = s1", "columns[b, 2] = s2", "columns[b, 0] += lost",
+        "return f_n, f_t, m_n, m_t, mode"],
+    ["return f_n, f_t, m_n, m_t, mode"],
+    """The springs (F_n, F_t in N, M_n, M_t in N m) and break mode of bond b after the
+    SPRINGS of the bond model with that code, which reads and writes its columns of
+    ``columns`` (state.model_state); unchanged for a model without SPRINGS."""))
+
+_ENERGY_ARGUMENTS = "length, l0, f_t, m_n, m_t, kn, kt, ktw, kb"
+model_bond_energy = body(_generated(
+    "model_bond_energy", _ENERGY_ARGUMENTS + ", b, columns, materials, m",
+    lambda module: getattr(module, "ENERGY", None) and [
+        "return bond_elastic_energy(l0, l0, f_t, m_n, m_t, kn, kt, ktw, kb) + "
+        f"{module.ENERGY}(length, l0, kn, columns[b, 1], columns[b, 2], materials, m)"],
+    [f"return bond_elastic_energy({_ENERGY_ARGUMENTS})"],
+    """J held by bond b at ``length`` (m) with springs f_t (N), m_n, m_t (N m): the four
+    springs' potentials, its normal spring's by the ENERGY of the bond model with that
+    code if it has one (a plastic bond's spring is stretched from its plastic length)."""))
+
 
 
 @body
@@ -233,19 +265,23 @@ def advance_bond(b, bonds, materials, state, particles, box, time, dt, musen, lo
         materials.poisson_ratio[m], diameter, materials.normal_strength[m],
         materials.tangential_strength[m], materials.breakage[m],
         materials.compressive_breakage[m], dt)
+    code = materials.model[m]
+    f_n, f_t, m_n, m_t, mode = model_springs(
+        code, musen, b, time, dt, length, l0, diameter, n, f_n, f_t, m_n, m_t, mode, kn, kt,
+        state.model_state, materials, m)
     if mode != INTACT:
         state.active[b] = False
         state.break_time[b] = time
         state.break_mode[b] = mode
-        state.break_energy[b] = bond_elastic_energy(length, l0, f_t, m_n, m_t, kn, kt, ktw,
-                                                    kb)
+        state.break_energy[b] = model_bond_energy(code, length, l0, f_t, m_n, m_t, kn, kt,
+                                                  ktw, kb, b, state.model_state, materials, m)
         zero_bond_loads(b, loads)
         return
     force_i, moment_i, moment_j, rate = model_loads(
-        materials.model[m], musen, r, length, l0, diameter, vi, vj, wi, wj, f_n, f_t, m_n,
-        m_t, kn, kt, materials, m)
+        code, musen, r, length, l0, diameter, vi, vj, wi, wj, f_n, f_t, m_n, m_t, kn, kt,
+        materials, m)
     if rate != 0.0:
-        state.model_state[b] += rate * dt
+        state.model_state[b, 0] += rate * dt
     state.previous_length[b] = length
     store3(state.axis, b, n)
     store3(state.tangential_force, b, f_t)
@@ -293,10 +329,11 @@ def bond_energy(b, bonds, materials, state, position, box):
     r = separation(position, bonds.pairs[b, 0], bonds.pairs[b, 1], box)
     kn, kt, ktw, kb = bond_stiffnesses(materials.young_modulus[m], materials.poisson_ratio[m],
                                        bonds.diameter[b], l0)
-    return bond_elastic_energy(math.sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]), l0,
-                               row3(state.tangential_force, b),
-                               row3(state.normal_moment, b),
-                               row3(state.tangential_moment, b), kn, kt, ktw, kb)
+    return model_bond_energy(materials.model[m],
+                             math.sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2]), l0,
+                             row3(state.tangential_force, b), row3(state.normal_moment, b),
+                             row3(state.tangential_moment, b), kn, kt, ktw, kb, b,
+                             state.model_state, materials, m)
 
 
 # -- particles ----------------------------------------------------------------------------

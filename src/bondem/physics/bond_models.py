@@ -10,8 +10,18 @@ A bond model file declares, besides its ``@physics`` functions:
                 vi, vj, wi, wj, f_n, f_t, m_n, m_t, k_n, k_t, materials, m) -> (force on
                 i, moment on i, moment on j, rate of its per-bond state); None for the
                 elastic bond
-    STATE       None, or (what its per-bond state is, the energy term that its sum is:
-                an energy loss in J), kept in state.extra["bond_model_state"]
+    STATE       None, or (what its per-bond energy is, the energy term that its sum is:
+                an energy loss in J), column 0 of state.extra["bond_model_state"]
+    SPRINGS     optional: name of its springs function, for models that change the
+                springs themselves (plasticity, creep, damage), called after the elastic
+                springs have been advanced and tested, before LOADS: (musen, b, time, dt,
+                length, l0, diameter, n, f_n, f_t, m_n, m_t, mode, k_n, k_t, s1, s2,
+                materials, m) -> (f_n, f_t, m_n, m_t, break mode, s1, s2, J lost this
+                step); s1, s2 are its per-bond columns 1 and 2 of the state, the J lost
+                are added to column 0
+    COLUMNS     with SPRINGS: what columns 1 and 2 hold, e.g. ("plastic strain (-)",)
+    ENERGY      optional: name of its normal energy function (length, l0, k_n, s1, s2,
+                materials, m) -> J held by the normal spring (default k_n (L - L0)^2 / 2)
     VECTORISED  whether the CPU's vectorised elastic block may advance its bonds
     check(values, musen_compat) -> [(key, message)] of a material that uses the model
     time_scales(model, bonds, reduced_mass, musen_compat) -> {name: s}, its bonds' limits
@@ -33,6 +43,13 @@ MODELS = [bond_elastic] + [m for m in (importlib.import_module(f"{__package__}.{
 for _code, _module in enumerate(MODELS):
     _module.CODE = _code
 BY_NAME = {m.NAME: m for m in MODELS}
+# Columns of state.extra["bond_model_state"]: the energy (STATE), then SPRINGS' own two.
+STATE_COLUMNS = 3
+
+
+def has_state(module):
+    """True when bond model ``module`` keeps a per-bond state (STATE or SPRINGS)."""
+    return bool(module.STATE) or bool(getattr(module, "SPRINGS", None))
 
 
 def bond_material_schema():

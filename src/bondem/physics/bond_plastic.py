@@ -1,0 +1,140 @@
+"""Elastic-perfectly plastic solid bond: the elastic bond whose normal and tangential forces
+are capped at a yield stress, with the plastic strain carried per bond; MUSEN's
+ModelSBElasticPerfectlyPlastic ("Elastic-plastic bond", MUSEN 1.74.2).
+
+Parameters beyond the elastic bond's (bond_elastic.py): yield strength sigma_y (Pa; MUSEN's
+bond material property YIELD_STRENGTH), the ratio c of the compressive to the tensile
+yield stress (RATIO_COMPR_TENSILE_YIELD), whether the tangential force yields
+(TANGENTIAL_YIELD), the fracture strains eps_f (FRACTURE_STRAIN_TENSION) and eps_fc
+(FRACTURE_STRAIN_COMPRESSION; inf for none, MUSEN's 0). With the strain
+eps = (L - L0) / L0 and the plastic strain eps_p (0 at creation), each step:
+    sigma = E (eps - eps_p);  sigma_lim = sigma_y, or c sigma_y when sigma < 0
+    sigma >  sigma_lim:  eps_p = eps - sigma_lim / E,  sigma =  sigma_lim
+    sigma < -sigma_lim:  eps_p = eps + sigma_lim / E,  sigma = -sigma_lim
+    F_n = sigma A n                                       (on i, n = (x_j - x_i) / L)
+    |F_t| / A > sigma_y:  F_t = F_t sigma_y A / |F_t|     (tangential yield on)
+The moments are the elastic bond's. Unloading follows the elastic slope E A / L0 from the
+plastic length L0 (1 + eps_p), so a pull to eps_1 past yield and back leaves
+eps_p = eps_1 - sigma_y / E, and the loop between F = +-sigma_y A encloses
+sigma_y A L0 delta(eps_p) per plastic increment. The bond breaks when eps > eps_f or
+eps < -eps_fc (mode tension or compression), or, besides MUSEN, by the elastic bond's stress
+criterion on the capped loads (normal_strength, tangential_strength: off at their default
+inf). Booked: the J that yielding removed (sigma_lim A L0 |delta eps_p| per normal
+increment, the stored energy lost by a tangential cap), column 0 of the bond's state; eps_p
+is column 1 (STATE, SPRINGS in physics/bond_models.py).
+
+MUSEN-compatible runs (musen_compat) use MUSEN's numerics (bond_elastic_musen.py) and its
+choices: the bond breaks by the fracture strains only, and its tangential test compares
+|F_t| / A with sigma_y but caps at sigma_lim (c sigma_y while the normal trial stress is
+compressive). docs/bond_plastic.md.
+"""
+import math
+
+from ._registry import physics
+from .bond_elastic import COMPRESSION, INTACT, TENSION, bond_break_mode
+from .vector import dot, norm, scale
+
+NAME = "elastic_plastic"
+_INF = float("inf")
+PARAMETERS = {
+    "yield_strength": ("number", _INF, 0.0, _INF, False, True),
+    "compressive_yield_ratio": ("number", 1.0, 0.0, _INF, False, False),
+    "tangential_yield": ("bool", True, None, None, None, None),
+    "fracture_strain": ("number", 0.1, 0.0, _INF, False, True),
+    "compressive_fracture_strain": ("number", _INF, 0.0, _INF, False, True),
+}
+UNITS = {"yield_strength": "Pa", "compressive_yield_ratio": "-", "fracture_strain": "-",
+         "compressive_fracture_strain": "-"}
+LOADS = None
+SPRINGS = "plastic_springs"
+COLUMNS = ("normal plastic strain (-)",)
+ENERGY = "plastic_normal_energy"
+STATE = ("J dissipated by the bond's yielding", "dissipated_plastic")
+VECTORISED = False
+
+
+def check(values, musen_compat=False):
+    """[(key, message)]: MUSEN's bond breaks by its fracture strains only."""
+    problems = []
+    if musen_compat:
+        for key in ("normal_strength", "tangential_strength"):
+            if values[key] != _INF:
+                problems.append((key, f"musen_compat: MUSEN's elastic-plastic bond breaks by "
+                                      f"fracture_strain and compressive_fracture_strain "
+                                      f"only; {key} must stay inf (docs/bond_plastic.md)"))
+    return problems
+
+
+def time_scales(model, bonds, reduced_mass, musen_compat=False):
+    """No limit beyond the elastic springs' (yielding only softens them): {}."""
+    return {}
+
+
+@physics
+def plastic_normal_stress(strain, plastic_strain, young_modulus, yield_strength, ratio):
+    """(normal stress sigma in Pa, plastic strain after this step, the yield limit in Pa
+    that applied) of a bond at ``strain`` (-) with ``plastic_strain`` (-) carried, E (Pa),
+    tensile yield stress (Pa) and compressive/tensile yield ratio (module docstring)."""
+    stress = (strain - plastic_strain) * young_modulus
+    limit = yield_strength
+    if stress < 0.0:
+        limit = yield_strength * ratio
+    if stress > limit:
+        return limit, strain - limit / young_modulus, limit
+    if stress < -limit:
+        return -limit, strain + limit / young_modulus, limit
+    return stress, plastic_strain, limit
+
+
+@physics
+def plastic_springs(musen, b, time, dt, length, l0, diameter, n, f_n, f_t, m_n, m_t, mode,
+                    kn, kt, plastic_strain, unused, materials, m):
+    """SPRINGS of the elastic-plastic bond (module docstring): (F_n, F_t in N, M_n, M_t in
+    N m, break mode, plastic strain, unused column, J dissipated by this step's yielding),
+    from the elastic springs f_n, f_t, m_n, m_t (on i) of bond b of material m and its
+    carried plastic strain. musen True: MUSEN's choices; None or False: bondem's."""
+    compat = False
+    if musen is not None:
+        compat = musen
+    radius = 0.5 * diameter
+    area = math.pi * radius * radius
+    young = materials.young_modulus[m]
+    yield_strength = materials.yield_strength[m]
+    strain = (length - l0) / l0
+    stress, strain_p, limit = plastic_normal_stress(
+        strain, plastic_strain, young, yield_strength, materials.compressive_yield_ratio[m])
+    lost = 0.0
+    if strain_p != plastic_strain:
+        lost = limit * area * l0 * abs(strain_p - plastic_strain)
+    if compat:
+        f_n = scale(scale(n, stress), area)
+    else:
+        f_n = scale(n, stress * area)
+    if materials.tangential_yield[m]:
+        size = norm(f_t)
+        if size > yield_strength * area:
+            cap = yield_strength * area
+            if compat:
+                cap = limit * area
+            f_t_new = scale(f_t, cap / size)
+            lost += 0.5 * (size * size - dot(f_t_new, f_t_new)) / kt
+            f_t = f_t_new
+    if strain > materials.fracture_strain[m]:
+        mode = TENSION
+    elif strain < -materials.compressive_fracture_strain[m]:
+        mode = COMPRESSION
+    elif compat:
+        mode = INTACT
+    else:
+        mode = bond_break_mode(length, l0, f_n, f_t, m_n, m_t, diameter,
+                               materials.normal_strength[m], materials.tangential_strength[m],
+                               materials.breakage[m], materials.compressive_breakage[m])
+    return f_n, f_t, m_n, m_t, mode, strain_p, unused, lost
+
+
+@physics
+def plastic_normal_energy(length, l0, kn, plastic_strain, unused, materials, m):
+    """ENERGY of the elastic-plastic bond: J held by its normal spring, stretched from the
+    plastic length L0 (1 + eps_p): k_n (L - L0 - eps_p L0)^2 / 2."""
+    stretch = length - l0 - plastic_strain * l0
+    return 0.5 * kn * stretch * stretch
