@@ -1,0 +1,131 @@
+"""Reference runs of MUSEN's other solid bond models, made with cmusen 1.74.2 (the models
+exist only in the releases after 1.70.0).
+
+    python tools/musen/model_runs.py CMUSEN OUT NAME [NAME ...]
+
+Each NAME below is a scene of ../shared/tools/musen/make_refdata.py's kind (a 3x3x3 bonded
+cluster with random velocities and spins) whose bonds use one of MUSEN's models. The scene
+is written by make_refdata.write, then given its model: the bondem scene's bond material
+gets the model's keys (and musen_version 1.74.2), MUSEN's bond material its
+YIELD_STRENGTH (property 15) where the model reads one, the cmusen script MODEL_SB and
+MODEL_SB_PARAMS. (The packaged runs keep the bondem scene, MUSEN's inputs and the CSV
+files but musen_bonds.csv.) refresh_runs.py adapts the MUSEN files to 1.74's text import, runs cmusen
+in OUT/NAME and writes make_refdata's CSV files there.
+"""
+import re
+import shutil
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+import refresh_runs  # noqa: E402  (this folder; it imports ../shared's make_refdata)
+
+make_refdata = refresh_runs.make_refdata
+P_YIELD_STRENGTH = 15   # Databases/MaterialsDatabase/DefinesMDB.h, PROPERTY_YIELD_STRENGTH
+MUSEN_TAG = "v1.74.2"
+
+
+def cluster(title, story, seed, speed, spin, steps=5000):
+    """make_refdata's kelvin_cluster scene, velocities uniform in [-speed, speed] m/s and
+    spins in [-spin, spin] rad/s from default_rng(seed), no stress breakage."""
+    x, pairs = make_refdata.lattice(3, 0.002)
+    rng = np.random.default_rng(seed)
+    v = rng.uniform(-1.0, 1.0, (27, 3)) * speed
+    w = rng.uniform(-1.0, 1.0, (27, 3)) * spin
+    return dict(title=title, x=x, v=v, w=w, radius=np.full(27, 1e-3), pairs=pairs,
+                bond_diameter=1e-3, dt=1e-7, steps=steps, save_steps=250, criterion=0,
+                strength=1e30,
+                story=f"Velocities and spins: every component uniform in [-{speed}, {speed}] "
+                      f"m/s and [-{spin}, {spin}] rad/s, numpy.random.default_rng({seed}), "
+                      f"velocities drawn first (27 x 3), then spins (27 x 3). " + story)
+
+
+# name: (scene, MUSEN model, its MODEL_SB_PARAMS, YIELD_STRENGTH or None, bondem keys)
+MODELS = {
+    "plastic_cluster": (
+        lambda: cluster("3x3x3 cluster of elastic-perfectly plastic bonds, yielding in "
+                        "tension, compression and shear, some breaking by strain "
+                        "(MUSEN 1.74.2, ModelSBElasticPerfectlyPlastic)",
+                        "Yield strength 1.5e5 Pa, compressive yield 1.3 times the tensile, "
+                        "tangential yield on, fracture strains 0.02 in tension and 0.03 in "
+                        "compression.", 20261203, 0.3, 100.0),
+        "ModelSBElasticPerfectlyPlastic",
+        "FRACTURE_STRAIN_TENSION 0.02 FRACTURE_STRAIN_COMPRESSION 0.03 TANGENTIAL_YIELD 1 "
+        "RATIO_COMPR_TENSILE_YIELD 1.3", 1.5e5,
+        {"model": '"elastic_plastic"', "yield_strength": "150000.0",
+         "compressive_yield_ratio": "1.3", "tangential_yield": "true",
+         "fracture_strain": "0.02", "compressive_fracture_strain": "0.03"}),
+}
+
+
+def write(name, folder):
+    """Write scene ``name`` into ``folder`` (make_refdata.write, then the model)."""
+    scene, musen_model, parameters, yield_strength, keys = MODELS[name]
+    make_refdata.SCENES[name] = scene
+    with tempfile.TemporaryDirectory() as work:
+        here = Path.cwd()
+        try:
+            import os
+            os.chdir(work)
+            s = make_refdata.write(name)
+        finally:
+            os.chdir(here)
+        shutil.copytree(Path(work) / name, folder, dirs_exist_ok=True)
+    toml = (folder / "scene.toml").read_text()
+    # not musen_compat: the same parameters mean the same in bondem's own law, so SPEC
+    # mode runs it too (info rows in `bondem validate`, checked with --compat musen)
+    toml = toml.replace("[simulation]\n", "[simulation]\nmusen_version = \"1.74.2\"  "
+                                          "# the release the run was made with\n")
+    toml = toml.replace('breakage = "none"\n', 'breakage = "none"\n' + "".join(
+        f"{k} = {v}\n" for k, v in keys.items()))
+    (folder / "scene.toml").write_text(toml)
+    if yield_strength is not None:
+        lines = (folder / "musen_scene.txt").read_text().splitlines()
+        lines = [line + f" {P_YIELD_STRENGTH} {make_refdata.full(yield_strength)}"
+                 if line.startswith("32 bond bond ") else line for line in lines]
+        (folder / "musen_scene.txt").write_text("\n".join(lines) + "\n")
+    script = (folder / "musen_script.txt").read_text()
+    script = re.sub(r"MODEL_SB .*\nMODEL_SB_PARAMS .*\n",
+                    f"MODEL_SB {musen_model}\nMODEL_SB_PARAMS {parameters}\n", script)
+    (folder / "musen_script.txt").write_text(script)
+    text = (folder / "SCENE.md").read_text()
+    text = re.sub(r"Reference run .*?reference folder\.",
+                  f"Reference run `{name}` made with the real MUSEN: cmusen built from "
+                  f"github.com/msolids/musen tag `{MUSEN_TAG}` (MUSEN 1.74.2) by bondem's "
+                  "`tools/musen/build_musen.sh` (CPU-only build), run as `cmusen -t=1 "
+                  "-s=musen_script.txt` (one thread, SIMULATOR_TYPE CPU). Made with "
+                  f"`python tools/musen/model_runs.py CMUSEN OUT {name}`.", text,
+                  flags=re.S)
+    text = re.sub(r"- solid bond: `ModelSBElastic`.*?\n",
+                  f"- solid bond: `{musen_model}` (MUSEN {MUSEN_TAG}), `MODEL_SB_PARAMS "
+                  f"{parameters}`"
+                  + (f", bond material YIELD_STRENGTH {yield_strength:g} Pa" if
+                     yield_strength is not None else "")
+                  + "; bondem: " + ", ".join(f"`{k} = {v}`" for k, v in keys.items())
+                  + " (`bondem validate --compat musen` compares in MUSEN's numerics).\n",
+                  text)
+    (folder / "SCENE.md").write_text(text)
+    return s
+
+
+def main(cmusen, out, names):
+    out = Path(out)
+    for name in names:
+        source = out / (name + ".source")
+        shutil.rmtree(source, ignore_errors=True)
+        write(name, source)
+        target = out / name
+        shutil.rmtree(target, ignore_errors=True)
+        refresh_runs.adapt(source, target)
+        for kept in ("scene.toml", "particles.csv", "bonds.csv", "compare.toml", "SCENE.md"):
+            shutil.copy(source / kept, target / kept)
+        shutil.rmtree(source)
+        make_refdata.run(str(target), cmusen)
+        make_refdata.export(str(target))
+
+
+if __name__ == "__main__":
+    main(sys.argv[1], sys.argv[2], sys.argv[3:])
