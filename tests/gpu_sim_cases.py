@@ -71,6 +71,31 @@ def kelvin_cluster():
                               gravity=model.gravity, damping=model.damping)
 
 
+def plastic_cluster():
+    """bonded_cluster with every third bond elastic-perfectly plastic (yielding at a
+    quarter of the strength, breaking by strain), the others elastic."""
+    model, state = bonded_cluster()
+    elastic = model.bond_materials[0]
+    plastic = bondem.BondMaterial(young_modulus=1e8, poisson_ratio=0.3,
+                                  model="elastic_plastic", yield_strength=1e5,
+                                  compressive_yield_ratio=1.4, fracture_strain=0.01,
+                                  compressive_fracture_strain=0.02, name="plastic")
+    index = (np.arange(model.n_bonds) % 3 == 0).astype(int)
+    return bondem.make_system(state.position, model.radius, model.materials[0],
+                              velocity=state.velocity, angular_velocity=state.angular_velocity,
+                              fixed=model.fixed, bonds=model.bond_pairs,
+                              bond_diameter=model.bond_diameter,
+                              bond_material=[elastic, plastic], bond_material_index=index,
+                              gravity=model.gravity, damping=model.damping)
+
+
+def case_plastic_bonds_match_cpu():
+    """Plastic and elastic bonds side by side, yielding and breaking: GPU equals CPU, the
+    plastic strains and the dissipated energy included, in both numerics."""
+    case_bonds_match_cpu(system=plastic_cluster)
+    case_bonds_match_cpu(system=plastic_cluster, musen_compat=True)
+
+
 def case_kelvin_bonds_match_cpu():
     """Kelvin and elastic bonds side by side, breaking: GPU equals CPU, the dashpots' loss
     included; then the same with MUSEN's Kelvin numerics (musen_compat)."""
@@ -126,6 +151,13 @@ def case_bonds_match_cpu(steps=30, system=bonded_cluster, musen_compat=False, br
         error = float(np.abs(a - b).max()) / scale
         print(f"{name:24s} max |cpu - gpu| / scale = {error:.2e}")
         assert error < 1e-12, name
+    if "bond_model_state" in cpu.extra:
+        a, b = cpu.extra["bond_model_state"], gpu.extra["bond_model_state"]
+        scale = np.maximum(np.abs(a).max(axis=0), 1e-300)
+        error = float((np.abs(a - b).max(axis=0) / scale).max())
+        print(f"bond_model_state         max |cpu - gpu| / scale = {error:.2e}, "
+              f"columns in use {np.count_nonzero(np.abs(a).max(axis=0))}")
+        assert error < 1e-12
     assert np.array_equal(cpu.bond_previous_length, gpu.bond_previous_length) or \
         np.abs(cpu.bond_previous_length - gpu.bond_previous_length).max() < 1e-12 \
         * cpu.bond_previous_length.max()

@@ -4,6 +4,10 @@ kernels run its loads, nothing else edited.
 
 The test model scales the elastic bond's normal force by ``normal_factor``; with a factor
 of 4 the axial period of two bonded spheres, 2 pi sqrt((m/2) / k_n), halves (0.5 %).
+A second, plastic one changes the springs themselves (SPRINGS, a per-bond column, ENERGY):
+its normal force stops at ``cap_force`` and the bond keeps the plastic stretch; pulled to
+1.5 times the yield stretch and pushed back to its initial length, it pushes with half the
+cap, k (0 - delta_p) with delta_p = 0.5 cap / k, having booked cap delta_p as dissipated.
 """
 import shutil
 import subprocess
@@ -39,6 +43,51 @@ def scaled_loads(musen, r, length, initial_length, diameter, vi, vj, wi, wj, f_n
     return force_i, moment_i, moment_j, 0.0
 '''
 
+PLASTIC = '''
+"""Test bond model: the normal force capped at cap_force (N), the plastic stretch kept."""
+from ._registry import physics
+from .vector import scale
+
+NAME = "capped"
+PARAMETERS = {"cap_force": ("number", float("inf"), 0.0, float("inf"), False, True)}
+UNITS = {"cap_force": "N"}
+LOADS = None
+SPRINGS = "capped_springs"
+COLUMNS = ("plastic stretch (m)",)
+ENERGY = "capped_energy"
+STATE = ("J dissipated by the cap", "dissipated_capped")
+VECTORISED = False
+
+
+def time_scales(model, bonds, reduced_mass, musen_compat=False):
+    return {}
+
+
+@physics
+def capped_springs(musen, b, time, dt, length, l0, diameter, n, f_n, f_t, m_n, m_t, mode,
+                   kn, kt, plastic, unused, materials, m):
+    cap = materials.cap_force[m]
+    force = kn * (length - l0 - plastic)
+    lost = 0.0
+    if force > cap:
+        moved = length - l0 - cap / kn
+        lost = cap * (moved - plastic)
+        plastic = moved
+        force = cap
+    elif force < -cap:
+        moved = length - l0 + cap / kn
+        lost = cap * (plastic - moved)
+        plastic = moved
+        force = -cap
+    return scale(n, force), f_t, m_n, m_t, mode, plastic, unused, lost
+
+
+@physics
+def capped_energy(length, l0, kn, plastic, unused, materials, m):
+    stretch = length - l0 - plastic
+    return 0.5 * kn * stretch * stretch
+'''
+
 SCRIPT = '''
 import numpy as np
 import bondem
@@ -63,6 +112,24 @@ def period(factor):
     return (crossings[-1] - crossings[0]) / (len(crossings) - 1)
 
 print("ratio", period(4.0) / period(1.0))
+
+def capped():
+    glass = bondem.Material(density=2500.0, young_modulus=1e8, poisson_ratio=0.3)
+    bond = bondem.BondMaterial(young_modulus=1e8, breakage="none", model="capped",
+                               cap_force=0.1)
+    model, state = bondem.make_system([[0, 0, 0], [2e-3, 0, 0]], 1e-3, glass,
+                                      velocity=[[0, 0, 0], [1e-3, 0, 0]], fixed=[True, True],
+                                      bonds=[[0, 1]], bond_diameter=1e-3, bond_material=bond)
+    k = 1e8 * np.pi * 0.25e-6 / 2e-3
+    steps = int(round(1.5 * 0.1 / k / 1e-9))
+    sim = bondem.Simulation(model, state, time_step=1e-6)
+    sim.step(steps)
+    state.velocity[1, 0] = -1e-3
+    sim.step(steps + 1)
+    print("capped", sim.bonds.loads.force_i[0, 0] / 0.1,
+          sim.energy_terms()["dissipated_capped"] / (0.1 * 0.5 * 0.1 / k))
+
+capped()
 scene = load_scene("scene.toml")
 print("scene", scene.model.bond_materials[0].model, scene.model.bond_materials[0].normal_factor)
 '''
@@ -96,6 +163,7 @@ def test_a_bond_model_file_is_all_a_new_model_needs(tmp_path):
     shutil.copytree(package, copy, ignore=shutil.ignore_patterns("__pycache__", "*.nbi",
                                                                  "*.nbc"))
     (copy / "physics" / "bond_scaled.py").write_text(MODEL)
+    (copy / "physics" / "bond_capped.py").write_text(PLASTIC)
     (tmp_path / "scene.toml").write_text(textwrap.dedent(SCENE))
     (tmp_path / "particles.csv").write_text("x,y,z,radius,material\n0,0,0,1e-3,glass\n"
                                             "2e-3,0,0,1e-3,glass\n")
@@ -108,3 +176,5 @@ def test_a_bond_model_file_is_all_a_new_model_needs(tmp_path):
     lines = dict(line.split(" ", 1) for line in done.stdout.splitlines())
     assert abs(float(lines["ratio"]) - 0.5) < 0.5 * 5e-3, lines
     assert lines["scene"] == "scaled 4.0"
+    force, booked = map(float, lines["capped"].split())
+    assert abs(force - -0.5) < 1e-2 and abs(booked - 1.0) < 1e-2, lines

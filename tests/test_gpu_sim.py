@@ -63,6 +63,13 @@ def test_kelvin_bonds_match_cpu_under_simulator():
     assert "dissipated_bonds" in out
 
 
+def test_plastic_bonds_match_cpu_under_simulator():
+    """Elastic-plastic bonds beside elastic ones, yielding and breaking by strain, in
+    bondem's and MUSEN's numerics: state, plastic strains and energies to 1e-12."""
+    out = run_case("plastic_bonds_match_cpu")
+    assert "dissipated_plastic" in out and "columns in use 2" in out
+
+
 def test_extra_device_law_matches_cpu_under_simulator():
     """A second law on the device (a tether spring) adds to the fused bond gather as the
     CPU law does; a CPU-only law is refused by backend='gpu' with a message."""
