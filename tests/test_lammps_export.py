@@ -127,6 +127,22 @@ def test_what_has_no_counterpart_is_named(tmp_path):
     assert all(c[4:8] == [1e300] * 4 for c in coeffs.values())
 
 
+def test_a_plastic_bond_is_exported_elastic_and_named(tmp_path):
+    """LAMMPS's bpm bonds have no yield: an elastic-plastic bond is written with its
+    elastic springs and named in a note; an elastic scene gets no such note."""
+    path = write_scene(tmp_path / "s", strength="inf", breakage="none")
+    path.write_text(path.read_text().replace(
+        'breakage = "none"', 'breakage = "none"\nmodel = "elastic_plastic"\n'
+                             'yield_strength = 1e5'))
+    _, _, notes = export_lammps(path, tmp_path / "out")
+    assert any(n.startswith("elastic_plastic bonds: exported as elastic") for n in notes)
+    axial = sorted(c[0] for c in read_bond_coeffs(tmp_path / "out").values())
+    area = math.pi * (D / 2) ** 2
+    assert axial == pytest.approx([E * area / 2.1e-3, E * area / 2e-3], rel=1e-13)
+    _, _, notes = export_lammps(write_scene(tmp_path / "e"), tmp_path / "out2")
+    assert not any("exported as elastic" in n for n in notes)
+
+
 def test_command_line_writes_the_files_and_takes_set(tmp_path):
     path = write_scene(tmp_path / "s")
     out = tmp_path / "out"

@@ -63,6 +63,58 @@ def test_imported_kelvin_scene_reproduces_the_real_musen_run(tmp_path):
     assert any("MUSEN's defaults" in note for note in notes)   # no interaction line
 
 
+def test_imported_plastic_scene_reproduces_the_real_musen_run(tmp_path):
+    """MUSEN 1.74.2's ModelSBElasticPerfectlyPlastic: its MODEL_SB_PARAMS and the bond
+    material's YIELD_STRENGTH (property 15) become the elastic_plastic bond's keys, and
+    the imported scene follows MUSEN's run, the strain break included."""
+    sim, worst_x, worst_v, _ = run_imported(KELVIN.parent / "plastic_cluster", tmp_path,
+                                            musen_version="1.74.2")
+    assert worst_x < 1e-11 and worst_v < 1e-10, (worst_x, worst_v)
+    material = sim.model.bond_materials[0]
+    assert (material.model, material.yield_strength, material.compressive_yield_ratio,
+            material.tangential_yield, material.fracture_strain,
+            material.compressive_fracture_strain, material.normal_strength) == (
+        "elastic_plastic", 1.5e5, 1.3, True, 0.02, 0.03, float("inf"))
+    assert np.flatnonzero(~sim.state.bond_active).tolist() == [23]   # musen_breaks.csv
+
+
+def test_an_exported_plastic_run_names_the_model_and_its_parameters(tmp_path):
+    """``bondem export musen`` of an elastic-plastic run writes MUSEN's model, its
+    parameters (no compressive fracture: 0) and the yield strength; imported back, the
+    bond material is the same."""
+    (tmp_path / "particles.csv").write_text("x,y,z,radius,material,vx,vy,vz\n"
+                                            "0,0,0,1e-3,glass,0,0,0\n"
+                                            "2e-3,0,0,1e-3,glass,0.1,0,0\n")
+    (tmp_path / "bonds.csv").write_text("i,j,diameter,material\n0,1,1e-3,binder\n")
+    (tmp_path / "scene.toml").write_text(
+        '[simulation]\nend_time = 1e-5\ntime_step = 1e-7\nsave_every = 5e-6\n'
+        'contact_model = "none"\n[materials.glass]\ndensity = 2500.0\n'
+        'young_modulus = 1e8\n[bond_materials.binder]\nyoung_modulus = 1e8\n'
+        'model = "elastic_plastic"\nyield_strength = 1.2e5\n'
+        'compressive_yield_ratio = 1.7\ntangential_yield = false\n'
+        'fracture_strain = 0.05\n[particles]\nfile = "particles.csv"\n'
+        '[bonds]\nfile = "bonds.csv"\n')
+    runner = CliRunner()
+    done = runner.invoke(main, ["run", str(tmp_path / "scene.toml")])
+    assert done.exit_code == 0, done.output
+    out = tmp_path / "musen" / "scene.txt"
+    result = runner.invoke(main, ["export", "musen", str(tmp_path / "scene" / "results.h5"),
+                                  "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    script = out.with_name("scene_script.txt").read_text()
+    assert "MODEL_SB ModelSBElasticPerfectlyPlastic" in script
+    assert ("MODEL_SB_PARAMS FRACTURE_STRAIN_TENSION 0.05 FRACTURE_STRAIN_COMPRESSION 0 "
+            "TANGENTIAL_YIELD 0 RATIO_COMPR_TENSILE_YIELD 1.7") in script
+    bond_line = [line for line in out.read_text().splitlines()
+                 if line.startswith("32 ") and " 15 " in line]
+    assert len(bond_line) == 1 and bond_line[0].endswith(" 15 120000.0")
+    scene_path, _ = import_musen(out, tmp_path / "back", out.with_name("scene_script.txt"))
+    back = load_scene(scene_path).model.bond_materials[0]
+    assert (back.model, back.yield_strength, back.compressive_yield_ratio,
+            back.tangential_yield, back.fracture_strain, back.compressive_fracture_strain) \
+        == ("elastic_plastic", 1.2e5, 1.7, False, 0.05, float("inf"))
+
+
 @pytest.mark.skipif(not SHARED.is_dir(), reason="no ../shared/musen-runs")
 @pytest.mark.parametrize("run", ["breaking_combined", "breaking_separate", "two_bonded",
                                  "cluster"])

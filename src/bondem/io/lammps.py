@@ -87,8 +87,10 @@ def _notes(model, options):
         notes.append("fixed particles and external loads: not exported")
     if model.n_bonds:
         bond_table = model.bond_material_table()
-        if np.any(bond_table["model"][model.bond_material] != 0):
-            notes.append("Kelvin bonds: exported as elastic bonds (no dashpots)")
+        for module in (m for m in model.bond_models_used() if m.NAME != "elastic"):
+            # LAMMPS's BPM bonds (bpm/rotational) are elastic: no dashpot, no yield
+            notes.append(f"{module.NAME} bonds: exported as elastic bonds (LAMMPS's "
+                         f"bpm/rotational has no counterpart: docs/lammps.md)")
         if np.any(bond_table["breakage"][model.bond_material] != 0):
             notes.append("breakage: LAMMPS sums the four load ratios (normal, shear, "
                          "bending, twisting), bondem compares each stress pair with its "

@@ -24,6 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
+from ..physics import bond_models
 from ..physics.contact_hertz_musen import MUSEN_VERSION, MUSEN_VERSIONS
 from ..timestep import step_count
 from .csv_files import float_text
@@ -40,7 +41,8 @@ _WIDTH = {2: 1, 12: 3, 15: 3, 16: 3, 17: 3, 10: 3, 11: 3, 18: 1, 20: 3, 31: 4, 3
           37: 1, 23: 1, 24: 2, 42: 3, 43: 1, 44: 9, 45: 3}
 _NAMES = {SPHERE: "sphere", SOLID_BOND: "solid bond", LIQUID_BOND: "liquid bond",
           TRIANGULAR_WALL: "triangular wall"}
-BOND_MODELS = {"ModelSBElastic": "elastic", "ModelSBKelvin": "kelvin"}
+# MUSEN's solid bond models that bondem has: each bond model's MUSEN declaration
+BOND_MODELS = {m.MUSEN["model"]: m for m in bond_models.MODELS if getattr(m, "MUSEN", None)}
 UNMAPPED = {29: "anisotropy", 30: "contact radius", 34: "mixture", 38: "analysis volume",
             39: "package generator", 41: "bonds generator"}
 CONTACT_MODELS = {"ModelPPHertzMindlin": "hertz_mindlin", "ModelPWHertzMindlin": "hertz_mindlin"}
@@ -226,6 +228,21 @@ def _params(text):
     return {words[k].upper(): float(words[k + 1]) for k in range(0, len(words) - 1, 2)}
 
 
+def _from_musen(value, kind, zero_is_inf):
+    """A MODEL_SB_PARAMS number as the value of a bondem key of schema ``kind``."""
+    if kind == "bool":
+        return bool(value)
+    return math.inf if zero_is_inf and value == 0.0 else value
+
+
+def _to_musen(value, zero_is_inf):
+    """The MODEL_SB_PARAMS text of a bondem key's value (inverse of ``_from_musen``)."""
+    if isinstance(value, bool):
+        return str(int(value))
+    value = float(value)
+    return "0" if zero_is_inf and math.isinf(value) else float_text(value)
+
+
 def wall_motion(motion, end_time):
     """(scene keys, note or None) of a MUSEN geometry motion (key 26: type, intervals,
     then per interval t_begin t_end (s), velocity (m/s), rotation centre (m), rotation
@@ -336,12 +353,27 @@ def to_bondem(scene: MusenScene, script: dict | None, out_dir, *, end_time=None,
         if props is None:
             raise InputError(f"compound {key!r} is used but not defined (command 32)",
                              file=None)
-        entry = {"young_modulus": props.get(YOUNG, 1e9), "poisson_ratio": props.get(POISSON, 0.2),
-                 "normal_strength": props.get(NORMAL_STRENGTH, 1e7),
-                 "tangential_strength": props.get(TANGENTIAL_STRENGTH, 1e7),
-                 "breakage": {0: "none", 1: "combined", 2: "separate"}.get(criterion, "combined")}
-        if BOND_MODELS[model_sb] == "kelvin":
-            entry.update(model="kelvin", viscosity=sb.get("MU", 1.0), max_damping_ratio=0.5)
+        entry = {"young_modulus": props.get(YOUNG, 1e9), "poisson_ratio": props.get(POISSON, 0.2)}
+        module = BOND_MODELS[model_sb]
+        musen = module.MUSEN
+        if musen["strengths"]:
+            entry.update(normal_strength=props.get(NORMAL_STRENGTH, 1e7),
+                         tangential_strength=props.get(TANGENTIAL_STRENGTH, 1e7),
+                         breakage={0: "none", 1: "combined", 2: "separate"}.get(criterion,
+                                                                             "combined"))
+        else:
+            entry["breakage"] = "none"   # MUSEN's model reads no strengths
+        if module.NAME != "elastic":
+            entry["model"] = module.NAME
+        entry.update(musen.get("fixed", {}))
+        schema = module.PARAMETERS
+        for prop, name in musen["properties"].items():
+            if prop in props:
+                entry[name] = props[prop]
+        for word, name in musen["parameters"].items():
+            if word in sb:
+                entry[name] = _from_musen(sb[word], schema[name][0],
+                                          name in musen.get("zero_is_inf", ()))
         bond_materials[key] = entry
 
     # particles and bonds at the first time point
@@ -491,12 +523,21 @@ def write_script(scene, time_step, text_name, path):
     if len(models) > 1 or len(criteria) > 1:
         notes.append("MUSEN has one solid bond model and criterion per run: the first "
                      "bond material's are written")
-    model = sorted(models)[0]
-    sb = {"elastic": "ModelSBElastic", "kelvin": "ModelSBKelvin"}[model]
-    params = f"CONSIDER_BREAKAGE {({'none': 0, 'combined': 1, 'separate': 2})[sorted(criteria)[0]]}"
-    if model == "kelvin":
-        viscosity = {float(t.get("viscosity", 0.0)) for t in bond_tables}
-        params += f" MU {sorted(viscosity)[0]!r}"
+    module = bond_models.BY_NAME[sorted(models)[0]]
+    musen = getattr(module, "MUSEN", None)
+    if musen is None:
+        raise InputError(f"bond model {module.NAME!r} has no MUSEN counterpart",
+                         key="model")
+    sb = musen["model"]
+    first = next((t for t in bond_tables if t.get("model", "elastic") == module.NAME), {})
+    words = []
+    if musen["strengths"]:
+        words.append("CONSIDER_BREAKAGE "
+                     f"{({'none': 0, 'combined': 1, 'separate': 2})[sorted(criteria)[0]]}")
+    for word, name in musen["parameters"].items():
+        value = first.get(name, module.PARAMETERS[name][1])
+        words.append(f"{word} {_to_musen(value, name in musen.get('zero_is_inf', ()))}")
+    params = " ".join(words)
     # the runner's count, so the exported MUSEN run is as long as bondem's
     steps = max(1, step_count(simulation.get("end_time", 1e-3), time_step))
     contacts = simulation.get("contact_model", "hertz_mindlin") != "none"
@@ -605,6 +646,10 @@ def export_musen(results_path, out_file, every=1):
         for name, prop in (("normal_strength", NORMAL_STRENGTH),
                            ("tangential_strength", TANGENTIAL_STRENGTH)):
             value = float(props.get(name, math.inf))
+            line += f" {prop} {float_text(value if math.isfinite(value) else 1e300)}"
+        module = bond_models.BY_NAME[props.get("model", "elastic")]
+        for prop, name in getattr(module, "MUSEN", {}).get("properties", {}).items():
+            value = float(props.get(name, module.PARAMETERS[name][1]))
             line += f" {prop} {float_text(value if math.isfinite(value) else 1e300)}"
         lines.append(line)
     defaults = {"restitution": 0.5, "friction": 0.3, "rolling_friction": 0.0}

@@ -52,6 +52,10 @@ PARAMETERS = {
 }
 UNITS = {"young_modulus": "Pa", "poisson_ratio": "-", "normal_strength": "Pa",
          "tangential_strength": "Pa"}
+# MUSEN's counterpart (io/musen_text.py): its MODEL_SB name, MODEL_SB_PARAMS and bond
+# material properties (ids of Databases/MaterialsDatabase/DefinesMDB.h) by bondem key;
+# "strengths": whether it breaks by normal and tangential strength (CONSIDER_BREAKAGE).
+MUSEN = {"model": "ModelSBElastic", "parameters": {}, "properties": {}, "strengths": True}
 
 
 def time_scales(model, bonds, reduced_mass, musen_compat=False):

@@ -41,6 +41,9 @@ UNITS = {"viscosity": "s (s/m with musen_compat)", "max_damping_ratio": "-"}
 LOADS = "kelvin_loads"
 STATE = ("J removed by the bond's dashpots", "dissipated_bonds")
 VECTORISED = False
+# MUSEN's counterpart (io/musen_text.py); its damping cap is fixed at 0.5 (1.70 to 1.74.2)
+MUSEN = {"model": "ModelSBKelvin", "parameters": {"MU": "viscosity"}, "properties": {},
+         "strengths": True, "fixed": {"max_damping_ratio": 0.5}}
 
 
 def check(values, musen_compat=False):

@@ -51,6 +51,15 @@ COLUMNS = ("normal plastic strain (-)",)
 ENERGY = "plastic_normal_energy"
 STATE = ("J dissipated by the bond's yielding", "dissipated_plastic")
 VECTORISED = False
+# MUSEN's counterpart (io/musen_text.py): FRACTURE_STRAIN_COMPRESSION 0 is none (inf),
+# YIELD_STRENGTH is bond material property 15; it reads no strengths.
+MUSEN = {"model": "ModelSBElasticPerfectlyPlastic",
+         "parameters": {"FRACTURE_STRAIN_TENSION": "fracture_strain",
+                        "FRACTURE_STRAIN_COMPRESSION": "compressive_fracture_strain",
+                        "TANGENTIAL_YIELD": "tangential_yield",
+                        "RATIO_COMPR_TENSILE_YIELD": "compressive_yield_ratio"},
+         "properties": {15: "yield_strength"}, "strengths": False,
+         "zero_is_inf": ("compressive_fracture_strain",)}
 
 
 def check(values, musen_compat=False):
