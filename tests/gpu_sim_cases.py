@@ -72,20 +72,24 @@ def kelvin_cluster():
 
 
 def plastic_cluster():
-    """bonded_cluster with every third bond elastic-perfectly plastic (yielding at a
-    quarter of the strength, breaking by strain), the others elastic."""
+    """bonded_cluster with a third of its bonds elastic-perfectly plastic (yielding at a
+    quarter of the strength, breaking by strain), a third creep bonds, a third elastic."""
     model, state = bonded_cluster()
     elastic = model.bond_materials[0]
     plastic = bondem.BondMaterial(young_modulus=1e8, poisson_ratio=0.3,
                                   model="elastic_plastic", yield_strength=1e5,
                                   compressive_yield_ratio=1.4, fracture_strain=0.01,
                                   compressive_fracture_strain=0.02, name="plastic")
-    index = (np.arange(model.n_bonds) % 3 == 0).astype(int)
+    creep = bondem.BondMaterial(young_modulus=1e8, poisson_ratio=0.3, model="creep",
+                                yield_strength=1.5e5, fracture_strain=0.01,
+                                creep_rate=2e-4, creep_exponent=0.8, name="creep")
+    index = np.arange(model.n_bonds) % 3
     return bondem.make_system(state.position, model.radius, model.materials[0],
                               velocity=state.velocity, angular_velocity=state.angular_velocity,
                               fixed=model.fixed, bonds=model.bond_pairs,
                               bond_diameter=model.bond_diameter,
-                              bond_material=[elastic, plastic], bond_material_index=index,
+                              bond_material=[elastic, plastic, creep],
+                              bond_material_index=index,
                               gravity=model.gravity, damping=model.damping)
 
 

@@ -64,10 +64,12 @@ def test_kelvin_bonds_match_cpu_under_simulator():
 
 
 def test_plastic_bonds_match_cpu_under_simulator():
-    """Elastic-plastic bonds beside elastic ones, yielding and breaking by strain, in
-    bondem's and MUSEN's numerics: state, plastic strains and energies to 1e-12."""
+    """Elastic-plastic and creep bonds beside elastic ones, yielding, creeping and breaking
+    by strain, in bondem's and MUSEN's numerics: state, plastic strains and energies to
+    1e-12."""
     out = run_case("plastic_bonds_match_cpu")
-    assert "dissipated_plastic" in out and "columns in use 2" in out
+    assert "dissipated_plastic" in out and "dissipated_creep" in out
+    assert "columns in use 2" in out
 
 
 def test_extra_device_law_matches_cpu_under_simulator():

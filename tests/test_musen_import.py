@@ -78,6 +78,22 @@ def test_imported_plastic_scene_reproduces_the_real_musen_run(tmp_path):
     assert np.flatnonzero(~sim.state.bond_active).tolist() == [23]   # musen_breaks.csv
 
 
+def test_imported_creep_scene_reproduces_the_real_musen_run(tmp_path):
+    """MUSEN 1.74.2's ModelSBCreep with FRACTURE_BY_STRESS 1: the creep parameters, the
+    yield strength and the strengths (read because of that switch) become the creep
+    bond's keys; the imported scene follows MUSEN's run and its 16 breaks."""
+    folder = KELVIN.parent / "creep_cluster"
+    sim, worst_x, worst_v, _ = run_imported(folder, tmp_path, musen_version="1.74.2")
+    assert worst_x < 1e-11 and worst_v < 1e-10, (worst_x, worst_v)
+    material = sim.model.bond_materials[0]
+    assert (material.model, material.creep_rate, material.creep_exponent,
+            material.yield_strength, material.compressive_fracture_strain,
+            material.normal_strength) == ("creep", 1e-4, 0.8, 2e5, float("inf"), 2.6e5)
+    with open(folder / "musen_breaks.csv", newline="") as handle:
+        broken = [int(r["bond"]) for r in csv.DictReader(handle) if r["break_time"].strip()]
+    assert np.flatnonzero(~sim.state.bond_active).tolist() == broken and len(broken) == 16
+
+
 def test_an_exported_plastic_run_names_the_model_and_its_parameters(tmp_path):
     """``bondem export musen`` of an elastic-plastic run writes MUSEN's model, its
     parameters (no compressive fracture: 0) and the yield strength; imported back, the

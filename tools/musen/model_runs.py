@@ -28,16 +28,18 @@ P_YIELD_STRENGTH = 15   # Databases/MaterialsDatabase/DefinesMDB.h, PROPERTY_YIE
 MUSEN_TAG = "v1.74.2"
 
 
-def cluster(title, story, seed, speed, spin, steps=5000):
+def cluster(title, story, seed, speed, spin, steps=5000, strength=None):
     """make_refdata's kelvin_cluster scene, velocities uniform in [-speed, speed] m/s and
-    spins in [-spin, spin] rad/s from default_rng(seed), no stress breakage."""
+    spins in [-spin, spin] rad/s from default_rng(seed); strength (Pa): normal and
+    tangential, with the combined criterion (None: no stress breakage)."""
     x, pairs = make_refdata.lattice(3, 0.002)
     rng = np.random.default_rng(seed)
     v = rng.uniform(-1.0, 1.0, (27, 3)) * speed
     w = rng.uniform(-1.0, 1.0, (27, 3)) * spin
     return dict(title=title, x=x, v=v, w=w, radius=np.full(27, 1e-3), pairs=pairs,
-                bond_diameter=1e-3, dt=1e-7, steps=steps, save_steps=250, criterion=0,
-                strength=1e30,
+                bond_diameter=1e-3, dt=1e-7, steps=steps, save_steps=250,
+                criterion=0 if strength is None else 1,
+                strength=1e30 if strength is None else strength,
                 story=f"Velocities and spins: every component uniform in [-{speed}, {speed}] "
                       f"m/s and [-{spin}, {spin}] rad/s, numpy.random.default_rng({seed}), "
                       f"velocities drawn first (27 x 3), then spins (27 x 3). " + story)
@@ -58,6 +60,21 @@ MODELS = {
         {"model": '"elastic_plastic"', "yield_strength": "150000.0",
          "compressive_yield_ratio": "1.3", "tangential_yield": "true",
          "fracture_strain": "0.02", "compressive_fracture_strain": "0.03"}),
+    "creep_cluster": (
+        lambda: cluster("3x3x3 cluster of creep bonds, yielding and creeping, breaking by "
+                        "stress (MUSEN 1.74.2, ModelSBCreep)",
+                        "Yield strength 2e5 Pa, compressive yield 1.2 times the tensile, "
+                        "tangential yield on, creep A = 1e-4 1/(s Pa^m), m = 0.8, fracture "
+                        "strain 0.02 in tension (none in compression), stress fracture on "
+                        "(FRACTURE_BY_STRESS 1) with strengths 2.6e5 Pa.", 20261204, 0.3,
+                        100.0, strength=2.6e5),
+        "ModelSBCreep",
+        "FRACTURE_STRAIN_TENSION 0.02 FRACTURE_STRAIN_COMPRESSION 0 TANGENTIAL_YIELD 1 "
+        "RATIO_COMPR_TENSILE_YIELD 1.2 CREEP_PARAMATER_A 0.0001 CREEP_PARAMATER_m 0.8 "
+        "FRACTURE_BY_STRESS 1", 2e5,
+        {"model": '"creep"', "yield_strength": "200000.0", "compressive_yield_ratio": "1.2",
+         "tangential_yield": "true", "fracture_strain": "0.02", "creep_rate": "0.0001",
+         "creep_exponent": "0.8"}),
 }
 
 
@@ -79,8 +96,8 @@ def write(name, folder):
     # mode runs it too (info rows in `bondem validate`, checked with --compat musen)
     toml = toml.replace("[simulation]\n", "[simulation]\nmusen_version = \"1.74.2\"  "
                                           "# the release the run was made with\n")
-    toml = toml.replace('breakage = "none"\n', 'breakage = "none"\n' + "".join(
-        f"{k} = {v}\n" for k, v in keys.items()))
+    toml = re.sub(r'(breakage = "[a-z]+"\n)', lambda match: match.group(1) + "".join(
+        f"{k} = {v}\n" for k, v in keys.items()), toml)
     (folder / "scene.toml").write_text(toml)
     if yield_strength is not None:
         lines = (folder / "musen_scene.txt").read_text().splitlines()

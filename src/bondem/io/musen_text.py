@@ -356,7 +356,10 @@ def to_bondem(scene: MusenScene, script: dict | None, out_dir, *, end_time=None,
         entry = {"young_modulus": props.get(YOUNG, 1e9), "poisson_ratio": props.get(POISSON, 0.2)}
         module = BOND_MODELS[model_sb]
         musen = module.MUSEN
-        if musen["strengths"]:
+        strengths = musen["strengths"]
+        if isinstance(strengths, str):   # a switch among the model's parameters
+            strengths = bool(sb.get(strengths.upper(), 0.0))
+        if strengths:
             entry.update(normal_strength=props.get(NORMAL_STRENGTH, 1e7),
                          tangential_strength=props.get(TANGENTIAL_STRENGTH, 1e7),
                          breakage={0: "none", 1: "combined", 2: "separate"}.get(criterion,
@@ -366,13 +369,14 @@ def to_bondem(scene: MusenScene, script: dict | None, out_dir, *, end_time=None,
         if module.NAME != "elastic":
             entry["model"] = module.NAME
         entry.update(musen.get("fixed", {}))
+        entry.update(musen.get("defaults", {}))   # MUSEN's own defaults, where not given
         schema = module.PARAMETERS
         for prop, name in musen["properties"].items():
             if prop in props:
                 entry[name] = props[prop]
         for word, name in musen["parameters"].items():
-            if word in sb:
-                entry[name] = _from_musen(sb[word], schema[name][0],
+            if word.upper() in sb:     # cmusen reads the words in any case
+                entry[name] = _from_musen(sb[word.upper()], schema[name][0],
                                           name in musen.get("zero_is_inf", ()))
         bond_materials[key] = entry
 
@@ -531,12 +535,16 @@ def write_script(scene, time_step, text_name, path):
     sb = musen["model"]
     first = next((t for t in bond_tables if t.get("model", "elastic") == module.NAME), {})
     words = []
-    if musen["strengths"]:
+    if musen["strengths"] is True:
         words.append("CONSIDER_BREAKAGE "
                      f"{({'none': 0, 'combined': 1, 'separate': 2})[sorted(criteria)[0]]}")
     for word, name in musen["parameters"].items():
         value = first.get(name, module.PARAMETERS[name][1])
         words.append(f"{word} {_to_musen(value, name in musen.get('zero_is_inf', ()))}")
+    if isinstance(musen["strengths"], str):
+        finite = any(math.isfinite(float(first.get(k, math.inf)))
+                     for k in ("normal_strength", "tangential_strength"))
+        words.append(f"{musen['strengths']} {int(finite)}")
     params = " ".join(words)
     # the runner's count, so the exported MUSEN run is as long as bondem's
     steps = max(1, step_count(simulation.get("end_time", 1e-3), time_step))

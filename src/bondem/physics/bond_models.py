@@ -57,20 +57,21 @@ def has_state(module):
 
 def bond_material_schema():
     """Every bond material key with its schema entry: the elastic bond's, ``model``, then
-    each other model's own PARAMETERS."""
+    each other model's own PARAMETERS (a key that several models declare, such as the
+    plastic bonds' yield_strength, has one entry: they must declare it alike)."""
     schema = dict(bond_elastic.PARAMETERS)
     schema["model"] = ("str", bond_elastic.NAME, tuple(BY_NAME), None, None, None)
     for module in MODELS[1:]:
-        schema.update(module.PARAMETERS)
+        for key, entry in module.PARAMETERS.items():
+            if schema.setdefault(key, entry) != entry:
+                raise RuntimeError(f"bond model {module.NAME!r} declares {key!r} unlike "
+                                   f"{' and '.join(m.NAME for m in owners(key))}")
     return schema
 
 
-def owner(key):
-    """The bond model whose PARAMETERS declare ``key`` (None for the shared ones)."""
-    for module in MODELS[1:]:
-        if key in module.PARAMETERS:
-            return module
-    return None
+def owners(key):
+    """The bond models whose PARAMETERS declare ``key`` (none for the shared ones)."""
+    return [module for module in MODELS[1:] if key in module.PARAMETERS]
 
 
 def check(values, musen_compat=False):
@@ -80,9 +81,10 @@ def check(values, musen_compat=False):
     problems = []
     schema = bond_material_schema()
     for key, entry in schema.items():
-        module = owner(key)
-        if module is not None and module.NAME != values["model"] and values[key] != entry[1]:
-            problems.append((key, f"{key} = {values[key]!r} needs model = {module.NAME!r} "
+        models = [m.NAME for m in owners(key)]
+        if models and values["model"] not in models and values[key] != entry[1]:
+            needs = " or ".join(repr(name) for name in models)
+            problems.append((key, f"{key} = {values[key]!r} needs model = {needs} "
                                   f"(model = {values['model']!r} has no such parameter)"))
     module = BY_NAME[values["model"]]
     if hasattr(module, "check"):
