@@ -122,7 +122,7 @@ def test_zero_viscosity_gives_the_elastic_bits(glass, binder):
 def test_viscosity_needs_the_kelvin_model_and_musen_mode_refuses_it(glass, tmp_path):
     with pytest.raises(ValueError, match="viscosity.*model = 'kelvin'"):
         bondem.BondMaterial(young_modulus=1e8, viscosity=1e-6)
-    with pytest.raises(ValueError, match="model = 'plastic'; allowed: 'elastic', 'kelvin'"):
+    with pytest.raises(ValueError, match="model = 'plastic'; allowed: 'elastic', .*'kelvin'"):
         bondem.BondMaterial(young_modulus=1e8, model="plastic")
     with pytest.raises(ValueError, match="viscosity = -1"):
         kelvin(-1.0)

@@ -182,6 +182,28 @@ class Model:
         table["criterion"] = table["breakage"]
         return table
 
+    def bond_strength_factors(self) -> np.ndarray:
+        """(B,) factor of each bond's strengths (and yield stress), mean 1: 1 without
+        scatter; with strength_scatter "normal" 1 + cv z (z standard normal, cv =
+        strength_spread, clipped at 1e-3), with "weibull" w / Gamma(1 + 1/k) (w Weibull
+        of modulus k = strength_spread, scale 1). Bond b of a material takes draw b of
+        numpy.random.default_rng(strength_seed), so a bond's factor depends only on its
+        index and its material's seed, whatever the backend or thread count."""
+        factors = np.ones(self.n_bonds)
+        for k, material in enumerate(self.bond_materials):
+            scatter = getattr(material, "strength_scatter", "none")
+            mine = self.bond_material == k
+            if scatter == "none" or not np.any(mine):
+                continue
+            rng = np.random.default_rng(int(material.strength_seed))
+            spread = material.strength_spread
+            if scatter == "normal":
+                draws = np.maximum(1.0 + spread * rng.standard_normal(self.n_bonds), 1e-3)
+            else:
+                draws = rng.weibull(spread, self.n_bonds) / math.gamma(1.0 + 1.0 / spread)
+            factors[mine] = draws[mine]
+        return factors
+
     def bond_model_codes(self) -> np.ndarray:
         """(B,) int8: each bond's model code (index into physics/bond_models.MODELS)."""
         return self.bond_material_table()["model"][self.bond_material]

@@ -212,6 +212,7 @@ def elastic_bonds(bonds, materials, state, particles, box, time, dt, musen, vect
     # drops a store into ``t.a[i]`` written inside a parallel loop body.
     pairs, material, initial_length, diameter = (bonds.pairs, bonds.material,
                                                  bonds.initial_length, bonds.diameter)
+    strength = bonds.strength
     position, velocity, angular_velocity = particles
     active, axis, previous_length = state.active, state.axis, state.previous_length
     tangential_force, normal_moment = state.tangential_force, state.normal_moment
@@ -251,8 +252,8 @@ def elastic_bonds(bonds, materials, state, particles, box, time, dt, musen, vect
             s[_DIAMETER * B + q] = diameter[b]
             s[_YOUNG * B + q] = young[m]
             s[_POISSON * B + q] = poisson[m]
-            s[_NORMAL_STRENGTH * B + q] = normal_strength[m]
-            s[_TANGENTIAL_STRENGTH * B + q] = tangential_strength[m]
+            s[_NORMAL_STRENGTH * B + q] = normal_strength[m] * strength[b]
+            s[_TANGENTIAL_STRENGTH * B + q] = tangential_strength[m] * strength[b]
             s[_CRITERION * B + q] = criterion[m]
         advance_bond_block(s, count, dt)
         for q in range(count):
@@ -376,7 +377,8 @@ def bond_tuples(model, put=lambda a: a):
     array (the CUDA backend passes cuda.to_device)."""
     table = model.bond_material_table()
     bonds = loops.Bonds(put(model.bond_pairs), put(model.bond_diameter),
-                        put(model.bond_initial_length), put(model.bond_material))
+                        put(model.bond_initial_length), put(model.bond_material),
+                        put(model.bond_strength_factors()))
     materials = loops.BondMaterials(*(put(table[k]) for k in loops.BondMaterials._fields))
     offsets, ends = particle_bond_index(model.bond_pairs, model.n_particles)
     return bonds, materials, loops.BondIndex(put(offsets), put(ends))

@@ -44,7 +44,8 @@ from ..physics.contact_linear import LINEAR_REFERENCE_OVERLAP, MODEL_HERTZ
 Particles = namedtuple("Particles", "position velocity angular_velocity")
 Bodies = namedtuple("Bodies", "mass inertia fixed external_force external_moment")
 Box = namedtuple("Box", "low high length periodic")
-Bonds = namedtuple("Bonds", "pairs diameter initial_length material")
+# strength: each bond's strength factor (Model.bond_strength_factors; 1 without scatter)
+Bonds = namedtuple("Bonds", "pairs diameter initial_length material strength")
 # One array per bond material key (Model.bond_material_table: breakage as criterion codes,
 # model as the bond model's code), whatever the bond models declare.
 BondMaterials = namedtuple("BondMaterials", list(bond_material_schema()))
@@ -205,7 +206,7 @@ model_loads = body(_generated(
     bond)."""))
 
 _SPRINGS_ARGUMENTS = ("musen, b, time, dt, length, l0, diameter, n, f_n, f_t, m_n, m_t, "
-                      "mode, kn, kt")
+                      "mode, kn, kt, scatter")
 model_springs = body(_generated(
     "model_springs", _SPRINGS_ARGUMENTS + ", columns, materials, m",
     lambda module: getattr(module, "SPRINGS", None) and [
@@ -216,7 +217,8 @@ model_springs = body(_generated(
     ["return f_n, f_t, m_n, m_t, mode"],
     """The springs (F_n, F_t in N, M_n, M_t in N m) and break mode of bond b after the
     SPRINGS of the bond model with that code, which reads and writes its columns of
-    ``columns`` (state.model_state); unchanged for a model without SPRINGS."""))
+    ``columns`` (state.model_state) and scales its strengths by ``scatter`` (the bond's
+    strength factor); unchanged for a model without SPRINGS."""))
 
 _ENERGY_ARGUMENTS = "length, l0, f_t, m_n, m_t, kn, kt, ktw, kb"
 model_bond_energy = body(_generated(
@@ -253,6 +255,7 @@ def advance_bond(b, bonds, materials, state, particles, box, time, dt, musen, lo
     m = bonds.material[b]
     l0 = bonds.initial_length[b]
     diameter = bonds.diameter[b]
+    scatter = bonds.strength[b]
     r = separation(particles.position, i, j, box)
     vi = row3(particles.velocity, i)
     vj = row3(particles.velocity, j)
@@ -262,13 +265,13 @@ def advance_bond(b, bonds, materials, state, particles, box, time, dt, musen, lo
         musen, r, vi, vj, wi, wj, row3(state.axis, b), state.previous_length[b],
         row3(state.tangential_force, b), row3(state.normal_moment, b),
         row3(state.tangential_moment, b), l0, materials.young_modulus[m],
-        materials.poisson_ratio[m], diameter, materials.normal_strength[m],
-        materials.tangential_strength[m], materials.breakage[m],
+        materials.poisson_ratio[m], diameter, materials.normal_strength[m] * scatter,
+        materials.tangential_strength[m] * scatter, materials.breakage[m],
         materials.compressive_breakage[m], dt)
     code = materials.model[m]
     f_n, f_t, m_n, m_t, mode = model_springs(
         code, musen, b, time, dt, length, l0, diameter, n, f_n, f_t, m_n, m_t, mode, kn, kt,
-        state.model_state, materials, m)
+        scatter, state.model_state, materials, m)
     if mode != INTACT:
         state.active[b] = False
         state.break_time[b] = time

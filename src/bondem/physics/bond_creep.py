@@ -64,7 +64,7 @@ def time_scales(model, bonds, reduced_mass, musen_compat=False):
 
 @physics
 def creep_springs(musen, b, time, dt, length, l0, diameter, n, f_n, f_t, m_n, m_t, mode,
-                  kn, kt, plastic_strain, unused, materials, m):
+                  kn, kt, scatter, plastic_strain, unused, materials, m):
     """SPRINGS of the creep bond (module docstring): (F_n, F_t in N, M_n, M_t in N m, break
     mode, plastic strain for the next step, unused column, J dissipated by this step's
     yielding and creep). musen True: MUSEN's choices; None or False: bondem's."""
@@ -74,7 +74,7 @@ def creep_springs(musen, b, time, dt, length, l0, diameter, n, f_n, f_t, m_n, m_
     radius = 0.5 * diameter
     area = math.pi * radius * radius
     young = materials.young_modulus[m]
-    yield_strength = materials.yield_strength[m]
+    yield_strength = materials.yield_strength[m] * scatter
     rate = materials.creep_rate[m]
     exponent = materials.creep_exponent[m]
     strain = (length - l0) / l0
@@ -119,11 +119,12 @@ def creep_springs(musen, b, time, dt, length, l0, diameter, n, f_n, f_t, m_n, m_
         if materials.normal_strength[m] != math.inf or \
                 materials.tangential_strength[m] != math.inf:
             mode = bond_break_mode_musen(length, l0, f_n, f_t, m_n, m_t, diameter,
-                                         materials.normal_strength[m],
-                                         materials.tangential_strength[m],
+                                         materials.normal_strength[m] * scatter,
+                                         materials.tangential_strength[m] * scatter,
                                          CRITERION_COMBINED)
     else:
         mode = bond_break_mode(length, l0, f_n, f_t, m_n, m_t, diameter,
-                               materials.normal_strength[m], materials.tangential_strength[m],
+                               materials.normal_strength[m] * scatter,
+                               materials.tangential_strength[m] * scatter,
                                materials.breakage[m], materials.compressive_breakage[m])
     return f_n, f_t, m_n, m_t, mode, strain_p, unused, lost

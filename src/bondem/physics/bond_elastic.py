@@ -49,9 +49,31 @@ PARAMETERS = {
     "tangential_strength": ("number", _INF, 0.0, _INF, False, True),
     "breakage": ("str", "combined", tuple(CRITERION_CODES), None, None, None),
     "compressive_breakage": ("bool", False, None, None, None, None),
+    # per-bond strength scatter (model.Model.bond_strength_factors): every strength of
+    # the bond (and a plastic bond's yield stress) times a factor of mean 1 drawn per bond
+    "strength_scatter": ("str", "none", ("none", "normal", "weibull"), None, None, None),
+    "strength_spread": ("number", 0.0, 0.0, _INF, True, False),
+    "strength_seed": ("number", 0.0, 0.0, 2.0 ** 63, True, False),
 }
 UNITS = {"young_modulus": "Pa", "poisson_ratio": "-", "normal_strength": "Pa",
-         "tangential_strength": "Pa"}
+         "tangential_strength": "Pa", "strength_spread": "- (normal: coefficient of "
+         "variation; weibull: the Weibull modulus)", "strength_seed": "-"}
+
+
+def check(values, musen_compat=False):
+    """[(key, message)]: a scatter needs its spread (a Weibull modulus above 0, a
+    coefficient of variation of the normal law below 1) and a whole seed."""
+    scatter, spread = values["strength_scatter"], values["strength_spread"]
+    problems = []
+    if scatter != "none" and spread <= 0.0:
+        problems.append(("strength_spread", f"strength_scatter = {scatter!r} needs "
+                                            "strength_spread > 0"))
+    if scatter == "normal" and spread >= 1.0:
+        problems.append(("strength_spread", f"{spread!r}: the coefficient of variation of "
+                                            "a normal scatter must be below 1"))
+    if values["strength_seed"] != int(values["strength_seed"]):
+        problems.append(("strength_seed", f"{values['strength_seed']!r}: a whole number"))
+    return problems
 # MUSEN's counterpart (io/musen_text.py): its MODEL_SB name, MODEL_SB_PARAMS and bond
 # material properties (ids of Databases/MaterialsDatabase/DefinesMDB.h) by bondem key;
 # "strengths": whether it breaks by normal and tangential strength (CONSIDER_BREAKAGE).

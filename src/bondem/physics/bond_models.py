@@ -15,10 +15,11 @@ A bond model file declares, besides its ``@physics`` functions:
     SPRINGS     optional: name of its springs function, for models that change the
                 springs themselves (plasticity, creep, damage), called after the elastic
                 springs have been advanced and tested, before LOADS: (musen, b, time, dt,
-                length, l0, diameter, n, f_n, f_t, m_n, m_t, mode, k_n, k_t, s1, s2,
-                materials, m) -> (f_n, f_t, m_n, m_t, break mode, s1, s2, J lost this
-                step); s1, s2 are its per-bond columns 1 and 2 of the state, the J lost
-                are added to column 0
+                length, l0, diameter, n, f_n, f_t, m_n, m_t, mode, k_n, k_t, scatter,
+                s1, s2, materials, m) -> (f_n, f_t, m_n, m_t, break mode, s1, s2, J lost
+                this step); scatter: the bond's strength factor (multiplies its
+                strengths); s1, s2 are its per-bond columns 1 and 2 of the state, the J
+                lost are added to column 0
     COLUMNS     with SPRINGS: what columns 1 and 2 hold, e.g. ("plastic strain (-)",)
     ENERGY      optional: name of its normal energy function (length, l0, k_n, s1, s2,
                 materials, m) -> J held by the normal spring (default k_n (L - L0)^2 / 2)
@@ -86,8 +87,9 @@ def check(values, musen_compat=False):
             needs = " or ".join(repr(name) for name in models)
             problems.append((key, f"{key} = {values[key]!r} needs model = {needs} "
                                   f"(model = {values['model']!r} has no such parameter)"))
+    problems.extend(bond_elastic.check(values, musen_compat))   # the shared keys'
     module = BY_NAME[values["model"]]
-    if hasattr(module, "check"):
+    if module is not bond_elastic and hasattr(module, "check"):
         problems.extend(module.check(values, musen_compat))
     return problems
 

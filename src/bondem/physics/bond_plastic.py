@@ -97,7 +97,7 @@ def plastic_normal_stress(strain, plastic_strain, young_modulus, yield_strength,
 
 @physics
 def plastic_springs(musen, b, time, dt, length, l0, diameter, n, f_n, f_t, m_n, m_t, mode,
-                    kn, kt, plastic_strain, unused, materials, m):
+                    kn, kt, scatter, plastic_strain, unused, materials, m):
     """SPRINGS of the elastic-plastic bond (module docstring): (F_n, F_t in N, M_n, M_t in
     N m, break mode, plastic strain, unused column, J dissipated by this step's yielding),
     from the elastic springs f_n, f_t, m_n, m_t (on i) of bond b of material m and its
@@ -108,7 +108,7 @@ def plastic_springs(musen, b, time, dt, length, l0, diameter, n, f_n, f_t, m_n, 
     radius = 0.5 * diameter
     area = math.pi * radius * radius
     young = materials.young_modulus[m]
-    yield_strength = materials.yield_strength[m]
+    yield_strength = materials.yield_strength[m] * scatter
     strain = (length - l0) / l0
     stress, strain_p, limit = plastic_normal_stress(
         strain, plastic_strain, young, yield_strength, materials.compressive_yield_ratio[m])
@@ -136,7 +136,8 @@ def plastic_springs(musen, b, time, dt, length, l0, diameter, n, f_n, f_t, m_n, 
         mode = INTACT
     else:
         mode = bond_break_mode(length, l0, f_n, f_t, m_n, m_t, diameter,
-                               materials.normal_strength[m], materials.tangential_strength[m],
+                               materials.normal_strength[m] * scatter,
+                               materials.tangential_strength[m] * scatter,
                                materials.breakage[m], materials.compressive_breakage[m])
     return f_n, f_t, m_n, m_t, mode, strain_p, unused, lost
 
