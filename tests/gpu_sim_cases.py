@@ -72,8 +72,9 @@ def kelvin_cluster():
 
 
 def plastic_cluster():
-    """bonded_cluster with a third of its bonds elastic-perfectly plastic (yielding at a
-    quarter of the strength, breaking by strain), a third creep bonds, a third elastic."""
+    """bonded_cluster with a quarter of its bonds elastic-perfectly plastic (yielding at a
+    quarter of the strength, breaking by strain), a quarter creep bonds, a quarter
+    softening parallel bonds with Weibull strengths, a quarter elastic."""
     model, state = bonded_cluster()
     elastic = model.bond_materials[0]
     plastic = bondem.BondMaterial(young_modulus=1e8, poisson_ratio=0.3,
@@ -83,12 +84,17 @@ def plastic_cluster():
     creep = bondem.BondMaterial(young_modulus=1e8, poisson_ratio=0.3, model="creep",
                                 yield_strength=1.5e5, fracture_strain=0.01,
                                 creep_rate=2e-4, creep_exponent=0.8, name="creep")
-    index = np.arange(model.n_bonds) % 3
+    rock = bondem.BondMaterial(young_modulus=1e8, poisson_ratio=0.25, model="parallel",
+                               normal_strength=5e4, tangential_strength=4e5,
+                               friction_angle=30.0, moment_factor=0.8, softening=0.5,
+                               strength_scatter="weibull", strength_spread=4.0,
+                               strength_seed=11, name="rock")
+    index = np.arange(model.n_bonds) % 4
     return bondem.make_system(state.position, model.radius, model.materials[0],
                               velocity=state.velocity, angular_velocity=state.angular_velocity,
                               fixed=model.fixed, bonds=model.bond_pairs,
                               bond_diameter=model.bond_diameter,
-                              bond_material=[elastic, plastic, creep],
+                              bond_material=[elastic, plastic, creep, rock],
                               bond_material_index=index,
                               gravity=model.gravity, damping=model.damping)
 

@@ -64,12 +64,13 @@ def test_kelvin_bonds_match_cpu_under_simulator():
 
 
 def test_plastic_bonds_match_cpu_under_simulator():
-    """Elastic-plastic and creep bonds beside elastic ones, yielding, creeping and breaking
-    by strain, in bondem's and MUSEN's numerics: state, plastic strains and energies to
-    1e-12."""
+    """Elastic-plastic, creep and softening parallel bonds (scattered strengths) beside
+    elastic ones, yielding, creeping, softening and breaking, in bondem's and MUSEN's
+    numerics: state, plastic strains, damage and energies to 1e-12."""
     out = run_case("plastic_bonds_match_cpu")
     assert "dissipated_plastic" in out and "dissipated_creep" in out
-    assert "columns in use 2" in out
+    assert "dissipated_softening" in out
+    assert "columns in use 3" in out
 
 
 def test_extra_device_law_matches_cpu_under_simulator():
