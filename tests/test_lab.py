@@ -73,6 +73,28 @@ def test_lattice_in_direct_tension_fails_at_the_bond_strength(lattice):
     assert result.notes[-1] == "stopped: post-peak"
 
 
+def test_lattice_of_plastic_bonds_shows_the_yield_plateau():
+    """Elastic-perfectly plastic bonds (sigma_y 1.5e5 Pa, compressive ratio 1.4): every
+    chain yields at c sigma_y A_b, so the UCS curve rises along the chains' modulus and
+    then stays at c sigma_y A_b / a^2 (the last third of the curve within 1 %, its end
+    within 0.5 %), far past the yield strain, nothing broken."""
+    plastic = bondem.BondMaterial(young_modulus=E_BOND, poisson_ratio=0.3,
+                                  model="elastic_plastic", yield_strength=1.5e5,
+                                  compressive_yield_ratio=1.4, fracture_strain=1.0)
+    specimen = lattice_specimen((4, 4, 8), RADIUS, GLASS, plastic, diameter_ratio=0.5)
+    result = uniaxial(specimen, LabSettings(max_strain=0.01))
+    modulus, _ = lattice_closed_forms()
+    plateau = 1.4 * 1.5e5 * math.pi * (0.5 * RADIUS) ** 2 / (2 * RADIUS) ** 2
+    stress = np.asarray(result.curve["axial_stress"])
+    strain = np.asarray(result.curve["axial_strain"])
+    assert result.numbers["young_modulus_secant"] == pytest.approx(modulus, rel=0.02)
+    assert stress[-1] == pytest.approx(plateau, rel=5e-3)
+    tail = stress[len(stress) * 2 // 3:]
+    np.testing.assert_allclose(tail, plateau, rtol=1e-2)
+    assert strain[-1] > 2.5 * plateau / modulus
+    assert result.numbers["broken_bonds_final"] == 0
+
+
 def test_lattice_tension_through_the_command_line(tmp_path):
     """Issue 17's closed form measured by ``bondem lab``: a 3 x 3 x 6 lattice with bonds
     of 0.8 the particle diameter."""

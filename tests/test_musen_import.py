@@ -131,6 +131,17 @@ def test_an_exported_plastic_run_names_the_model_and_its_parameters(tmp_path):
         == ("elastic_plastic", 1.2e5, 1.7, False, 0.05, float("inf"))
 
 
+def test_a_bond_model_without_a_musen_counterpart_is_refused_by_name(tmp_path):
+    """The parallel bond is bondem's own: exporting its run names the model, not a
+    KeyError."""
+    from bondem.errors import InputError as Error
+    from bondem.io.musen_text import write_script
+    scene = {"simulation": {"end_time": 1e-5},
+             "bond_materials": {"rock": {"model": "parallel", "young_modulus": 1e9}}}
+    with pytest.raises(Error, match="'parallel' has no MUSEN counterpart"):
+        write_script(scene, 1e-7, "scene.txt", tmp_path / "script.txt")
+
+
 @pytest.mark.skipif(not SHARED.is_dir(), reason="no ../shared/musen-runs")
 @pytest.mark.parametrize("run", ["breaking_combined", "breaking_separate", "two_bonded",
                                  "cluster"])
