@@ -64,6 +64,26 @@ def test_axial_stretch_follows_the_damped_oscillator(glass, zeta):
         1.05 * amplitude * np.exp(-zeta * omega_0 * 2 * 2 * np.pi / omega_d)
 
 
+def test_the_tangential_dashpot_is_eta_times_the_shear_spring(glass):
+    """Both spheres driven (fixed), j sliding sideways at v: in the first step the shear
+    spring holds nothing yet, so the bond's sideways force on i is the dashpot's alone,
+    eta k_t v with k_t = G A / L0 (1e-9), and after k steps eta k_t v + k_t v k dt. A
+    dashpot built on the normal spring (k_n = 2.6 k_t here) fails both."""
+    eta, v, dt = 3e-6, 1e-3, 1e-7
+    material = kelvin(eta)
+    model, state = bondem.make_system([[0.0, 0.0, 0.0], [SPACING, 0.0, 0.0]], RADIUS, glass,
+                                      velocity=[[0.0, 0.0, 0.0], [0.0, v, 0.0]],
+                                      fixed=[True, True], bonds=[[0, 1]], bond_diameter=1e-3,
+                                      bond_material=material)
+    (_, kt, _, _), _ = bond_constants(material)
+    sim = bondem.Simulation(model, state, time_step=dt)
+    sim.step(1)
+    assert sim.bonds.loads.force_i[0, 1] == pytest.approx(eta * kt * v, rel=1e-9)
+    sim.step(9)
+    assert sim.bonds.loads.force_i[0, 1] == pytest.approx(eta * kt * v + kt * v * 9 * dt,
+                                                          rel=1e-3)
+
+
 def test_lost_energy_is_what_the_dashpots_booked(glass):
     material = kelvin(1.0)
     _, _, omega_0 = axial_constants(glass, material)

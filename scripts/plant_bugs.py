@@ -1,0 +1,139 @@
+"""Planted-bug audit of the Numba-compiled physics and loop bodies (mutmut cannot mutate
+them): each entry below is one plausible bug, planted by replacing a line of the source,
+the named tests run, the source restored. A bug that no test catches is a survivor.
+
+    python scripts/plant_bugs.py [--only SUBSTRING] [--markdown]
+
+Run from the repository root with bondem installed in editable mode (the tests import the
+edited source). Prints one row per bug: caught or SURVIVED, and the seconds it took;
+--markdown prints the table docs/testing.md keeps. Exit status 1 when a bug survived.
+"""
+import argparse
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+SRC = ROOT / "src" / "bondem"
+
+# (file under src/bondem, text to replace, replacement, tests, what the bug is)
+BUGS = [
+    ("physics/bond_plastic.py", "    stress = (strain - plastic_strain) * young_modulus",
+     "    stress = strain * young_modulus", ["tests/test_bond_plastic.py"],
+     "elastic-plastic: yield tested on the total strain (plastic strain not carried)"),
+    ("physics/bond_plastic.py", "        return limit, strain - limit / young_modulus, limit",
+     "        return limit, strain + limit / young_modulus, limit",
+     ["tests/test_bond_plastic.py"],
+     "elastic-plastic: plastic offset after tensile yield with the wrong sign"),
+    ("physics/bond_plastic.py", "    if stress < 0.0:\n        limit = yield_strength * ratio",
+     "    if stress > 0.0:\n        limit = yield_strength * ratio",
+     ["tests/test_bond_plastic.py"],
+     "elastic-plastic: compressive yield ratio applied in tension"),
+    ("physics/bond_plastic.py", "            if compat:\n                cap = limit * area",
+     "            if True:\n                cap = limit * area",
+     ["tests/test_bond_plastic.py", "tests/test_validate.py::"
+      "test_real_musen_plastic_runs_pass_in_compat_mode_and_are_info_in_spec_mode"],
+     "elastic-plastic: MUSEN's tangential cap (compressive yield) in bondem's own law"),
+    ("physics/bond_plastic.py", "    stretch = length - l0 - plastic_strain * l0",
+     "    stretch = length - l0", ["tests/test_bond_plastic.py"],
+     "elastic-plastic: stored energy measured from L0, not the plastic length"),
+    ("physics/bond_creep.py", "    creep = dt * rate * math.pow(abs(stress), exponent)",
+     "    creep = dt * rate * abs(stress)", ["tests/test_bond_creep.py"],
+     "creep: the exponent m ignored (linear creep)"),
+    ("physics/bond_creep.py", "    if stress > 0.0:\n        strain_p += creep",
+     "    if stress > 0.0:\n        strain_p -= creep", ["tests/test_bond_creep.py"],
+     "creep: tensile creep shortens the bond"),
+    ("physics/bond_creep.py",
+     "dt * rate * math.pow(size / area, exponent) * shear_modulus * area / size",
+     "dt * rate * math.pow(size / area, exponent) * shear_modulus / size",
+     ["tests/test_bond_creep.py"],
+     "creep: tangential creep rate without the bond's area"),
+    ("physics/bond_parallel.py",
+     "    limit = cohesion - normal * math.tan(",
+     "    limit = cohesion + normal * math.tan(", ["tests/test_bond_parallel.py"],
+     "parallel: Mohr-Coulomb strength falling with compression"),
+    ("physics/bond_parallel.py",
+     "    bending = beta * norm(m_t) * radius / second",
+     "    bending = norm(m_t) * radius / second", ["tests/test_bond_parallel.py"],
+     "parallel: moment contribution factor ignored in the tension test"),
+    ("physics/bond_parallel.py",
+     "                lost = 0.5 * kn * (length - l0) * (length - l0) * (grown - damage)",
+     "                lost = 0.5 * kn * (length - l0) * (length - l0) * grown",
+     ["tests/test_bond_parallel.py"],
+     "parallel: softening books the whole damage each step, not its growth"),
+    ("physics/bond_parallel.py",
+     "    eps_f = eps_0 * (1.0 + 1.0 / softening)",
+     "    eps_f = eps_0 * (1.0 + softening)", ["tests/test_bond_parallel.py"],
+     "parallel: softening strain range inverted"),
+    ("backends/loops.py", "        materials.tangential_strength[m] * scatter, materials.breakage[m],",
+     "        materials.tangential_strength[m], materials.breakage[m],",
+     ["tests/test_strength_scatter.py", "tests/test_bond_parallel.py"],
+     "scatter: tangential strength not scattered (scalar path)"),
+    ("backends/loops.py", "        materials.poisson_ratio[m], diameter, materials.normal_strength[m] * scatter,",
+     "        materials.poisson_ratio[m], diameter, materials.normal_strength[m],",
+     ["tests/test_strength_scatter.py"],
+     "scatter: normal strength not scattered (scalar path)"),
+    ("backends/cpu.py", "            s[_NORMAL_STRENGTH * B + q] = normal_strength[m] * strength[b]",
+     "            s[_NORMAL_STRENGTH * B + q] = normal_strength[m]",
+     ["tests/test_strength_scatter.py"],
+     "scatter: normal strength not scattered (vectorised path)"),
+    ("backends/loops.py", '"columns[b, 1] = s1", "columns[b, 2] = s2"',
+     '"columns[b, 1] = s2", "columns[b, 2] = s1"',
+     ["tests/test_bond_plastic.py"],
+     "SPRINGS: a model's two state columns swapped when stored"),
+    ("backends/loops.py", '"columns[b, 0] += lost"', '"columns[b, 0] = lost"',
+     ["tests/test_bond_plastic.py"],
+     "SPRINGS: the dissipated energy overwritten instead of summed"),
+    ("model.py", "draws = rng.weibull(spread, self.n_bonds) / math.gamma(1.0 + 1.0 / spread)",
+     "draws = rng.weibull(spread, self.n_bonds)", ["tests/test_strength_scatter.py"],
+     "scatter: Weibull factors without the mean-1 scale"),
+    ("physics/bond_kelvin.py", "    c_t = viscosity * shear_stiffness",
+     "    c_t = viscosity * normal_stiffness", ["tests/test_bond_kelvin.py",
+                                              "tests/test_closed_forms.py"],
+     "Kelvin: the tangential dashpot built on the normal spring"),
+]
+
+
+def plant(entry):
+    """Plant one bug, run its tests, restore: (caught, seconds)."""
+    name, old, new, tests, _ = entry
+    path = SRC / name
+    original = path.read_text()
+    if original.count(old) != 1:
+        raise SystemExit(f"{name}: the text to replace occurs {original.count(old)} times: "
+                         f"{old!r}")
+    start = time.perf_counter()
+    try:
+        path.write_text(original.replace(old, new))
+        done = subprocess.run([sys.executable, "-m", "pytest", "-x", "-q", "-o", "addopts=",
+                               "-p", "no:cacheprovider", *tests], cwd=ROOT,
+                              capture_output=True, text=True, timeout=1800)
+    finally:
+        path.write_text(original)
+    return done.returncode != 0, time.perf_counter() - start
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--only", default="", help="run the bugs whose text contains this")
+    parser.add_argument("--markdown", action="store_true", help="print the docs table")
+    args = parser.parse_args()
+    rows = []
+    for entry in BUGS:
+        if args.only not in entry[4]:
+            continue
+        caught, seconds = plant(entry)
+        rows.append((entry, caught))
+        print(f"{'caught  ' if caught else 'SURVIVED'} {seconds:6.0f} s  {entry[4]}",
+              flush=True)
+    if args.markdown:
+        print("\n| bug planted | file | tests | result |\n|---|---|---|---|")
+        for (name, _, _, tests, what), caught in rows:
+            short = ", ".join(t.split("::")[0].replace("tests/", "") for t in tests)
+            print(f"| {what} | {name} | {short} | {'caught' if caught else 'survived'} |")
+    return 0 if all(caught for _, caught in rows) else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())
