@@ -72,9 +72,10 @@ def kelvin_cluster():
 
 
 def plastic_cluster():
-    """bonded_cluster with a quarter of its bonds elastic-perfectly plastic (yielding at a
-    quarter of the strength, breaking by strain), a quarter creep bonds, a quarter
-    softening parallel bonds with Weibull strengths, a quarter elastic."""
+    """bonded_cluster with elastic-perfectly plastic bonds (yielding at a quarter of the
+    strength, breaking by strain), creep bonds,
+    softening parallel bonds with Weibull strengths, weakening bonds drawing their drops,
+    elastic ones (a fifth each)."""
     model, state = bonded_cluster()
     elastic = model.bond_materials[0]
     plastic = bondem.BondMaterial(young_modulus=1e8, poisson_ratio=0.3,
@@ -89,12 +90,15 @@ def plastic_cluster():
                                friction_angle=30.0, moment_factor=0.8, softening=0.5,
                                strength_scatter="weibull", strength_spread=4.0,
                                strength_seed=11, name="rock")
-    index = np.arange(model.n_bonds) % 4
+    weak = bondem.BondMaterial(young_modulus=1e8, poisson_ratio=0.3, model="weakening",
+                               yield_strength=1e5, weakening_factor=0.6, fracture_strain=0.01,
+                               strength_seed=4, name="weak")
+    index = np.arange(model.n_bonds) % 5
     return bondem.make_system(state.position, model.radius, model.materials[0],
                               velocity=state.velocity, angular_velocity=state.angular_velocity,
                               fixed=model.fixed, bonds=model.bond_pairs,
                               bond_diameter=model.bond_diameter,
-                              bond_material=[elastic, plastic, creep, rock],
+                              bond_material=[elastic, plastic, creep, rock, weak],
                               bond_material_index=index,
                               gravity=model.gravity, damping=model.damping)
 

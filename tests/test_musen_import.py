@@ -94,6 +94,33 @@ def test_imported_creep_scene_reproduces_the_real_musen_run(tmp_path):
     assert np.flatnonzero(~sim.state.bond_active).tolist() == broken and len(broken) == 16
 
 
+def test_imported_weakening_scene_reproduces_the_real_musen_run(tmp_path):
+    """MUSEN 1.74.2's ModelSBWeakening: BREAKAGE_STRAIN with COMPRESSIVE_BREAK 1 becomes
+    fracture strains eps_b and 2 eps_b, WEAKENING_FACTOR and YIELD_STRENGTH their keys;
+    the imported scene follows MUSEN's run and its 11 breaks; exported again, MUSEN's
+    words come back."""
+    folder = KELVIN.parent / "weakening_cluster"
+    sim, worst_x, worst_v, _ = run_imported(folder, tmp_path, musen_version="1.74.2")
+    assert worst_x < 1e-11 and worst_v < 1e-10, (worst_x, worst_v)
+    material = sim.model.bond_materials[0]
+    assert (material.model, material.yield_strength, material.fracture_strain,
+            material.compressive_fracture_strain, material.weakening_factor) == (
+        "weakening", 5e4, 0.002, 0.004, 0.0)
+    with open(folder / "musen_breaks.csv", newline="") as handle:
+        broken = [int(r["bond"]) for r in csv.DictReader(handle) if r["break_time"].strip()]
+    assert np.flatnonzero(~sim.state.bond_active).tolist() == broken and len(broken) == 11
+    from bondem.io.musen_text import write_script
+    scene = {"simulation": {"end_time": 1e-5},
+             "bond_materials": {"b": {"model": "weakening", "young_modulus": 1e8,
+                                      "fracture_strain": 0.002,
+                                      "compressive_fracture_strain": 0.005,
+                                      "weakening_factor": 0.25}}}
+    notes = write_script(scene, 1e-7, "scene.txt", tmp_path / "script.txt")
+    assert ("MODEL_SB_PARAMS CONSIDER_BREAKAGE 1 COMPRESSIVE_BREAK 1 BREAKAGE_STRAIN 0.002 "
+            "WEAKENING_FACTOR 0.25") in (tmp_path / "script.txt").read_text()
+    assert any("twice the tensile fracture strain" in note for note in notes)
+
+
 def test_an_exported_plastic_run_names_the_model_and_its_parameters(tmp_path):
     """``bondem export musen`` of an elastic-plastic run writes MUSEN's model, its
     parameters (no compressive fracture: 0) and the yield strength; imported back, the

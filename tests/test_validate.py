@@ -235,13 +235,13 @@ def test_real_musen_kelvin_run_passes_in_both_modes():
         assert worst < 1e-10, rows
 
 
-@pytest.mark.parametrize("name", ["plastic_cluster", "creep_cluster"])
+@pytest.mark.parametrize("name", ["plastic_cluster", "creep_cluster", "weakening_cluster"])
 def test_real_musen_plastic_runs_pass_in_compat_mode_and_are_info_in_spec_mode(name):
-    """The packaged runs of the real MUSEN 1.74.2 with ModelSBElasticPerfectlyPlastic and
-    ModelSBCreep: with --compat musen positions, velocities and spins within 1e-10 of the
-    largest value (measured 2.5e-12 and 7.2e-13) and every bond that breaks (by strain;
-    16 by MUSEN's stress test) in MUSEN's step; SPEC mode's rows are information
-    (MUSEN's tangential cap differs by design)."""
+    """The packaged runs of the real MUSEN 1.74.2 with ModelSBElasticPerfectlyPlastic,
+    ModelSBCreep and ModelSBWeakening (factor 0): with --compat musen positions,
+    velocities and spins within 1e-10 of the largest value (measured 2.5e-12, 7.2e-13,
+    1.9e-12) and every bond that breaks (by strain; 16 by MUSEN's stress test) in MUSEN's
+    step; SPEC mode's rows are information (MUSEN's tangential cap differs by design)."""
     (run,) = [r for r in refdata.discover(refdata.PACKAGED_RUNS) if r.name == name]
     rows = refdata.compare_run(run, "musen", compat_only=True)
     assert len(rows) == 4 and all(r.passed is True for r in rows), rows

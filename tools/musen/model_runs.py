@@ -75,6 +75,18 @@ MODELS = {
         {"model": '"creep"', "yield_strength": "200000.0", "compressive_yield_ratio": "1.2",
          "tangential_yield": "true", "fracture_strain": "0.02", "creep_rate": "0.0001",
          "creep_exponent": "0.8"}),
+    "weakening_cluster": (
+        lambda: cluster("3x3x3 cluster of weakening bonds with weakening factor 0 (each "
+                        "yield drops the stress to zero), breaking by strain "
+                        "(MUSEN 1.74.2, ModelSBWeakening)",
+                        "Yield strength 5e4 Pa, WEAKENING_FACTOR 0 (MUSEN's draws from "
+                        "C rand() then do not matter), breakage strain 0.002 in tension and "
+                        "0.004 in compression (COMPRESSIVE_BREAK 1).", 20261205, 0.3, 100.0),
+        "ModelSBWeakening",
+        "CONSIDER_BREAKAGE 1 COMPRESSIVE_BREAK 1 BREAKAGE_STRAIN 0.002 WEAKENING_FACTOR 0",
+        5e4,
+        {"model": '"weakening"', "yield_strength": "50000.0", "fracture_strain": "0.002",
+         "compressive_fracture_strain": "0.004", "weakening_factor": "0.0"}),
 }
 
 

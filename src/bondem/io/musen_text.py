@@ -378,6 +378,8 @@ def to_bondem(scene: MusenScene, script: dict | None, out_dir, *, end_time=None,
             if word.upper() in sb:     # cmusen reads the words in any case
                 entry[name] = _from_musen(sb[word.upper()], schema[name][0],
                                           name in musen.get("zero_is_inf", ()))
+        if "import" in musen:   # parameters that need more than a renaming
+            musen["import"](sb, entry)
         bond_materials[key] = entry
 
     # particles and bonds at the first time point
@@ -541,6 +543,11 @@ def write_script(scene, time_step, text_name, path):
     for word, name in musen["parameters"].items():
         value = first.get(name, module.PARAMETERS[name][1])
         words.append(f"{word} {_to_musen(value, name in musen.get('zero_is_inf', ()))}")
+    if "export" in musen:
+        text, note = musen["export"](first)
+        words.append(text)
+        if note:
+            notes.append(note)
     if isinstance(musen["strengths"], str):
         finite = any(math.isfinite(float(first.get(k, math.inf)))
                      for k in ("normal_strength", "tangential_strength"))

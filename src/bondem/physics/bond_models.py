@@ -25,7 +25,9 @@ A bond model file declares, besides its ``@physics`` functions:
                 materials, m) -> J held by the normal spring (default k_n (L - L0)^2 / 2)
     MUSEN       optional: its MUSEN counterpart for io/musen_text.py ({"model": MODEL_SB
                 name, "parameters": {MODEL_SB_PARAMS word: key}, "properties": {bond
-                material property id: key}, "strengths": whether it reads the strengths})
+                material property id: key}, "strengths": whether it reads the strengths;
+                optional "import"(words, entry) and "export"(values) -> (words, note) for
+                parameters that need more than a renaming)
     VECTORISED  whether the CPU's vectorised elastic block may advance its bonds
     check(values, musen_compat) -> [(key, message)] of a material that uses the model
     time_scales(model, bonds, reduced_mass, musen_compat) -> {name: s}, its bonds' limits
