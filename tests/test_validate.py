@@ -2,6 +2,7 @@
 every quick case, a wrong reference makes rows fail (exit status 1), reference-data
 folders appear as cases, and the report files are written."""
 import csv
+import math
 from pathlib import Path
 
 import pytest
@@ -9,7 +10,7 @@ from click.testing import CliRunner
 
 from bondem.cli import main
 from bondem.validation import load_cases, load_parameters, run_suite
-from bondem.validation import refdata, strength, wave
+from bondem.validation import bond_models, refdata, strength, wave
 
 
 @pytest.fixture(scope="module")
@@ -233,6 +234,29 @@ def test_real_musen_kelvin_run_passes_in_both_modes():
         assert len(rows) == 4 and all(r.passed is True for r in rows), rows
         worst = max(abs(r.error) for r in rows if "particles/" in r.quantity)
         assert worst < 1e-10, rows
+
+
+def test_bond_model_rows_pass_and_fail_when_the_reference_is_wrong():
+    """The bond_models case: its 12 rows pass in both modes; told a friction angle of 30
+    degrees while the bonds have 35, its three Mohr-Coulomb rows fail (the rows can fail)."""
+    spec = load_parameters("bond_models")
+    for compat in (None, "musen"):
+        rows = bond_models.run(spec, compat).rows
+        assert len(rows) == 12 and all(r.passed for r in rows), rows
+    real = bond_models.compare
+
+    def wrong(case, quantity, reference, value, tolerance, **kw):
+        if "Mohr-Coulomb" in kw.get("note", ""):
+            normal = float(quantity.split("under ")[1].split(" Pa")[0])
+            reference = 2e5 + normal * math.tan(math.radians(30.0))
+        return real(case, quantity, reference, value, tolerance, **kw)
+    bond_models.compare = wrong
+    try:
+        rows = bond_models.run(spec, None).rows
+    finally:
+        bond_models.compare = real
+    failed = [r for r in rows if r.passed is False]
+    assert len(failed) == 3 and all("shear stress at break" in r.quantity for r in failed)
 
 
 @pytest.mark.parametrize("name", ["plastic_cluster", "creep_cluster", "weakening_cluster"])

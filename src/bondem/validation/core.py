@@ -116,7 +116,8 @@ class Case:
 
 
 CASES: dict = {}
-_MODULES = ("two_particle", "cantilever", "wave", "strength", "rotation", "contact",
+_MODULES = ("two_particle", "cantilever", "wave", "strength", "bond_models", "rotation",
+            "contact",
             "refdata", "musen_run")
 
 
