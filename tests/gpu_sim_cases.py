@@ -75,7 +75,7 @@ def plastic_cluster():
     """bonded_cluster with elastic-perfectly plastic bonds (yielding at a quarter of the
     strength, breaking by strain), creep bonds,
     softening parallel bonds with Weibull strengths, weakening bonds drawing their drops,
-    elastic ones (a fifth each)."""
+    aerogel bonds, elastic ones (a sixth each)."""
     model, state = bonded_cluster()
     elastic = model.bond_materials[0]
     plastic = bondem.BondMaterial(young_modulus=1e8, poisson_ratio=0.3,
@@ -93,12 +93,17 @@ def plastic_cluster():
     weak = bondem.BondMaterial(young_modulus=1e8, poisson_ratio=0.3, model="weakening",
                                yield_strength=1e5, weakening_factor=0.6, fracture_strain=0.01,
                                strength_seed=4, name="weak")
-    index = np.arange(model.n_bonds) % 5
+    aerogel = bondem.BondMaterial(young_modulus=1e8, poisson_ratio=0.3, model="aerogel",
+                                  compressive_plastic_strain=8e-4,
+                                  tensile_plastic_strain=1e-3, compressive_softness=-1.0,
+                                  tensile_softness=0.5, tensile_break_strain=1.3e-3,
+                                  name="aerogel")
+    index = np.arange(model.n_bonds) % 6
     return bondem.make_system(state.position, model.radius, model.materials[0],
                               velocity=state.velocity, angular_velocity=state.angular_velocity,
                               fixed=model.fixed, bonds=model.bond_pairs,
                               bond_diameter=model.bond_diameter,
-                              bond_material=[elastic, plastic, creep, rock, weak],
+                              bond_material=[elastic, plastic, creep, rock, weak, aerogel],
                               bond_material_index=index,
                               gravity=model.gravity, damping=model.damping)
 

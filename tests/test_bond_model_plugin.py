@@ -65,7 +65,7 @@ def time_scales(model, bonds, reduced_mass, musen_compat=False):
 
 @physics
 def capped_springs(musen, b, time, dt, length, l0, diameter, n, f_n, f_t, m_n, m_t, mode,
-                   kn, kt, scatter, plastic, unused, materials, m):
+                   kn, kt, scatter, lp, plastic, unused, materials, m):
     cap = materials.cap_force[m]
     force = kn * (length - l0 - plastic)
     lost = 0.0

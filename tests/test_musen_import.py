@@ -121,6 +121,23 @@ def test_imported_weakening_scene_reproduces_the_real_musen_run(tmp_path):
     assert any("twice the tensile fracture strain" in note for note in notes)
 
 
+def test_imported_aerogel_scene_reproduces_the_real_musen_run(tmp_path):
+    """MUSEN 1.74.2's ModelSBAerogel: its seven parameters become the aerogel bond's keys
+    and the imported scene follows MUSEN's run, its 9 breaks included."""
+    folder = KELVIN.parent / "aerogel_cluster"
+    sim, worst_x, worst_v, _ = run_imported(folder, tmp_path, musen_version="1.74.2")
+    assert worst_x < 1e-11 and worst_v < 1e-10, (worst_x, worst_v)
+    material = sim.model.bond_materials[0]
+    assert (material.model, material.compressive_plastic_strain,
+            material.tensile_plastic_strain, material.compressive_softness,
+            material.tensile_softness, material.tensile_break_strain,
+            material.compressive_hardness, material.tensile_hardness) == (
+        "aerogel", 8e-4, 1e-3, -1.0, 0.5, 1.3e-3, 0.2, 0.3)
+    with open(folder / "musen_breaks.csv", newline="") as handle:
+        broken = [int(r["bond"]) for r in csv.DictReader(handle) if r["break_time"].strip()]
+    assert np.flatnonzero(~sim.state.bond_active).tolist() == broken and len(broken) == 9
+
+
 def test_an_exported_plastic_run_names_the_model_and_its_parameters(tmp_path):
     """``bondem export musen`` of an elastic-plastic run writes MUSEN's model, its
     parameters (no compressive fracture: 0) and the yield strength; imported back, the

@@ -87,6 +87,23 @@ MODELS = {
         5e4,
         {"model": '"weakening"', "yield_strength": "50000.0", "fracture_strain": "0.002",
          "compressive_fracture_strain": "0.004", "weakening_factor": "0.0"}),
+    "aerogel_cluster": (
+        lambda: cluster("3x3x3 cluster of aerogel bonds crushed past their compressive "
+                        "plastic strain and broken in tension past a hardening branch "
+                        "(MUSEN 1.74.2, ModelSBAerogel)",
+                        "Plastic strains 0.0008 in compression and 0.001 in tension, "
+                        "softness ratios -1 in compression (the force falls to zero at "
+                        "-0.0016: crushed) and +0.5 in tension (hardening), hardness 0.2 and "
+                        "0.3, breaking strain 0.0013 (reached at a strain of 0.0016).",
+                        20261206, 0.3, 100.0),
+        "ModelSBAerogel",
+        "PLASTIC_STRAIN_COMPR 0.0008 PLASTIC_STRAIN_TENS 0.001 SOFTNESS_RATIO_COMPR -1 "
+        "SOFTNESS_RATIO_TENS 0.5 BREAK_STRAIN_TENS 0.0013 HARDNESS_RATIO_COMPR 0.2 "
+        "HARDNESS_RATIO_TENS 0.3", None,
+        {"model": '"aerogel"', "compressive_plastic_strain": "0.0008",
+         "tensile_plastic_strain": "0.001", "compressive_softness": "-1.0",
+         "tensile_softness": "0.5", "tensile_break_strain": "0.0013",
+         "compressive_hardness": "0.2", "tensile_hardness": "0.3"}),
 }
 
 

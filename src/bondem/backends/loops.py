@@ -206,7 +206,7 @@ model_loads = body(_generated(
     bond)."""))
 
 _SPRINGS_ARGUMENTS = ("musen, b, time, dt, length, l0, diameter, n, f_n, f_t, m_n, m_t, "
-                      "mode, kn, kt, scatter")
+                      "mode, kn, kt, scatter, lp")
 model_springs = body(_generated(
     "model_springs", _SPRINGS_ARGUMENTS + ", columns, materials, m",
     lambda module: getattr(module, "SPRINGS", None) and [
@@ -218,7 +218,8 @@ model_springs = body(_generated(
     """The springs (F_n, F_t in N, M_n, M_t in N m) and break mode of bond b after the
     SPRINGS of the bond model with that code, which reads and writes its columns of
     ``columns`` (state.model_state) and scales its strengths by ``scatter`` (the bond's
-    strength factor); unchanged for a model without SPRINGS."""))
+    strength factor); lp: the bond's length in the previous step (m). Unchanged for a
+    model without SPRINGS."""))
 
 _ENERGY_ARGUMENTS = "length, l0, f_t, m_n, m_t, kn, kt, ktw, kb"
 model_bond_energy = body(_generated(
@@ -271,7 +272,7 @@ def advance_bond(b, bonds, materials, state, particles, box, time, dt, musen, lo
     code = materials.model[m]
     f_n, f_t, m_n, m_t, mode = model_springs(
         code, musen, b, time, dt, length, l0, diameter, n, f_n, f_t, m_n, m_t, mode, kn, kt,
-        scatter, state.model_state, materials, m)
+        scatter, state.previous_length[b], state.model_state, materials, m)
     if mode != INTACT:
         state.active[b] = False
         state.break_time[b] = time

@@ -64,7 +64,7 @@ def time_scales(model, bonds, reduced_mass, musen_compat=False):
 
 @physics
 def creep_springs(musen, b, time, dt, length, l0, diameter, n, f_n, f_t, m_n, m_t, mode,
-                  kn, kt, scatter, plastic_strain, unused, materials, m):
+                  kn, kt, scatter, lp, plastic_strain, unused, materials, m):
     """SPRINGS of the creep bond (module docstring): (F_n, F_t in N, M_n, M_t in N m, break
     mode, plastic strain for the next step, unused column, J dissipated by this step's
     yielding and creep). musen True: MUSEN's choices; None or False: bondem's."""

@@ -16,9 +16,9 @@ A bond model file declares, besides its ``@physics`` functions:
                 springs themselves (plasticity, creep, damage), called after the elastic
                 springs have been advanced and tested, before LOADS: (musen, b, time, dt,
                 length, l0, diameter, n, f_n, f_t, m_n, m_t, mode, k_n, k_t, scatter,
-                s1, s2, materials, m) -> (f_n, f_t, m_n, m_t, break mode, s1, s2, J lost
-                this step); scatter: the bond's strength factor (multiplies its
-                strengths); s1, s2 are its per-bond columns 1 and 2 of the state, the J
+                lp, s1, s2, materials, m) -> (f_n, f_t, m_n, m_t, break mode, s1, s2, J
+                lost this step); scatter: the bond's strength factor (multiplies its
+                strengths); lp: its length in the previous step (m); s1, s2 are its per-bond columns 1 and 2 of the state, the J
                 lost are added to column 0
     COLUMNS     with SPRINGS: what columns 1 and 2 hold, e.g. ("plastic strain (-)",)
     ENERGY      optional: name of its normal energy function (length, l0, k_n, s1, s2,

@@ -80,7 +80,7 @@ def parallel_damage(kappa, young_modulus, tensile_strength, softening):
 
 @physics
 def parallel_springs(musen, b, time, dt, length, l0, diameter, n, f_n, f_t, m_n, m_t, mode,
-                     kn, kt, scatter, kappa, damage, materials, m):
+                     kn, kt, scatter, lp, kappa, damage, materials, m):
     """SPRINGS of the parallel bond (module docstring): (F_n, F_t in N, M_n, M_t in N m,
     break mode, largest axial strain, damage, J dissipated by softening this step) of
     bond b of material m from the elastic springs (on i)."""

@@ -97,7 +97,7 @@ def plastic_normal_stress(strain, plastic_strain, young_modulus, yield_strength,
 
 @physics
 def plastic_springs(musen, b, time, dt, length, l0, diameter, n, f_n, f_t, m_n, m_t, mode,
-                    kn, kt, scatter, plastic_strain, unused, materials, m):
+                    kn, kt, scatter, lp, plastic_strain, unused, materials, m):
     """SPRINGS of the elastic-plastic bond (module docstring): (F_n, F_t in N, M_n, M_t in
     N m, break mode, plastic strain, unused column, J dissipated by this step's yielding),
     from the elastic springs f_n, f_t, m_n, m_t (on i) of bond b of material m and its

@@ -101,7 +101,7 @@ def counter_uniform(seed, b, k):
 
 @physics
 def weakening_springs(musen, b, time, dt, length, l0, diameter, n, f_n, f_t, m_n, m_t, mode,
-                      kn, kt, scatter, plastic_strain, draws, materials, m):
+                      kn, kt, scatter, lp, plastic_strain, draws, materials, m):
     """SPRINGS of the weakening bond (module docstring): (F_n, F_t in N, M_n, M_t in N m,
     break mode, plastic strain, draws made, J released by this step's drops)."""
     compat = False
