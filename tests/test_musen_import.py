@@ -138,6 +138,22 @@ def test_imported_aerogel_scene_reproduces_the_real_musen_run(tmp_path):
     assert np.flatnonzero(~sim.state.bond_active).tolist() == broken and len(broken) == 9
 
 
+def test_musen_linear_plastic_bond_imports_as_the_elastic_bond_it_is(tmp_path):
+    """MUSEN 1.74.2's ModelSBLinearPlastic with E > 2 Pa is its elastic bond: imported as
+    bondem's elastic bond (with a note) it follows MUSEN's run and its 36 breaks; with a
+    bond modulus of 2 Pa or less (where MUSEN uses KLoad, KUnload) it is refused."""
+    folder = KELVIN.parent / "linear_plastic_cluster"
+    sim, worst_x, worst_v, notes = run_imported(folder, tmp_path, musen_version="1.74.2")
+    assert worst_x < 1e-11 and worst_v < 1e-10, (worst_x, worst_v)
+    assert sim.model.bond_materials[0].model == "elastic"
+    assert any("ModelSBLinearPlastic" in note for note in notes)
+    assert int(np.sum(~sim.state.bond_active)) == 36
+    text = (folder / "musen_scene.txt").read_text().replace(" 7 100000000.0 ", " 7 1.5 ")
+    (tmp_path / "soft.txt").write_text(text)
+    with pytest.raises(InputError, match="<= 2 Pa"):
+        import_musen(tmp_path / "soft.txt", tmp_path / "soft", folder / "musen_script.txt")
+
+
 def test_an_exported_plastic_run_names_the_model_and_its_parameters(tmp_path):
     """``bondem export musen`` of an elastic-plastic run writes MUSEN's model, its
     parameters (no compressive fracture: 0) and the yield strength; imported back, the

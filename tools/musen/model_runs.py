@@ -104,6 +104,15 @@ MODELS = {
          "tensile_plastic_strain": "0.001", "compressive_softness": "-1.0",
          "tensile_softness": "0.5", "tensile_break_strain": "0.0013",
          "compressive_hardness": "0.2", "tensile_hardness": "0.3"}),
+    "linear_plastic_cluster": (
+        lambda: cluster("3x3x3 cluster of MUSEN's linear plastic bonds with E > 2 Pa, which "
+                        "MUSEN runs as its elastic bond, breaking by the combined "
+                        "criterion (MUSEN 1.74.2, ModelSBLinearPlastic)",
+                        "KLoad 1e6 and KUnload 3e6 (used by MUSEN only for a bond Young's "
+                        "modulus of 2 Pa or less), strengths 2.5e5 Pa.", 20261207, 0.3,
+                        100.0, strength=2.5e5),
+        "ModelSBLinearPlastic", "CONSIDER_BREAKAGE 1 KLoad 1000000 KUnload 3000000", None,
+        {}),
 }
 
 

@@ -342,6 +342,20 @@ def to_bondem(scene: MusenScene, script: dict | None, out_dir, *, end_time=None,
                 notes.append(f"interaction {a}-{b}: {name} {props[prop]:g} is not the mean "
                              f"of the pure pairs ({mean:g}), which bondem uses")
     model_sb = script.get("MODEL_SB", "ModelSBElastic").split()[0] if bonds else "ModelSBElastic"
+    if model_sb == "ModelSBLinearPlastic":
+        # MUSEN 1.74.2 runs its linear plastic bond as its elastic bond unless the bond's
+        # Young's modulus is 2 Pa or less (and registers it under the elastic bond's key)
+        soft = sorted(k for k in {o.compound for o in bonds}
+                      if scene.compounds.get(k, {}).get(YOUNG, 1e9) <= 2.0)
+        if soft:
+            raise InputError(f"solid bond model ModelSBLinearPlastic with bond Young's "
+                             f"modulus <= 2 Pa (compound {soft[0]!r}): its loading and "
+                             "unloading branches are not available in bondem",
+                             file=None, key="MODEL_SB")
+        notes.append("ModelSBLinearPlastic: MUSEN runs it as its elastic bond when the bond "
+                     "Young's modulus exceeds 2 Pa (KLoad, KUnload unused): imported as the "
+                     "elastic bond")
+        model_sb = "ModelSBElastic"
     if model_sb not in BOND_MODELS:
         raise InputError(f"solid bond model {model_sb}: not available in bondem "
                          f"(allowed: {', '.join(BOND_MODELS)})", file=None, key="MODEL_SB")
