@@ -75,7 +75,7 @@ def plastic_cluster():
     """bonded_cluster with elastic-perfectly plastic bonds (yielding at a quarter of the
     strength, breaking by strain), creep bonds,
     softening parallel bonds with Weibull strengths, weakening bonds drawing their drops,
-    aerogel bonds, elastic ones (a sixth each)."""
+    aerogel and plastic concrete bonds, elastic ones (a seventh each)."""
     model, state = bonded_cluster()
     elastic = model.bond_materials[0]
     plastic = bondem.BondMaterial(young_modulus=1e8, poisson_ratio=0.3,
@@ -98,12 +98,15 @@ def plastic_cluster():
                                   tensile_plastic_strain=1e-3, compressive_softness=-1.0,
                                   tensile_softness=0.5, tensile_break_strain=1.3e-3,
                                   name="aerogel")
-    index = np.arange(model.n_bonds) % 6
+    concrete = bondem.BondMaterial(young_modulus=1e8, poisson_ratio=0.3, model="concrete",
+                                   yield_strength=1e5, name="concrete")
+    index = np.arange(model.n_bonds) % 7
     return bondem.make_system(state.position, model.radius, model.materials[0],
                               velocity=state.velocity, angular_velocity=state.angular_velocity,
                               fixed=model.fixed, bonds=model.bond_pairs,
                               bond_diameter=model.bond_diameter,
-                              bond_material=[elastic, plastic, creep, rock, weak, aerogel],
+                              bond_material=[elastic, plastic, creep, rock, weak, aerogel,
+                                             concrete],
                               bond_material_index=index,
                               gravity=model.gravity, damping=model.damping)
 

@@ -154,6 +154,21 @@ def test_musen_linear_plastic_bond_imports_as_the_elastic_bond_it_is(tmp_path):
         import_musen(tmp_path / "soft.txt", tmp_path / "soft", folder / "musen_script.txt")
 
 
+def test_imported_concrete_scene_reproduces_musens_defective_run(tmp_path):
+    """MUSEN 1.74.2's ModelSBPlasticConcrete with its YIELD_STRENGTH: imported, it is
+    bondem's concrete bond with MUSEN's fixed ratios, and in the imported scene's
+    MUSEN-compatible mode it follows MUSEN's run, flying apart as MUSEN's does."""
+    folder = KELVIN.parent / "concrete_cluster"
+    sim, worst_x, worst_v, _ = run_imported(folder, tmp_path, musen_version="1.74.2")
+    assert worst_x < 1e-11 and worst_v < 1e-10, (worst_x, worst_v)
+    material = sim.model.bond_materials[0]
+    assert (material.model, material.yield_strength, material.tensile_yield_ratio,
+            material.tensile_softening, material.compressive_hardening,
+            material.tensile_failure) == ("concrete", 2e5, 0.7, 0.3, 0.5, True)
+    assert int(np.sum(~sim.state.bond_active)) == 29
+    assert np.abs(sim.state.velocity).max() > 10.0       # MUSEN's repulsive bonds
+
+
 def test_an_exported_plastic_run_names_the_model_and_its_parameters(tmp_path):
     """``bondem export musen`` of an elastic-plastic run writes MUSEN's model, its
     parameters (no compressive fracture: 0) and the yield strength; imported back, the

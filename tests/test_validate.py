@@ -260,11 +260,13 @@ def test_bond_model_rows_pass_and_fail_when_the_reference_is_wrong():
 
 
 @pytest.mark.parametrize("name", ["plastic_cluster", "creep_cluster", "weakening_cluster",
-                                  "aerogel_cluster", "linear_plastic_cluster"])
+                                  "aerogel_cluster", "linear_plastic_cluster",
+                                  "concrete_cluster"])
 def test_real_musen_plastic_runs_pass_in_compat_mode_and_are_info_in_spec_mode(name):
     """The packaged runs of the real MUSEN 1.74.2 with ModelSBElasticPerfectlyPlastic,
-    ModelSBCreep, ModelSBWeakening (factor 0), ModelSBAerogel and ModelSBLinearPlastic
-    (which MUSEN runs as its elastic bond at E > 2 Pa): with --compat musen
+    ModelSBCreep, ModelSBWeakening (factor 0), ModelSBAerogel, ModelSBLinearPlastic
+    (which MUSEN runs as its elastic bond at E > 2 Pa) and ModelSBPlasticConcrete (its
+    defects reproduced, the cluster flying apart): with --compat musen
     positions, velocities and spins within 1e-10 of the largest value (measured 2.5e-12,
     7.2e-13, 1.9e-12, 5.3e-12) and every bond that breaks (by strain; 16 by MUSEN's stress test) in MUSEN's
     step; SPEC mode's rows are information (MUSEN's tangential cap differs by design)."""

@@ -113,6 +113,15 @@ MODELS = {
                         100.0, strength=2.5e5),
         "ModelSBLinearPlastic", "CONSIDER_BREAKAGE 1 KLoad 1000000 KUnload 3000000", None,
         {}),
+    "concrete_cluster": (
+        lambda: cluster("3x3x3 cluster of MUSEN's plastic concrete bonds, whose defects "
+                        "(a repulsive normal force, a tangential force L0 / 1 m off) make "
+                        "it fly apart (MUSEN 1.74.2, ModelSBPlasticConcrete)",
+                        "Yield strength 2e5 Pa, CONSIDER_BREAKAGE 1; the run is kept to "
+                        "show that --compat musen reproduces MUSEN's defects, not as "
+                        "physics.", 20261208, 0.3, 100.0, steps=1000),
+        "ModelSBPlasticConcrete", "CONSIDER_BREAKAGE 1", 2e5,
+        {"model": '"concrete"', "yield_strength": "200000.0"}),
 }
 
 
