@@ -99,6 +99,6 @@ def test_without_creep_it_is_the_elastic_plastic_bond_to_the_bit():
 def test_creep_keys_need_the_creep_model_and_yield_keys_are_shared():
     with pytest.raises(ValueError, match="creep_rate = 0.01 needs model = 'creep'"):
         bondem.BondMaterial(young_modulus=1e8, model="elastic_plastic", creep_rate=0.01)
-    with pytest.raises(ValueError, match="needs model = 'creep' or 'elastic_plastic'"):
+    with pytest.raises(ValueError, match="needs model = .*'creep' or 'elastic_plastic'"):
         bondem.BondMaterial(young_modulus=1e8, yield_strength=1e5)
     assert creep(yield_strength=1e5, creep_rate=1e-9).yield_strength == 1e5

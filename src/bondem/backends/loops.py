@@ -233,7 +233,6 @@ model_bond_energy = body(_generated(
     code if it has one (a plastic bond's spring is stretched from its plastic length)."""))
 
 
-
 @body
 def zero_bond_loads(b, loads):
     """Bond b puts no load on its particles."""
