@@ -30,7 +30,8 @@ docs/bond_aerogel.md.
 import math
 
 from ._registry import physics
-from .bond_elastic import INTACT, TENSION, bond_break_mode
+from .bond_elastic import TENSION
+from .bond_plastic import strength_mode
 from .vector import scale
 
 NAME = "aerogel"
@@ -145,13 +146,9 @@ def aerogel_springs(musen, b, time, dt, length, l0, diameter, n, f_n, f_t, m_n, 
     f_n = scale(n, force * stiffness)    # MUSEN: -currentContact F, currentContact = -n
     if breaks:
         mode = TENSION
-    elif compat:
-        mode = INTACT
     else:
-        mode = bond_break_mode(length, l0, f_n, f_t, m_n, m_t, diameter,
-                               materials.normal_strength[m] * scatter,
-                               materials.tangential_strength[m] * scatter,
-                               materials.breakage[m], materials.compressive_breakage[m])
+        mode = strength_mode(compat, length, l0, f_n, f_t, m_n, m_t, diameter, scatter,
+                             materials, m)
     return f_n, f_t, m_n, m_t, mode, carried, state, lost
 
 

@@ -33,8 +33,9 @@ not G A / L0 (L0 / 1 m times too stiff, for MUSEN's overlap in m).
 import math
 
 from ._registry import physics
-from .bond_elastic import INTACT, TENSION, bond_break_mode, bond_loads_on_particles
-from .bond_plastic import PARAMETERS as PLASTIC, plastic_normal_energy  # noqa: F401
+from .bond_elastic import TENSION, bond_loads_on_particles
+from .bond_plastic import PARAMETERS as PLASTIC, plastic_normal_energy, \
+    strength_mode  # noqa: F401  (plastic_normal_energy: the ENERGY it shares)
 from .vector import scale
 
 NAME = "concrete"
@@ -121,13 +122,9 @@ def concrete_springs(musen, b, time, dt, length, l0, diameter, n, f_n, f_t, m_n,
         f_n = scale(n, stress * area)
     if softened and materials.tensile_failure[m]:
         mode = TENSION
-    elif compat:
-        mode = INTACT
     else:
-        mode = bond_break_mode(length, l0, f_n, f_t, m_n, m_t, diameter,
-                               materials.normal_strength[m] * scatter,
-                               materials.tangential_strength[m] * scatter,
-                               materials.breakage[m], materials.compressive_breakage[m])
+        mode = strength_mode(compat, length, l0, f_n, f_t, m_n, m_t, diameter, scatter,
+                             materials, m)
     return f_n, f_t, m_n, m_t, mode, strain_p, unused, lost
 
 

@@ -25,10 +25,10 @@ MUSEN; bondem's own law stops it at zero. docs/bond_creep.md.
 import math
 
 from ._registry import physics
-from .bond_elastic import COMPRESSION, CRITERION_COMBINED, INTACT, TENSION, bond_break_mode
+from .bond_elastic import CRITERION_COMBINED, INTACT
 from .bond_elastic_musen import bond_break_mode_musen
 from .bond_plastic import PARAMETERS as PLASTIC, UNITS as PLASTIC_UNITS, \
-    plastic_normal_energy, plastic_normal_stress  # noqa: F401  (ENERGY is shared)
+    fracture_mode, plastic_normal_energy, plastic_yield, strength_mode  # noqa: F401
 from .vector import dot, norm, scale
 
 NAME = "creep"
@@ -73,20 +73,13 @@ def creep_springs(musen, b, time, dt, length, l0, diameter, n, f_n, f_t, m_n, m_
         compat = musen
     radius = 0.5 * diameter
     area = math.pi * radius * radius
-    young = materials.young_modulus[m]
-    yield_strength = materials.yield_strength[m] * scatter
     rate = materials.creep_rate[m]
     exponent = materials.creep_exponent[m]
     strain = (length - l0) / l0
-    stress, strain_p, limit = plastic_normal_stress(
-        strain, plastic_strain, young, yield_strength, materials.compressive_yield_ratio[m])
-    lost = 0.0
-    if strain_p != plastic_strain:
-        lost = limit * area * l0 * abs(strain_p - plastic_strain)
-    if compat:
-        f_n = scale(scale(n, stress), area)
-    else:
-        f_n = scale(n, stress * area)
+    f_n, f_t, stress, strain_p, _, lost = plastic_yield(
+        compat, strain, plastic_strain, n, f_t, area, l0, kt, materials.young_modulus[m],
+        materials.yield_strength[m] * scatter, materials.compressive_yield_ratio[m],
+        materials.tangential_yield[m])
     creep = dt * rate * math.pow(abs(stress), exponent)
     if stress > 0.0:
         strain_p += creep
@@ -94,14 +87,6 @@ def creep_springs(musen, b, time, dt, length, l0, diameter, n, f_n, f_t, m_n, m_
         strain_p -= creep
     lost += abs(stress) * area * l0 * creep
     size = norm(f_t)
-    if materials.tangential_yield[m] and size > yield_strength * area:
-        cap = yield_strength * area
-        if compat:
-            cap = limit * area
-        f_t_new = scale(f_t, cap / size)
-        lost += 0.5 * (size * size - dot(f_t_new, f_t_new)) / kt
-        f_t = f_t_new
-        size = norm(f_t)
     if size > 0.0 and rate > 0.0:
         shear_modulus = kt * l0 / area
         factor = 1.0 - dt * rate * math.pow(size / area, exponent) * shear_modulus * area / size
@@ -110,21 +95,17 @@ def creep_springs(musen, b, time, dt, length, l0, diameter, n, f_n, f_t, m_n, m_
         f_t_new = scale(f_t, factor)
         lost += 0.5 * (size * size - dot(f_t_new, f_t_new)) / kt
         f_t = f_t_new
-    if strain > materials.fracture_strain[m]:
-        mode = TENSION
-    elif strain < -materials.compressive_fracture_strain[m]:
-        mode = COMPRESSION
-    elif compat:
-        mode = INTACT
-        if materials.normal_strength[m] != math.inf or \
-                materials.tangential_strength[m] != math.inf:
-            mode = bond_break_mode_musen(length, l0, f_n, f_t, m_n, m_t, diameter,
-                                         materials.normal_strength[m] * scatter,
-                                         materials.tangential_strength[m] * scatter,
-                                         CRITERION_COMBINED)
-    else:
-        mode = bond_break_mode(length, l0, f_n, f_t, m_n, m_t, diameter,
-                               materials.normal_strength[m] * scatter,
-                               materials.tangential_strength[m] * scatter,
-                               materials.breakage[m], materials.compressive_breakage[m])
+    mode = fracture_mode(strain, materials, m)
+    if mode == INTACT:
+        if compat:
+            if materials.normal_strength[m] != math.inf or \
+                    materials.tangential_strength[m] != math.inf:
+                # MUSEN's FRACTURE_BY_STRESS: its combined criterion (1.70's criterion 1)
+                mode = bond_break_mode_musen(length, l0, f_n, f_t, m_n, m_t, diameter,
+                                             materials.normal_strength[m] * scatter,
+                                             materials.tangential_strength[m] * scatter,
+                                             CRITERION_COMBINED)
+        else:
+            mode = strength_mode(compat, length, l0, f_n, f_t, m_n, m_t, diameter, scatter,
+                                 materials, m)
     return f_n, f_t, m_n, m_t, mode, strain_p, unused, lost

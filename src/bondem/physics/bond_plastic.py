@@ -96,6 +96,59 @@ def plastic_normal_stress(strain, plastic_strain, young_modulus, yield_strength,
 
 
 @physics
+def plastic_yield(compat, strain, plastic_strain, n, f_t, area, l0, kt, young,
+                  yield_strength, ratio, tangential_yield):
+    """The yield caps of the elastic-plastic bond (module docstring), shared by the creep
+    bond: (F_n on i in N, F_t in N, normal stress in Pa, plastic strain, the yield limit
+    in Pa that applied, J dissipated), from the strain (-) and the carried plastic strain,
+    the spring's F_t (N), the bond's area (m^2), L0 (m), k_t (N/m), E and the yield stress
+    (Pa). compat: MUSEN's tangential cap at the limit of the normal trial stress."""
+    stress, strain_p, limit = plastic_normal_stress(strain, plastic_strain, young,
+                                                    yield_strength, ratio)
+    lost = 0.0
+    if strain_p != plastic_strain:
+        lost = limit * area * l0 * abs(strain_p - plastic_strain)
+    if compat:
+        f_n = scale(scale(n, stress), area)
+    else:
+        f_n = scale(n, stress * area)
+    if tangential_yield:
+        size = norm(f_t)
+        if size > yield_strength * area:
+            cap = yield_strength * area
+            if compat:
+                cap = limit * area
+            f_t_new = scale(f_t, cap / size)
+            lost += 0.5 * (size * size - dot(f_t_new, f_t_new)) / kt
+            f_t = f_t_new
+    return f_n, f_t, stress, strain_p, limit, lost
+
+
+@physics
+def fracture_mode(strain, materials, m):
+    """TENSION past fracture_strain, COMPRESSION past -compressive_fracture_strain, else
+    INTACT: the strain test of the plastic family (MUSEN's fracture strains)."""
+    if strain > materials.fracture_strain[m]:
+        return TENSION
+    if strain < -materials.compressive_fracture_strain[m]:
+        return COMPRESSION
+    return INTACT
+
+
+@physics
+def strength_mode(compat, length, l0, f_n, f_t, m_n, m_t, diameter, scatter, materials, m):
+    """The elastic bond's stress criterion on the material's strengths times the bond's
+    strength factor, which bondem's law adds to the models that MUSEN breaks otherwise;
+    INTACT with compat (MUSEN's models have no such test)."""
+    if compat:
+        return INTACT
+    return bond_break_mode(length, l0, f_n, f_t, m_n, m_t, diameter,
+                           materials.normal_strength[m] * scatter,
+                           materials.tangential_strength[m] * scatter,
+                           materials.breakage[m], materials.compressive_breakage[m])
+
+
+@physics
 def plastic_springs(musen, b, time, dt, length, l0, diameter, n, f_n, f_t, m_n, m_t, mode,
                     kn, kt, scatter, lp, plastic_strain, unused, materials, m):
     """SPRINGS of the elastic-plastic bond (module docstring): (F_n, F_t in N, M_n, M_t in
@@ -107,38 +160,15 @@ def plastic_springs(musen, b, time, dt, length, l0, diameter, n, f_n, f_t, m_n, 
         compat = musen
     radius = 0.5 * diameter
     area = math.pi * radius * radius
-    young = materials.young_modulus[m]
-    yield_strength = materials.yield_strength[m] * scatter
     strain = (length - l0) / l0
-    stress, strain_p, limit = plastic_normal_stress(
-        strain, plastic_strain, young, yield_strength, materials.compressive_yield_ratio[m])
-    lost = 0.0
-    if strain_p != plastic_strain:
-        lost = limit * area * l0 * abs(strain_p - plastic_strain)
-    if compat:
-        f_n = scale(scale(n, stress), area)
-    else:
-        f_n = scale(n, stress * area)
-    if materials.tangential_yield[m]:
-        size = norm(f_t)
-        if size > yield_strength * area:
-            cap = yield_strength * area
-            if compat:
-                cap = limit * area
-            f_t_new = scale(f_t, cap / size)
-            lost += 0.5 * (size * size - dot(f_t_new, f_t_new)) / kt
-            f_t = f_t_new
-    if strain > materials.fracture_strain[m]:
-        mode = TENSION
-    elif strain < -materials.compressive_fracture_strain[m]:
-        mode = COMPRESSION
-    elif compat:
-        mode = INTACT
-    else:
-        mode = bond_break_mode(length, l0, f_n, f_t, m_n, m_t, diameter,
-                               materials.normal_strength[m] * scatter,
-                               materials.tangential_strength[m] * scatter,
-                               materials.breakage[m], materials.compressive_breakage[m])
+    f_n, f_t, _, strain_p, _, lost = plastic_yield(
+        compat, strain, plastic_strain, n, f_t, area, l0, kt, materials.young_modulus[m],
+        materials.yield_strength[m] * scatter, materials.compressive_yield_ratio[m],
+        materials.tangential_yield[m])
+    mode = fracture_mode(strain, materials, m)
+    if mode == INTACT:
+        mode = strength_mode(compat, length, l0, f_n, f_t, m_n, m_t, diameter, scatter,
+                             materials, m)
     return f_n, f_t, m_n, m_t, mode, strain_p, unused, lost
 
 

@@ -26,8 +26,9 @@ do not matter and a real MUSEN run is followed to round-off (docs/bond_weakening
 import math
 
 from ._registry import physics
-from .bond_elastic import COMPRESSION, INTACT, TENSION, bond_break_mode
-from .bond_plastic import PARAMETERS as PLASTIC, plastic_normal_energy  # noqa: F401
+from .bond_elastic import INTACT
+from .bond_plastic import PARAMETERS as PLASTIC, fracture_mode, plastic_normal_energy, \
+    strength_mode  # noqa: F401  (plastic_normal_energy: the ENERGY it shares)
 from .vector import dot, norm, scale
 
 NAME = "weakening"
@@ -133,15 +134,8 @@ def weakening_springs(musen, b, time, dt, length, l0, diameter, n, f_n, f_t, m_n
         count += 1
         lost += 0.5 * (size * size - dot(f_t_new, f_t_new)) / kt
         f_t = f_t_new
-    if strain > materials.fracture_strain[m]:
-        mode = TENSION
-    elif strain < -materials.compressive_fracture_strain[m]:
-        mode = COMPRESSION
-    elif compat:
-        mode = INTACT
-    else:
-        mode = bond_break_mode(length, l0, f_n, f_t, m_n, m_t, diameter,
-                               materials.normal_strength[m] * scatter,
-                               materials.tangential_strength[m] * scatter,
-                               materials.breakage[m], materials.compressive_breakage[m])
+    mode = fracture_mode(strain, materials, m)
+    if mode == INTACT:
+        mode = strength_mode(compat, length, l0, f_n, f_t, m_n, m_t, diameter, scatter,
+                             materials, m)
     return f_n, f_t, m_n, m_t, mode, plastic_strain, float(count), lost
