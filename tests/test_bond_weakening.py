@@ -11,7 +11,7 @@ from scipy import stats
 import bondem
 from bondem.physics.bond_weakening import counter_uniform
 
-from bondtools import BOND_DIAMETER, SPACING
+from bondtools import BOND_DIAMETER, SPACING, pairs_along_x
 
 YOUNG = 1e8
 YIELD = 1.5e5
@@ -26,19 +26,9 @@ def weakening(**kw):
     return bondem.BondMaterial(**values)
 
 
-def pulled_pairs(n, material, speed=1e-3):
-    """n pairs far apart along y, particle 2k clamped, 2k+1 pulled along +x."""
-    position = np.zeros((2 * n, 3))
-    position[0::2, 1] = position[1::2, 1] = np.arange(n) * 10e-3
-    position[1::2, 0] = SPACING
-    velocity = np.zeros((2 * n, 3))
-    velocity[1::2, 0] = speed
-    glass = bondem.Material(density=2500.0, young_modulus=1e8, poisson_ratio=0.3)
-    model, state = bondem.make_system(
-        position, 1e-3, glass, velocity=velocity, fixed=np.ones(2 * n, bool),
-        bonds=np.column_stack([np.arange(0, 2 * n, 2), np.arange(1, 2 * n, 2)]),
-        bond_diameter=BOND_DIAMETER, bond_material=material)
-    return bondem.Simulation(model, state, time_step=DT)
+def pulled_pairs(n, material):
+    """A simulation of bondtools.pairs_along_x at DT."""
+    return bondem.Simulation(*pairs_along_x(n, material), time_step=DT)
 
 
 def test_the_draws_are_uniform_and_a_function_of_seed_bond_and_count():

@@ -10,24 +10,11 @@ from scipy import stats
 
 import bondem
 
+from bondtools import pairs_along_x
+
 E = 1e8
 AREA = math.pi * 0.5e-3 ** 2
 SPACING = 2e-3
-
-
-def pairs_along_x(n, material, speed=1e-3):
-    """n bonded pairs far apart, particle 2k clamped, 2k+1 pulled along +x at speed."""
-    position = np.zeros((2 * n, 3))
-    position[0::2, 1] = position[1::2, 1] = np.arange(n) * 10e-3
-    position[1::2, 0] = SPACING
-    velocity = np.zeros((2 * n, 3))
-    velocity[1::2, 0] = speed
-    glass = bondem.Material(density=2500.0, young_modulus=1e8, poisson_ratio=0.3)
-    return bondem.make_system(position, 1e-3, glass, velocity=velocity,
-                              fixed=np.ones(2 * n, bool),
-                              bonds=np.column_stack([np.arange(0, 2 * n, 2),
-                                                     np.arange(1, 2 * n, 2)]),
-                              bond_diameter=1e-3, bond_material=material)
 
 
 @pytest.mark.parametrize("scatter, spread, law", [

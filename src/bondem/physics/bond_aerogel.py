@@ -119,6 +119,15 @@ def aerogel_stiffness(state, materials, m):
 
 
 @physics
+def aerogel_held(force, slope, stiffness, l0):
+    """J held by the axial spring at force / K = ``force`` on a branch of ``slope`` (over
+    E A / L0; 0 holds nothing), K = ``stiffness`` = E A (N), L0 in m: F^2 / (2 k)."""
+    if slope <= 0.0:
+        return 0.0
+    return 0.5 * force * force * stiffness * l0 / slope
+
+
+@physics
 def aerogel_springs(musen, b, time, dt, length, l0, diameter, n, f_n, f_t, m_n, m_t, mode,
                     kn, kt, scatter, lp, carried, state, materials, m):
     """SPRINGS of the aerogel bond (module docstring): (F_n, F_t in N, M_n, M_t in N m,
@@ -136,13 +145,8 @@ def aerogel_springs(musen, b, time, dt, length, l0, diameter, n, f_n, f_t, m_n, 
     slope = aerogel_stiffness(state, materials, m)
     # work of the axial force over the step (trapezoidal) less the change of what it holds
     work = 0.5 * (old_force + force) * stiffness * (length - lp)
-    held = 0.0
-    if slope > 0.0:
-        held = 0.5 * force * force * stiffness * l0 / slope
-    held_before = 0.0
-    if old_slope > 0.0:
-        held_before = 0.5 * old_force * old_force * stiffness * l0 / old_slope
-    lost = work - (held - held_before)
+    lost = work - (aerogel_held(force, slope, stiffness, l0)
+                   - aerogel_held(old_force, old_slope, stiffness, l0))
     f_n = scale(n, force * stiffness)    # MUSEN: -currentContact F, currentContact = -n
     if breaks:
         mode = TENSION
@@ -156,7 +160,4 @@ def aerogel_springs(musen, b, time, dt, length, l0, diameter, n, f_n, f_t, m_n, 
 def aerogel_normal_energy(length, l0, kn, carried, state, materials, m):
     """ENERGY of the aerogel bond: F^2 / (2 k), k = k_n times its state's slope (J)."""
     force, _, _, _ = aerogel_normal((length - l0) / l0, carried, state, materials, m)
-    slope = aerogel_stiffness(state, materials, m)
-    if slope <= 0.0:
-        return 0.0
-    return 0.5 * force * force * kn * l0 * l0 / slope
+    return aerogel_held(force, aerogel_stiffness(state, materials, m), kn * l0, l0)
