@@ -621,12 +621,14 @@ def case_contacts_match_cpu():
     assert gpu_law.rebuilds >= 3 and touching >= 5
 
 
-def falling_clusters(seed=11, periodic=False):
+def falling_clusters(seed=11, periodic=False, keys=None):
     """Two bonded 2x2x2 clusters and 8 loose spheres (24 in all, two materials) falling
     onto a plane (z = 0) beside a tilted, moving and turning two-triangle mesh wall, with
     spins, gravity and weak bonds: particle contacts, wall contacts of both kinds and
     breakage within tens of steps. periodic: x periodic with a period of 12.08 r, so that the row of six
-    closes across the boundary (its ends overlap by 0.02 r)."""
+    closes across the boundary (its ends overlap by 0.02 r). keys: contact model keys
+    given to every material (the two particle materials get 1 and 1.5 times each value)."""
+    keys = keys or {}
     rng = np.random.default_rng(seed)
     r = 1e-3
     cube = np.array([[x, y, z] for x in range(2) for y in range(2) for z in range(2)],
@@ -648,9 +650,10 @@ def falling_clusters(seed=11, periodic=False):
     velocity[:8, 0] += 1.0    # the clusters converge and hit each other
     velocity[8:16, 0] -= 1.0
     glass = bondem.Material(density=2500.0, young_modulus=1e8, poisson_ratio=0.3,
-                            restitution=0.6, friction=0.4, rolling_friction=0.05)
+                            restitution=0.6, friction=0.4, rolling_friction=0.05, **keys)
     steel = bondem.Material(density=7800.0, young_modulus=2e8, poisson_ratio=0.28,
-                            restitution=0.8, friction=0.3, rolling_friction=0.02)
+                            restitution=0.8, friction=0.3, rolling_friction=0.02,
+                            **{k: 1.5 * v for k, v in keys.items()})
     binder = bondem.BondMaterial(young_modulus=1e8, poisson_ratio=0.3, normal_strength=3e5,
                                  tangential_strength=3e5)
     model, state = bondem.make_system(
@@ -661,7 +664,8 @@ def falling_clusters(seed=11, periodic=False):
                 box_high=(11.02 * r, 0.1, 0.1)) if periodic else {}))
     from bondem.walls import MeshWall, PlaneWall
     wall_material = bondem.Material(density=7800.0, young_modulus=2e8, poisson_ratio=0.3,
-                                    restitution=0.7, friction=0.5, rolling_friction=0.03)
+                                    restitution=0.7, friction=0.5, rolling_friction=0.03,
+                                    **keys)
     # A square tilted 45 degrees about y, its lower edge under the first cluster's x = 0
     # face, 0.99 r from the lower spheres of that face (moving at them: they touch it).
     x0 = -0.37 * r
@@ -756,6 +760,29 @@ def case_musen_contacts_walls_match_cpu():
                                steps=30, musen_compat=True)
     assert np.any(cpu.extra["contact_tangential"] != 0.0)
     assert np.any(cpu.extra["wall_tangential"] != 0.0)
+
+
+# Adhesive laws strong enough to act within the case's 30 steps on 1 mm spheres.
+ADHESIVE = {"jkr": {"surface_energy": 2.0},
+            "vdw": {"hamaker_constant": 1e-17, "vdw_cutoff": 3e-5, "vdw_min_distance": 4e-7},
+            "liquid_bridge": {"surface_tension": 0.07, "contact_angle": 20.0,
+                              "bridge_volume": 2e-12, "viscosity": 1e-3,
+                              "bridge_min_gap": 2e-6}}
+
+
+def case_adhesive_contacts_match_cpu():
+    """Every adhesive contact model (JKR, van der Waals, liquid bridge; JKR and van der
+    Waals also in MUSEN's numerics) with a plane, a moving mesh wall and breakage: the
+    CUDA kernels dispatch on the model's code as the CPU's do, GPU equals CPU."""
+    from bondem.contacts import ContactSettings
+    for name, keys in ADHESIVE.items():
+        for musen in ((False, True) if name != "liquid_bridge" else (False,)):
+            print(f"-- {name}, musen_compat {musen}")
+            cpu = compare_contact_runs(lambda: falling_clusters(keys=keys),
+                                       ContactSettings(model=name), steps=20,
+                                       musen_compat=musen)
+            assert np.any(cpu.extra["contact_energy"] < 0.0) or musen, \
+                "the case must have an adhesive contact"
 
 
 def case_contacts_linear_rebuilds():

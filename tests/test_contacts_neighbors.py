@@ -382,8 +382,8 @@ def test_contact_kernel_gives_the_same_bits_however_its_chunks_are_shared():
         dissipated = np.zeros(extra["contact_pairs"].shape[0])
         cc.particle_contacts(
             law._live, law._quiet, extra["contact_pairs"], law._pair_bond, state.bond_active,
-            cpu.particles(state), law.grains(model), law._materials, law.pair_law,
-            law._linear_stiffness, False, cpu.box(model),
+            cpu.particles(state), law.grains(model), law._materials, law._law,
+            law.reach()[0], False, cpu.box(model),
             cc.pair_rows(extra, dissipated), sim.time_step, sim.time_step, None, work,
             threads)
         evaluated = (work - np.diff(np.minimum(np.arange(m + 1) * cpu.CHUNK,

@@ -124,6 +124,14 @@ def test_musen_contacts_and_walls_match_cpu_under_simulator():
     assert "contact_tangential" in out and "wall_tangential" in out
 
 
+def test_adhesive_contacts_match_cpu_under_simulator():
+    """JKR, van der Waals and liquid bridges (JKR and van der Waals also MUSEN's) on the
+    same scene: the kernels dispatch on the contact model's code on both backends, and
+    every history row, wall load and energy term equals the CPU's to 1e-12."""
+    out = run_case("adhesive_contacts_match_cpu")
+    assert out.count("worst relative difference") == 5
+
+
 def test_contact_list_rebuilds_match_cpu_under_simulator():
     """Linear contacts with a small skin, x periodic (a contact across the boundary): the
     lists are rebuilt every few steps (on the host, springs carried), the GPU run is
@@ -170,6 +178,7 @@ def _has_gpu():
                                   "blow_up_flag",
                                   "neighbour_search", "history_remap", "contact_kernel",
                                   "contacts_match_cpu", "contacts_walls_match_cpu",
+                                  "adhesive_contacts_match_cpu",
                                   "contacts_linear_rebuilds"])
 def test_cases_on_device(case):
     """The simulator cases again on the real device (fused multiply-add may change bits,

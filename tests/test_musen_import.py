@@ -229,14 +229,16 @@ def test_imported_shared_runs_reproduce_the_real_musen(tmp_path, run):
 
 
 @pytest.mark.parametrize("run", ["contacts", "moving_wall", "rotating_wall",
-                                 "contacts_1.74.2"])
+                                 "contacts_1.74.2", "jkr_cluster", "vdw_cluster"])
 def test_imported_contact_scenes_reproduce_the_real_musen(tmp_path, run):
     """MUSEN's text scenes with contacts: the plane becomes a two-triangle mesh wall (the
     moving one with its velocity, the turning one with its spin), the contacts MUSEN's
     Hertz-Mindlin of the release that made the run; trajectories to round-off
     (docs/musen_compat.md, Contacts). contacts_1.74.2 is MUSEN 1.74.2's text (every
-    object's activity written out), imported with the default release."""
-    if run.endswith("1.74.2"):
+    object's activity written out), imported with the default release; so are the
+    clusters of 1.74.2's JKR and van der Waals models, whose surface energy (property 11)
+    becomes the material's surface_energy or Hamaker constant 24 pi Dmin^2 w."""
+    if run.endswith("1.74.2") or run.endswith("_cluster"):
         sim, worst_x, worst_v, notes = run_imported(KELVIN.parent / run, tmp_path,
                                                     musen_version="1.74.2")
         assert sim.musen_version == "1.74.2"

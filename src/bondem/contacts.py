@@ -36,7 +36,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .physics.contact_linear import LINEAR_REFERENCE_OVERLAP, MODEL_HERTZ, MODEL_LINEAR
+from .physics import contact_models
+from .physics.contact_linear import LINEAR_REFERENCE_OVERLAP
 
 PAIR_HISTORY = {"contact_spring": (3,), "contact_force": (3,), "contact_moment_i": (3,),
                 "contact_moment_j": (3,), "contact_energy": ()}
@@ -45,16 +46,34 @@ WALL_HISTORY = {"wall_spring": (3,), "wall_force_rows": (3,), "wall_moment_rows"
 # Kept by MUSEN-compatible runs only (ContactLaw.history): no SPEC run carries them.
 MUSEN_PAIR_HISTORY = {"contact_tangential": (3,)}
 MUSEN_WALL_HISTORY = {"wall_tangential": (3,)}
-MODELS = {"hertz_mindlin": MODEL_HERTZ, "linear": MODEL_LINEAR, "none": -1}
+# The contact models (physics/contact_models.py) by name, and "none": -1.
+MODELS = {**{m.NAME: m.CODE for m in contact_models.MODELS}, "none": -1}
 
 
-def contact_cutoff(radius, skin=None):
-    """(cut-off 2 r_max + skin, skin) in m of the pair search for particle radii ``radius``
-    (m); skin: the Verlet skin (m), default a fifth of the mean radius."""
+def contact_cutoff(radius, skin=None, reach=0.0):
+    """(cut-off 2 r_max + reach + skin, skin) in m of the pair search for particle radii
+    ``radius`` (m); skin: the Verlet skin (m), default a fifth of the mean radius; reach:
+    the contact law's longest range beyond contact (m, ``contact_reach``)."""
     radius = np.asarray(radius, dtype=np.float64)
     if skin is None:
         skin = 0.2 * float(radius.mean()) if radius.size else 0.0
-    return 2.0 * float(radius.max(initial=0.0)) + skin, skin
+    return 2.0 * float(radius.max(initial=0.0)) + reach + skin, skin
+
+
+def material_parameters(module, material):
+    """{key: value} of contact model ``module``'s PARAMETERS for a Material."""
+    return {key: float(getattr(material, key)) for key in module.PARAMETERS}
+
+
+def contact_reach(module, pair, radius_max):
+    """Longest gap (m) across which contact model ``module`` acts, over the rows of its
+    pair table ``pair``, for R* up to ``radius_max`` (m; a REACH grows with R*): 0 for a
+    law without REACH."""
+    reach_of = getattr(module, "REACH", None)
+    if not reach_of or radius_max <= 0.0:
+        return 0.0
+    function = getattr(module, reach_of)
+    return max(float(function(pair, q, radius_max)) for q in range(pair.shape[0]))
 
 
 @dataclass(frozen=True)

@@ -12,39 +12,65 @@ from dataclasses import dataclass, field, fields, make_dataclass
 
 import numpy as np
 
-from .physics import bond_models
+from .physics import bond_models, contact_models
 from .physics.bond_elastic import CRITERION_CODES
 from .physics.bond_models import bond_material_schema
 
 INDEX = np.int64
 
 
-@dataclass(frozen=True)
-class Material:
-    """Particle material.
+# The particle material's own keys (schema entries as scene.py's), then each contact
+# model's (physics/contact_models.py).
+BASE_MATERIAL_KEYS = {
+    "density": ("number", None, 0.0, math.inf, False, False),
+    "young_modulus": ("number", None, 0.0, math.inf, False, False),
+    "poisson_ratio": ("number", 0.3, -1.0, 0.5, False, False),
+    "restitution": ("number", 0.5, 0.0, 1.0, False, True),
+    "friction": ("number", 0.3, 0.0, math.inf, True, False),
+    "rolling_friction": ("number", 0.0, 0.0, math.inf, True, False),
+}
 
-    density: kg/m^3; young_modulus: Pa; poisson_ratio: -; restitution: coefficient of
-    restitution in (0, 1]; friction: Coulomb sliding friction; rolling_friction: rolling
-    resistance coefficient (dimensionless, times radius gives the lever arm).
-    """
-    density: float
-    young_modulus: float
-    poisson_ratio: float = 0.3
-    restitution: float = 0.5
-    friction: float = 0.3
-    rolling_friction: float = 0.0
-    name: str = "material"
 
-    def __post_init__(self):
-        _check_range(f"material {self.name!r}", "density", self.density, 0.0, math.inf)
-        _check_range(f"material {self.name!r}", "young_modulus", self.young_modulus, 0.0, math.inf)
-        _check_range(f"material {self.name!r}", "poisson_ratio", self.poisson_ratio, -1.0, 0.5)
-        _check_range(f"material {self.name!r}", "restitution", self.restitution, 0.0, 1.0,
-                     include_high=True)
-        _check_range(f"material {self.name!r}", "friction", self.friction, 0.0, math.inf,
-                     include_low=True)
-        _check_range(f"material {self.name!r}", "rolling_friction", self.rolling_friction,
-                     0.0, math.inf, include_low=True)
+def material_schema():
+    """Every particle material key with its schema entry: the base keys, then the contact
+    models' PARAMETERS."""
+    return {**BASE_MATERIAL_KEYS, **contact_models.material_schema()}
+
+
+def _material_post_init(self):
+    for key, (_kind, _default, low, high, include_low, include_high) in \
+            material_schema().items():
+        _check_range(f"material {self.name!r}", key, getattr(self, key), low, high,
+                     include_low, include_high)
+    values = {key: getattr(self, key) for key in material_schema()}
+    for module in contact_models.MODELS:
+        for key, message in getattr(module, "check", lambda v: [])(values):
+            raise ValueError(f"material {self.name!r}: {message}")
+
+
+def _material_class():
+    """Material: density, young_modulus, the contact keys, name, then the contact models'
+    parameters (keyword arguments, each with a default that leaves its law inert)."""
+    fields_ = []
+    for key, (_kind, default, *_rest) in BASE_MATERIAL_KEYS.items():
+        fields_.append((key, float) if default is None
+                       else (key, float, field(default=default)))
+    fields_.append(("name", str, field(default="material")))
+    for key, (_kind, default, *_rest) in contact_models.material_schema().items():
+        fields_.append((key, float, field(default=default)))
+    units = contact_models.units()
+    doc = ("Particle material (also a wall's).\n\n    density: kg/m^3; young_modulus: Pa; "
+           "poisson_ratio: -; restitution: coefficient of restitution in (0, 1]; friction: "
+           "Coulomb sliding friction; rolling_friction: rolling resistance coefficient "
+           "(dimensionless, times radius gives the lever arm); the contact models' keys "
+           "(physics/contact_models.py): "
+           + "; ".join(f"{k}: {u}" for k, u in units.items()) + ".")
+    return make_dataclass("Material", fields_, frozen=True,
+                          namespace={"__post_init__": _material_post_init, "__doc__": doc,
+                                     "__module__": __name__})
+
+
+Material = _material_class()
 
 
 def _bond_material_post_init(self):

@@ -18,13 +18,14 @@ import numpy as np
 from .errors import InputError, decode_text, unknown_key
 from .generate import bonds_from_gap, particles_from_generator
 from .io.csv_files import read_bonds, read_particles
-from .model import BondMaterial, Material, bond_material_schema, make_system
+from .model import BondMaterial, Material, bond_material_schema, make_system, material_schema
+from .physics import contact_models
 from .physics import bond_models
 from .physics._registry import REQUIRED as _REQUIRED
 from .physics.contact_hertz_musen import MUSEN_VERSION, MUSEN_VERSIONS
 
 BACKENDS = ("cpu", "gpu")
-CONTACT_MODELS = ("hertz_mindlin", "linear", "none")
+CONTACT_MODELS = (*contact_models.NAMES, "none")   # declared by physics/contact_*.py
 
 # Each schema entry: key -> (kind, default, low, high, include_low, include_high).
 # kind: "number", "int", "bool", "str", "vector3", "bool3", "time_step", "table", "any".
@@ -52,14 +53,9 @@ SIMULATION_KEYS = {
     "checkpoint_minutes": ("number", 10.0, 0.0, INF, True, False),
     "max_steps": ("number", 1e9, 0.0, INF, False, True),
 }
-MATERIAL_KEYS = {
-    "density": ("number", REQUIRED, 0.0, INF, False, False),
-    "young_modulus": ("number", REQUIRED, 0.0, INF, False, False),
-    "poisson_ratio": ("number", 0.3, -1.0, 0.5, False, False),
-    "restitution": ("number", 0.5, 0.0, 1.0, False, True),
-    "friction": ("number", 0.3, 0.0, INF, True, False),
-    "rolling_friction": ("number", 0.0, 0.0, INF, True, False),
-}
+# declared by model.py and the contact models (physics/contact_models.py)
+MATERIAL_KEYS = {key: ("number", REQUIRED if entry[1] is None else entry[1], *entry[2:])
+                 for key, entry in material_schema().items()}
 BOND_MATERIAL_KEYS = bond_material_schema()   # declared by the bond models (physics/)
 PARTICLE_KEYS = {
     "file": ("str", None, None, None, None, None),

@@ -79,9 +79,11 @@ class Simulation:
             if contact is None:
                 contact = ContactSettings(model="none")
             self.contacts = self.backend.contact_law(model, contact, walls)
-            # MUSEN's Hertz-Mindlin numerics (physics/contact_hertz_musen.py); the linear
-            # law has no MUSEN counterpart here and stays bondem's own
-            self.contacts.musen_compat = self.musen_compat and contact.model != "linear"
+            # MUSEN's numerics (physics/contact_hertz_musen.py) for the contact models
+            # that declare a MUSEN law ("kind_pp"); the others (linear, liquid bridge)
+            # have no MUSEN counterpart here and stay bondem's own
+            self.contacts.musen_compat = self.musen_compat and "kind_pp" in getattr(
+                self.contacts.law_module, "MUSEN", {})
             self.contacts.musen_code = musen_contacts
             laws = (self.contacts, *laws)
         self.walls = list(walls)

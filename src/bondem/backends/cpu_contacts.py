@@ -9,12 +9,13 @@ from numba import prange
 
 import numpy as np
 
-from ..contacts import (MODELS, MUSEN_PAIR_HISTORY, MUSEN_WALL_HISTORY, PAIR_HISTORY,
-                        WALL_HISTORY, ContactSettings, contact_cutoff)
+from ..contacts import (MUSEN_PAIR_HISTORY, MUSEN_WALL_HISTORY, PAIR_HISTORY,
+                        WALL_HISTORY, ContactSettings, contact_cutoff, contact_reach,
+                        material_parameters)
 from ..neighbors import (build_pairs, carry_history, counting_sort, history_map,
                          max_displacement)
 from ..physics.contact_hertz_musen import MUSEN_VERSION, MUSEN_VERSIONS
-from ..physics.contact_linear import MODEL_HERTZ
+from ..physics import contact_models
 from ..walls import PLANE, WallSet, build_wall_pairs
 from . import cpu, loops
 from .cpu import CHUNK, L, _jit, _serial, balanced_shares, chunks
@@ -23,7 +24,8 @@ from .cpu import CHUNK, L, _jit, _serial, balanced_shares, chunks
 # Numba's IR level; the small vector helpers LLVM inlines anyway): a touching row costs
 # half (113 -> ~55 ns, one thread, 10^4 bed, the kernel alone). Only these: inlining
 # every physics function made the first compile of the demo 29 -> 52 s.
-_LAWS = {"hertz_mindlin", "friction_and_rolling", "hertz_mindlin_musen_pp"}
+_LAWS = {"hertz_mindlin", "hertz_mindlin_pulled", "hertz_mindlin_law", "friction_and_rolling",
+         "hertz_mindlin_musen_pp"}
 
 
 def _law_inlined(function):
@@ -40,6 +42,7 @@ wall_contacts_of = L.wall_contacts_of
 add_wall_rows = L.add_wall_rows
 # The compiled physics, for tests that call one law directly.
 hertz_mindlin = L.hertz_mindlin
+contact_law = L.contact_law
 restitution_beta = L.restitution_beta
 
 
@@ -50,7 +53,7 @@ EVALUATED_ROW_WORK = 13.0
 
 @numba.njit(**_serial)
 def pair_contact_range(first, last, live, quiet, pairs, pair_bond, bond_active, particles,
-                       grains, materials, law, linear_stiffness, use_rolling, box, rows, dt,
+                       grains, materials, law, reach, use_rolling, box, rows, dt,
                        moved_dt, musen):
     """``loops.pair_contact`` for the rows live[first:last], but for quiet rows whose pair
     is still apart, which it would leave as they are. Returns the range's work (rows,
@@ -59,10 +62,10 @@ def pair_contact_range(first, last, live, quiet, pairs, pair_bond, bond_active, 
     for s in range(first, last):
         c = live[s]
         if quiet[c] and pair_geometry(c, pairs, pair_bond, bond_active, particles.position,
-                                      grains.radius, box)[5]:
+                                      grains.radius, box, reach)[5]:
             continue
         pair_contact(c, pairs, pair_bond, bond_active, particles, grains, materials,
-                     law, linear_stiffness, use_rolling, box, rows, dt, moved_dt, musen)
+                     law, reach, use_rolling, box, rows, dt, moved_dt, musen)
         quiet[c] = row_quiet(c, rows)
         evaluated += 1
     return (last - first) + EVALUATED_ROW_WORK * evaluated
@@ -70,7 +73,7 @@ def pair_contact_range(first, last, live, quiet, pairs, pair_bond, bond_active, 
 
 @numba.njit(**_jit)
 def particle_contacts(live, quiet, pairs, pair_bond, bond_active, particles, grains,
-                      materials, law, linear_stiffness, use_rolling, box, rows, dt,
+                      materials, law, reach, use_rolling, box, rows, dt,
                       moved_dt, musen, work, threads):
     """Loads, stored energy and dissipation of every contact row listed in ``live``
     (``loops.pair_contact``), advancing the springs by dt (s); moved_dt (s): time since
@@ -84,8 +87,8 @@ def particle_contacts(live, quiet, pairs, pair_bond, bond_active, particles, gra
     Only the rows listed in ``live`` are visited: the other rows belong to pairs joined by
     an intact bond, which carry no contact load and keep zero rows (bonds never form during
     a run), so skipping them saves the memory traffic of every bonded neighbour.
-    linear_stiffness: None for Hertz-Mindlin (the linear law is then not compiled), else
-    k_n (N/m, 0 for the default) of the linear law. musen: None for the SPEC's law (MUSEN's
+    law: the contact model's CODE, None for Hertz-Mindlin (the other laws are then not
+    compiled); reach (m): its longest range beyond contact. musen: None for the SPEC's law (MUSEN's
     is then not compiled), else the MUSEN release's code (contact_hertz_musen.MUSEN_1_70,
     MUSEN_1_74).
     work (one per CHUNK of ``live``): each chunk's work in the last call, which shares
@@ -99,7 +102,7 @@ def particle_contacts(live, quiet, pairs, pair_bond, bond_active, particles, gra
         for c in range(bounds[t], bounds[t + 1]):
             work[c] = pair_contact_range(
                 c * CHUNK, min(n, (c + 1) * CHUNK), live, quiet, pairs, pair_bond,
-                bond_active, particles, grains, materials, law, linear_stiffness,
+                bond_active, particles, grains, materials, law, reach,
                 use_rolling, box, rows, dt, moved_dt, musen)
 
 
@@ -131,20 +134,20 @@ def gather_pair_loads(index, rows, force, moment):
 
 @numba.njit(**_serial)
 def wall_contact_range(first, last, near, wall_start, wall_pairs, walls, particles, grains,
-                       materials, law, linear_stiffness, use_rolling, triangles, rows, dt,
+                       materials, law, reach, use_rolling, triangles, rows, dt,
                        moved_dt, force, moment, musen):
     """``loops.wall_contacts_of`` for particles near[first:last], then their wall loads
     added to force (N) and moment (N m)."""
     for s in range(first, last):
         p = near[s]
         wall_contacts_of(p, wall_start, wall_pairs, walls, particles, grains, materials, law,
-                         linear_stiffness, use_rolling, triangles, rows, dt, moved_dt, musen)
+                         reach, use_rolling, triangles, rows, dt, moved_dt, musen)
         add_wall_rows(p, wall_start, rows, force, moment)
 
 
 @numba.njit(**_jit)
 def wall_contacts(near, wall_start, wall_pairs, walls, particles, grains, materials, law,
-                  linear_stiffness, use_rolling, triangles, rows, dt, moved_dt, force,
+                  reach, use_rolling, triangles, rows, dt, moved_dt, force,
                   moment, musen):
     """Loads of every particle-wall candidate (``loops.wall_contacts_of``; rows sorted by
     particle, ``wall_start`` their CSR offsets), added to force (N) and moment (N m).
@@ -154,7 +157,7 @@ def wall_contacts(near, wall_start, wall_pairs, walls, particles, grains, materi
     n = near.shape[0]
     for c in prange(chunks(n)):
         wall_contact_range(c * CHUNK, min(n, (c + 1) * CHUNK), near, wall_start, wall_pairs,
-                           walls, particles, grains, materials, law, linear_stiffness,
+                           walls, particles, grains, materials, law, reach,
                            use_rolling, triangles, rows, dt, moved_dt, force, moment, musen)
 
 
@@ -344,27 +347,40 @@ class ContactLaw:
 
     def __init__(self, model, settings=None, walls=()):
         self.settings = settings if settings is not None else ContactSettings()
-        self.pair_law = MODELS[self.settings.model]
-        self.wall_law = self.pair_law if self.pair_law >= 0 else MODEL_HERTZ
+        # the contact model (physics/contact_models.py); "none": no particle pairs, and
+        # Hertz-Mindlin for the walls
+        name = self.settings.model if self.settings.model != "none" else "hertz_mindlin"
+        self.law_module = contact_models.BY_NAME[name]
+        self.pair_law = self.law_module.CODE if self.settings.model != "none" else -1
+        self.wall_law = self.law_module.CODE
+        # None selects Hertz-Mindlin in the CPU kernels (by type: only the law in use compiles)
+        self._law = None if self.wall_law == 0 else self.wall_law
         self.walls = WallSet(walls)
         table = model.material_table()
-        self._materials = loops.contact_materials(
-            table["young_modulus"], table["poisson_ratio"], table["restitution"],
-            table["friction"], table["rolling_friction"])
+        parameters = [material_parameters(self.law_module, m) for m in model.materials]
         wm = [w.material for w in self.walls.walls]
         self._wall_materials = tuple(np.array([getattr(m, k) for m in wm], dtype=np.float64)
                                      for k in ("young_modulus", "poisson_ratio", "restitution",
                                                "friction", "rolling_friction"))
-        n = model.n_particles
-        cutoff, self.skin = contact_cutoff(model.radius, self.settings.skin)
-        self._box_length = model.box_length
         self._k_linear = float(self.settings.linear_stiffness or 0.0)  # N/m, 0: default
-        # None selects Hertz-Mindlin in the CPU kernels (by type: only the law in use compiles)
-        self._linear_stiffness = (None if self.pair_law == MODEL_HERTZ
-                                  or self.pair_law < 0
-                                  else self._k_linear)
-        self._wall_stiffness = (None if self.wall_law == MODEL_HERTZ
-                                else self._linear_stiffness)
+        rolling = bool(self.settings.rolling_resistance)
+        columns = (table["young_modulus"], table["poisson_ratio"], table["restitution"],
+                   table["friction"], table["rolling_friction"])
+        self._materials = loops.contact_materials(*columns, self.law_module, parameters,
+                                                  self._k_linear, rolling)
+        self._wall_pair = loops.contact_materials(
+            *columns, self.law_module, parameters, self._k_linear, rolling,
+            wall=self._wall_materials + ([material_parameters(self.law_module, m)
+                                          for m in wm],)).pair
+        r_max = float(model.radius.max(initial=0.0))
+        # the longest gaps the law acts across (m): pairs (R* <= r_max / 2), walls (R* = r)
+        self._reach_pairs = contact_reach(self.law_module, self._materials.pair, 0.5 * r_max)
+        self._reach_walls = (contact_reach(self.law_module, self._wall_pair, r_max)
+                             if self.walls.n_walls else 0.0)
+        n = model.n_particles
+        cutoff, self.skin = contact_cutoff(model.radius, self.settings.skin,
+                                           self._reach_pairs)
+        self._box_length = model.box_length
         # True when a wall has triangles, else None (the kernel then has no triangle code)
         self._triangles = True if np.any(self.walls.element_type != PLANE) else None
         if np.any(model.periodic & (self._box_length < 2.0 * cutoff)):
@@ -383,6 +399,13 @@ class ContactLaw:
         self.wall_torque = np.zeros((self.walls.n_walls, 3))
 
     # -- lists ------------------------------------------------------------------------
+    def reach(self):
+        """(pairs, walls): the longest gap (m) across which the law acts; 0 for MUSEN's
+        laws, which act in contact only (MUSEN's contact radius is the radius here)."""
+        if self.musen_compat:
+            return 0.0, 0.0
+        return self._reach_pairs, self._reach_walls
+
     def history(self):
         """(pair, wall) history arrays this law keeps in ``state.extra``: name -> row
         shape; MUSEN-compatible runs add the stored tangential forces."""
@@ -396,7 +419,8 @@ class ContactLaw:
         position = state.position
         empty2 = np.zeros((0, 2), np.int64)
         if self.pair_law >= 0:
-            pairs = build_pairs(position, model.radius, self.skin, model.periodic,
+            pairs = build_pairs(position, model.radius, self.skin + self.reach()[0],
+                                model.periodic,
                                 model.box_low, model.box_high, self._row_room)
             # the next search runs once if no row outgrows the longest of this one by
             # more than a quarter (else it counts first, as this first one did)
@@ -416,7 +440,8 @@ class ContactLaw:
         extra.update(carried)
         extra["contact_pairs"] = pairs
         rows = self.walls.elements(self._t_wall)
-        wall_pairs = build_wall_pairs(position, model.radius, self.skin, rows,
+        wall_pairs = build_wall_pairs(position, model.radius, self.skin + self.reach()[1],
+                                      rows,
                                       self.walls.element_type)
         old_wall_pairs = extra.get("wall_pairs", empty2)
         mapping = history_map(old_wall_pairs, wall_pairs, max(1, self.walls.n_elements))
@@ -562,7 +587,7 @@ class ContactLaw:
         particle_contacts(
             self._live, self._quiet, extra["contact_pairs"], self._pair_bond,
             state.bond_active, cpu.particles(state), self.grains(model), self._materials,
-            self.pair_law, self._linear_stiffness, bool(self.settings.rolling_resistance),
+            self._law, self.reach()[0], bool(self.settings.rolling_resistance),
             cpu.box(model), rows, increment_dt, moved_dt,
             self.musen_code if self.musen_compat else None, self._chunk_work, numba.get_num_threads())
         gather_pair_loads(
@@ -584,7 +609,7 @@ class ContactLaw:
                 self._wall_near, self._wall_start, wall_pairs,
                 self.wall_tuple(self._t_wall, still=self._walls_still(state)),
                 cpu.particles(state), self.grains(model), self._materials,
-                self.wall_law, self._wall_stiffness, bool(self.settings.rolling_resistance),
+                self._law, self.reach()[1], bool(self.settings.rolling_resistance),
                 self._triangles,
                 loops.WallRows(extra["wall_spring"], extra["wall_force_rows"],
                                extra["wall_moment_rows"], extra["wall_energy_rows"],
@@ -616,7 +641,7 @@ class ContactLaw:
         return loops.Walls(put(w.elements(time)) if rows is None else rows,
                            put(w.element_type), put(w.element_wall), put(velocity),
                            put(spin), put(w.centers(time)),
-                           *(put(a) for a in self._wall_materials))
+                           *(put(a) for a in self._wall_materials), put(self._wall_pair))
 
     def touching(self):
         """(particle pairs, particle-wall contacts) that carried a load in the last step."""

@@ -68,13 +68,13 @@ def displacement_flag_kernel(position, reference, box_length, periodic, limit_sq
 
 @cuda.jit
 def particle_contacts_kernel(pairs, pair_bond, bond_active, particles, grains, materials,
-                             law, linear_stiffness, use_rolling, box, rows, dt, moved_dt,
+                             law, reach, use_rolling, box, rows, dt, moved_dt,
                              musen):
     """``loops.pair_contact`` for every listed pair (the CPU visits only the rows no
     intact bond holds; a held row stays zero either way)."""
     for c in range(cuda.grid(1), pairs.shape[0], cuda.gridsize(1)):
         pair_contact(c, pairs, pair_bond, bond_active, particles, grains, materials, law,
-                     linear_stiffness, use_rolling, box, rows, dt, moved_dt, musen)
+                     reach, use_rolling, box, rows, dt, moved_dt, musen)
 
 
 @cuda.jit
@@ -95,7 +95,7 @@ def gather_pairs_kernel(index, rows, force, moment, dissipated):
 
 @cuda.jit
 def wall_contacts_kernel(wall_start, wall_pairs, walls, particles, grains, materials, law,
-                         linear_stiffness, use_rolling, rows, dt, moved_dt, force, moment,
+                         reach, use_rolling, rows, dt, moved_dt, force, moment,
                          dissipated, work_walls, evaluated_position, musen):
     """``loops.wall_contacts_of`` for every particle, its wall loads added to force (N)
     and moment (N m) after the pair loads, in list order; the J its rows dissipated and
@@ -105,7 +105,7 @@ def wall_contacts_kernel(wall_start, wall_pairs, walls, particles, grains, mater
         for k in range(3):
             evaluated_position[p, k] = particles.position[p, k]
         wall_contacts_of(p, wall_start, wall_pairs, walls, particles, grains, materials, law,
-                         linear_stiffness, use_rolling, True, rows, dt, moved_dt, musen)
+                         reach, use_rolling, True, rows, dt, moved_dt, musen)
         add_wall_rows(p, wall_start, rows, force, moment)
         lost = 0.0
         done = 0.0
@@ -275,7 +275,7 @@ class ContactLawGpu(ContactLaw):
         if self._counts[0]:
             particle_contacts_kernel[_blocks(self._counts[0]), THREADS](
                 dev["pairs"], dev["pair_bond"], d.bond_active, particles(d), self._d_grains,
-                self._d_materials, self.pair_law, self._k_linear, use_rolling, g.box,
+                self._d_materials, self.wall_law, self.reach()[0], use_rolling, g.box,
                 dev["pair_rows"], increment_dt, moved_dt, self.musen_code if self.musen_compat else 0)
             gather_pairs_kernel[_blocks(n), THREADS](dev["index"], dev["pair_rows"], force,
                                                      moment, self._d_lost)
@@ -288,7 +288,7 @@ class ContactLawGpu(ContactLaw):
                 dev["wall_start"], dev["wall_pairs"],
                 self.wall_tuple(self._t_wall, self._put_walls, self._d_rows,
                                 self._walls_still(state)), particles(d),
-                self._d_grains, self._d_materials, self.wall_law, self._k_linear,
+                self._d_grains, self._d_materials, self.wall_law, self.reach()[1],
                 use_rolling, dev["wall_rows"], increment_dt, moved_dt, force, moment,
                 self._d_lost, self._d_work, self._evaluated_position,
                 self.musen_code if self.musen_compat else 0)

@@ -15,8 +15,8 @@ stores (it treats the tuple as immutable and removes the loop as dead code); a b
 called once per item pays a reference count round trip per array (integrate 2.5x
 slower). The serial chunk loops use NumPy's error model, as parfor bodies do.
 
-Choices made at compile time, not per item: ``musen`` and ``linear_stiffness`` are None
-on the CPU for the SPEC's bond law and for Hertz-Mindlin, so Numba prunes the other law
+Choices made at compile time, not per item: ``musen`` and the contact ``law`` are None
+on the CPU for the SPEC's bond law and for Hertz-Mindlin, so Numba prunes the other laws
 from the kernel it compiles (``x is None`` on an argument is decided by its type); the
 CUDA kernels cannot take None, so they pass a flag and compile both branches. For the
 contacts ``musen`` is the MUSEN release's code (physics/contact_hertz_musen.py:
@@ -37,7 +37,9 @@ from ..physics.triangle import FACE
 from ..status import STATUS_NOT_FINITE, STATUS_OK, STATUS_OUT_OF_DOMAIN
 from ..walls import PLANE
 
-from ..physics.contact_linear import LINEAR_REFERENCE_OVERLAP, MODEL_HERTZ
+from ..physics import contact_models
+from ..physics._registry import (PAIR_BETA, PAIR_E_STAR, PAIR_FRICTION,  # noqa: F401
+                                 PAIR_G_STAR, PAIR_MODEL, PAIR_ROLLING, PAIR_STIFFNESS)
 
 # What the bodies take, by name (a swapped pair of same-shaped arrays would otherwise
 # run silently). Units: SI throughout (m, m/s, rad/s, kg, kg m^2, N, N m, J, Pa).
@@ -63,7 +65,6 @@ Grains = namedtuple("Grains", "radius mass inertia material")
 # per contact and step (a log and five divisions).
 ContactMaterials = namedtuple("ContactMaterials",
                               "young poisson restitution friction rolling pair")
-PAIR_E_STAR, PAIR_G_STAR, PAIR_BETA, PAIR_FRICTION, PAIR_ROLLING = range(5)
 # tangential: the tangential force of the last sticking step (N), which MUSEN's law applies
 # while a contact slides (musen_compat only; SPEC runs pass one unused row)
 PairRows = namedtuple("PairRows", "spring force moment_i moment_j energy dissipated "
@@ -71,35 +72,51 @@ PairRows = namedtuple("PairRows", "spring force moment_i moment_j energy dissipa
 # quiet: 1 for a row that holds no load (``row_quiet``): the gather skips a particle whose
 # rows are all quiet. The CPU keeps it per step, the GPU passes zeros (it reads every row).
 PairIndex = namedtuple("PairIndex", "i_start i_order j_start j_order quiet")
+# pair: the pair table of particle material a against wall w in row a W + w (W walls)
 Walls = namedtuple("Walls", "rows types element_wall velocity omega center young poisson "
-                   "restitution friction rolling")
+                   "restitution friction rolling pair")
 WallRows = namedtuple("WallRows", "spring force moment energy dissipated work distance "
                       "point feature tangential")
 
 _BODIES = []
 
 
-def contact_materials(young, poisson, restitution, friction, rolling):
+def contact_materials(young, poisson, restitution, friction, rolling, model=None,
+                      parameters=(), stiffness=0.0, use_rolling=True, wall=None):
     """The ``ContactMaterials`` of M materials (arrays of E in Pa, nu, e, mu, mu_r), with
-    the pair table: E* and G* (Pa), beta of the mean restitution, the mean friction and
-    mean rolling friction of each ordered pair, by the physics' own functions."""
+    the pair table (physics/contact_models.py): E* and G* (Pa), beta of the mean
+    restitution, the mean friction and mean rolling friction (0 without rolling
+    resistance) of each ordered pair by the physics' own functions, the linear law's k_n
+    setting ``stiffness`` (N/m, 0 for its default) and contact model ``model``'s own
+    parameters (``parameters``: one {key: value} dict per material, mixed by its rules).
+    wall: None, or the walls' (E, nu, e, mu, mu_r, parameters) for a table whose row
+    a W + w is particle material a against wall w (W walls) instead."""
     from ..physics.contact_hertz import (effective_shear_modulus, effective_young_modulus,
                                          restitution_beta)
+    from ..physics.contact_models import pair_parameters
     young, poisson, restitution, friction, rolling = (
         np.ascontiguousarray(a, dtype=np.float64)
         for a in (young, poisson, restitution, friction, rolling))
     m = young.shape[0]
-    pair = np.zeros((max(m * m, 1), 5))
+    other = (young, poisson, restitution, friction, rolling, parameters) if wall is None \
+        else tuple(np.ascontiguousarray(a, dtype=np.float64) for a in wall[:5]) + (wall[5],)
+    w = other[0].shape[0]
+    own = len(model.PARAMETERS) if model is not None else 0
+    # at least one model column: MUSEN's laws read column PAIR_MODEL whatever the model
+    pair = np.zeros((max(m * w, 1), PAIR_MODEL + max(own, 1)))
     for a in range(m):
-        for b in range(m):
-            q = a * m + b
-            pair[q, PAIR_E_STAR] = effective_young_modulus(young[a], poisson[a], young[b],
-                                                           poisson[b])
-            pair[q, PAIR_G_STAR] = effective_shear_modulus(young[a], poisson[a], young[b],
-                                                           poisson[b])
-            pair[q, PAIR_BETA] = restitution_beta(0.5 * (restitution[a] + restitution[b]))
-            pair[q, PAIR_FRICTION] = 0.5 * (friction[a] + friction[b])
-            pair[q, PAIR_ROLLING] = 0.5 * (rolling[a] + rolling[b])
+        for b in range(w):
+            q = a * w + b
+            pair[q, PAIR_E_STAR] = effective_young_modulus(young[a], poisson[a], other[0][b],
+                                                           other[1][b])
+            pair[q, PAIR_G_STAR] = effective_shear_modulus(young[a], poisson[a], other[0][b],
+                                                           other[1][b])
+            pair[q, PAIR_BETA] = restitution_beta(0.5 * (restitution[a] + other[2][b]))
+            pair[q, PAIR_FRICTION] = 0.5 * (friction[a] + other[3][b])
+            pair[q, PAIR_ROLLING] = 0.5 * (rolling[a] + other[4][b]) if use_rolling else 0.0
+            pair[q, PAIR_STIFFNESS] = stiffness
+            if own:
+                pair[q, PAIR_MODEL:] = pair_parameters(model, parameters[a], other[5][b])
     return ContactMaterials(young, poisson, restitution, friction, rolling, pair)
 
 
@@ -394,32 +411,64 @@ def integrate_particle(p, load_f, load_m, particles, bodies, gravity, damping, k
 
 # -- contacts -----------------------------------------------------------------------------
 
-@body
-def pair_law(law, linear_stiffness, n, overlap, v_rel, w_rel, spring, e_star, g_star, beta,
-             friction, rolling, r_star, m_star, i_star, dt):
-    """Loads of one contact by the law ``law`` (MODEL_HERTZ or MODEL_LINEAR) from the
-    pair's E*, G* (Pa), beta (``restitution_beta``), friction and rolling friction;
-    linear_stiffness: k_n (N/m; <= 0 for the default) of the linear law, or None (CPU,
-    Hertz-Mindlin: the linear law is then not compiled)."""
-    if linear_stiffness is None:
-        return hertz_mindlin(n, overlap, v_rel, w_rel, spring, e_star, g_star, r_star,
-                             m_star, i_star, beta, friction, rolling, dt)
-    if law == MODEL_HERTZ:
-        return hertz_mindlin(n, overlap, v_rel, w_rel, spring, e_star, g_star, r_star,
-                             m_star, i_star, beta, friction, rolling, dt)
-    k_n = linear_stiffness
-    if k_n <= 0.0:
-        k_n = 2.0 * e_star * math.sqrt(LINEAR_REFERENCE_OVERLAP) * r_star
-    return linear_spring_dashpot(n, overlap, v_rel, w_rel, spring, k_n,
-                                 4.0 * k_n * g_star / e_star, r_star, m_star, i_star, beta,
-                                 friction, rolling, dt)
+def _contact_generated(name, signature, dispatch, default, doc):
+    """A loop body ``name(law, signature)`` written from physics/contact_models.py's list
+    of models: ``dispatch(module)`` gives the lines of the branch of a model's code (or
+    None), ``default`` the lines for ``law`` None (CPU: the default law, compiled
+    alone) and every other code."""
+    lines = [f"def {name}(law, {signature}):", "    if law is None:"]
+    lines += [f"        {x}" for x in default]
+    lines += ["    else:"]
+    for module in contact_models.MODELS:
+        branch = dispatch(module)
+        if branch:
+            lines += [f"        if law == {module.CODE}:"] + [f"            {x}" for x in branch]
+    lines += [f"        {x}" for x in default]
+    namespace = {}
+    exec(compile("\n".join(lines), f"<contact models: {__name__}>", "exec"), namespace)
+    function = namespace[name]
+    function.__doc__ = doc
+    return function
+
+
+_LAW_ARGUMENTS = "n, overlap, v_rel, w_rel, spring, pair, q, r_star, m_star, i_star, dt"
+contact_law = body(_contact_generated(
+    "contact_law", _LAW_ARGUMENTS,
+    lambda module: module.CODE and [f"return {module.LAW}({_LAW_ARGUMENTS})"],
+    [f"return hertz_mindlin_law({_LAW_ARGUMENTS})"],
+    """Loads of one contact by the LAW of contact model ``law`` (its CODE; None on the
+    CPU for Hertz-Mindlin, which is then compiled alone) with the pair's row q of the
+    pair table: (force on i N, rolling torque on i N m, tangential force on i N, new
+    spring m, stored energy J)."""))
+
+_BEYOND_ARGUMENTS = "pair, q, r_star, gap, formed"
+contact_beyond = body(_contact_generated(
+    "contact_beyond", _BEYOND_ARGUMENTS,
+    lambda module: getattr(module, "REACH", None) and [
+        f"return gap < {module.REACH}(pair, q, r_star)"
+        + (" and formed" if module.HYSTERETIC else "")],
+    ["return False"],
+    """Whether contact model ``law`` acts between surfaces a ``gap`` (m, >= 0) apart:
+    within its REACH for the pair (row q of ``pair``, R* in m), and for a HYSTERETIC law
+    only on a contact that ``formed`` by touching and has held since."""))
+
+
+musen_kind = body(_contact_generated(
+    "musen_kind", "wall",
+    lambda module: getattr(module, "MUSEN", {}).get("kind_pp") and [
+        f"return {module.MUSEN['kind_pw']} if wall else {module.MUSEN['kind_pp']}"],
+    ["return 0"],
+    """The kind of MUSEN's law (physics/contact_hertz_musen.py: MUSEN_HERTZ_MINDLIN,
+    MUSEN_JKR, MUSEN_VDW) that contact model ``law`` follows with musen_compat, for a
+    wall contact or a particle pair."""))
 
 
 @body
 def spec_pair_loads(r, distance, overlap, i, j, vi, vj, wi, wj, grains, materials, law,
-                    linear_stiffness, use_rolling, spring, dt):
-    """The SPEC's loads of the touching pair i, j (r = x_j - x_i in m, overlap m): (force
-    on i N, moment on i N m, moment on j N m, new spring m, elastic energy J)."""
+                    spring, dt):
+    """The SPEC's loads of the pair i, j (r = x_j - x_i in m, overlap m, negative beyond
+    contact) by contact model ``law``: (force on i N, moment on i N m, moment on j N m,
+    new spring m, elastic energy J)."""
     radius = grains.radius
     n = (r[0] / distance, r[1] / distance, r[2] / distance)
     arm_i = radius[i] - 0.5 * overlap
@@ -427,13 +476,10 @@ def spec_pair_loads(r, distance, overlap, i, j, vi, vj, wi, wj, grains, material
     v_rel = contact_relative_velocity(n, vi, vj, wi, wj, arm_i, arm_j)
     w_rel = (wi[0] - wj[0], wi[1] - wj[1], wi[2] - wj[2])
     q = grains.material[i] * materials.young.shape[0] + grains.material[j]
-    table = materials.pair
-    mu_r = table[q, PAIR_ROLLING] if use_rolling else 0.0
     mass = grains.mass
     inertia = grains.inertia
-    force_i, torque, f_t, xi, energy = pair_law(
-        law, linear_stiffness, n, overlap, v_rel, w_rel, spring, table[q, PAIR_E_STAR],
-        table[q, PAIR_G_STAR], table[q, PAIR_BETA], table[q, PAIR_FRICTION], mu_r,
+    force_i, torque, f_t, xi, energy = contact_law(
+        law, n, overlap, v_rel, w_rel, spring, materials.pair, q,
         radius[i] * radius[j] / (radius[i] + radius[j]), mass[i] * mass[j] / (mass[i] + mass[j]),
         inertia[i] * inertia[j] / (inertia[i] + inertia[j]), dt)
     moment_i, moment_j = contact_moments(n, f_t, torque, arm_i, arm_j)
@@ -441,17 +487,18 @@ def spec_pair_loads(r, distance, overlap, i, j, vi, vj, wi, wj, grains, material
 
 
 @body
-def pair_geometry(c, pairs, pair_bond, bond_active, position, radius, box):
+def pair_geometry(c, pairs, pair_bond, bond_active, position, radius, box, reach):
     """(i, j, r = x_j - x_i in m, distance m, overlap m, apart) of contact row c; apart:
-    the pair carries no contact load (not overlapping, or joined by an intact bond)."""
+    the pair carries no contact load (a gap of ``reach`` (m, the contact law's longest
+    range beyond contact; 0 for contact only) or more, or joined by an intact bond)."""
     i = pairs[c, 0]
     j = pairs[c, 1]
     r = separation(position, i, j, box)
     distance = math.sqrt(r[0] * r[0] + r[1] * r[1] + r[2] * r[2])
     overlap = radius[i] + radius[j] - distance
     # the bond index is read for an overlapping pair only (most listed pairs are apart)
-    apart = overlap <= 0.0 or distance == 0.0 or (pair_bond[c] >= 0
-                                                  and bond_active[pair_bond[c]])
+    apart = overlap <= -reach or distance == 0.0 or (pair_bond[c] >= 0
+                                                     and bond_active[pair_bond[c]])
     return i, j, r, distance, overlap, apart
 
 
@@ -470,7 +517,7 @@ def row_quiet(c, rows):
 
 @body
 def pair_contact(c, pairs, pair_bond, bond_active, particles, grains, materials, law,
-                 linear_stiffness, use_rolling, box, rows, dt, moved_dt, musen):
+                 reach, use_rolling, box, rows, dt, moved_dt, musen):
     """Contact row c (pair pairs[c]): its loads (force on i, moments on i and j), stored
     energy and tangential spring, written over the previous step's row, which is read
     first for the work balance. A pair not touching or joined by an intact bond
@@ -479,14 +526,23 @@ def pair_contact(c, pairs, pair_bond, bond_active, particles, grains, materials,
     of its loads on the particles (trapezoidal in the loads, with the velocities that
     moved the particles) minus the change of its stored energy. musen: None (CPU) or
     False for the SPEC's law, True for MUSEN's Hertz-Mindlin
-    (physics/contact_hertz_musen.py)."""
+    (physics/contact_hertz_musen.py). law: the contact model's CODE (None on the CPU for
+    Hertz-Mindlin); reach (m): its longest range beyond contact (``contact_beyond``
+    decides for each pair; 0 for a law that acts in contact only)."""
     i, j, r, distance, overlap, apart = pair_geometry(c, pairs, pair_bond, bond_active,
                                                       particles.position, grains.radius,
-                                                      box)
+                                                      box, reach)
     radius = grains.radius
     previous_energy = rows.energy[c]
-    if apart and previous_energy == 0.0 and rows.force[c, 0] == 0.0 \
-            and rows.force[c, 1] == 0.0 and rows.force[c, 2] == 0.0:
+    reset = previous_energy == 0.0 and rows.force[c, 0] == 0.0 \
+        and rows.force[c, 1] == 0.0 and rows.force[c, 2] == 0.0
+    if law is not None and not apart and overlap <= 0.0:
+        # beyond contact: the law's own reach for this pair, and whether it formed
+        apart = not contact_beyond(
+            law, materials.pair, grains.material[i] * materials.young.shape[0]
+            + grains.material[j], radius[i] * radius[j] / (radius[i] + radius[j]),
+            -overlap, not reset)
+    if apart and reset:
         # Apart now and a reset row before (a touching row stores a positive energy and
         # a force; with neither, its spring and moments are zero too): nothing to read,
         # nothing to write but its 0 J. Most listed pairs are such rows in a packing.
@@ -527,12 +583,13 @@ def pair_contact(c, pairs, pair_bond, bond_active, particles, grains, materials,
             musen_alpha(0.5 * (materials.restitution[a] + materials.restitution[b])),
             table[q, PAIR_FRICTION], table[q, PAIR_ROLLING] if use_rolling else 0.0,
             radius[i] * radius[j] / (radius[i] + radius[j]),
-            grains.mass[i] * grains.mass[j] / (grains.mass[i] + grains.mass[j]), dt, musen)
+            grains.mass[i] * grains.mass[j] / (grains.mass[i] + grains.mass[j]), dt, musen,
+            musen_kind(law, False), table[q, PAIR_MODEL])
         store3(rows.tangential, c, f_t)
     else:
         force_i, moment_i, moment_j, xi, energy = spec_pair_loads(
             r, distance, overlap, i, j, vi, vj, wi, wj, grains, materials, law,
-            linear_stiffness, use_rolling, row3(rows.spring, c), dt)
+            row3(rows.spring, c), dt)
     for k in range(3):
         rows.spring[c, k] = xi[k]
         rows.force[c, k] = force_i[k]
@@ -625,7 +682,7 @@ def element_normal(rows, e, etype, x, q):
 
 @body
 def wall_contacts_of(p, wall_start, wall_pairs, walls, particles, grains, materials, law,
-                     linear_stiffness, use_rolling, triangles, rows, dt, moved_dt, musen):
+                     reach, use_rolling, triangles, rows, dt, moved_dt, musen):
     """Loads on particle p of each of its wall candidates (rows wall_start[p] to
     wall_start[p+1] of ``rows``: force and moment on the particle, stored energy, spring),
     written over the previous step's rows (read first); rows.work[c]: J done by the moving
@@ -646,6 +703,7 @@ def wall_contacts_of(p, wall_start, wall_pairs, walls, particles, grains, materi
     last = wall_start[p + 1]
     x = row3(particles.position, p)
     radius = grains.radius[p]
+    a = grains.material[p]
     tol = 1e-9 * radius
     types = walls.types
     element_wall = walls.element_wall
@@ -662,12 +720,18 @@ def wall_contacts_of(p, wall_start, wall_pairs, walls, particles, grains, materi
         q = row3(rows.point, c)
         d = rows.distance[c]
         keep = d < radius and d > -radius and (types[e] == PLANE or d > 0.0)
+        if law is not None and not keep and d >= radius and d < radius + reach:
+            # beyond contact: the law's own reach for this pair, and whether it formed
+            formed = rows.energy[c] != 0.0 or rows.force[c, 0] != 0.0 \
+                or rows.force[c, 1] != 0.0 or rows.force[c, 2] != 0.0
+            keep = contact_beyond(law, walls.pair, a * walls.young.shape[0]
+                                  + element_wall[e], radius, d - radius, formed)
         if triangles is not None and keep and types[e] != PLANE:
             for c2 in range(first, last):
                 e2 = wall_pairs[c2, 1]
                 if c2 == c or element_wall[e2] != element_wall[e] or types[e2] == PLANE:
                     continue
-                if rows.distance[c2] >= radius:
+                if rows.distance[c2] >= radius + reach:
                     continue
                 inside, _, _ = element_contact(q, walls.rows, e2, types[e2], triangles)
                 if inside >= tol:
@@ -699,7 +763,6 @@ def wall_contacts_of(p, wall_start, wall_pairs, walls, particles, grains, materi
                 break
     vi = row3(particles.velocity, p)
     wi = row3(particles.angular_velocity, p)
-    a = grains.material[p]
     for c in range(first, last):
         e = wall_pairs[c, 1]
         w = element_wall[e]
@@ -740,7 +803,8 @@ def wall_contacts_of(p, wall_start, wall_pairs, walls, particles, grains, materi
                                     walls.young[w], walls.poisson[w]),
                 musen_alpha(0.5 * (materials.restitution[a] + walls.restitution[w])),
                 0.5 * (materials.friction[a] + walls.friction[w]), mu_r, grains.mass[p],
-                dt, musen)
+                dt, musen, musen_kind(law, True), walls.pair[a * walls.young.shape[0] + w,
+                                                             PAIR_MODEL])
             store3(rows.tangential, c, f_t)
         else:
             if types[e] == PLANE:
@@ -750,15 +814,9 @@ def wall_contacts_of(p, wall_start, wall_pairs, walls, particles, grains, materi
             overlap = radius - d
             v_rel = contact_relative_velocity(n, vi, v_wall, wi, (0.0, 0.0, 0.0), d, 0.0)
             w_rel = (wi[0] - om[0], wi[1] - om[1], wi[2] - om[2])
-            force_i, torque, f_t, xi, energy = pair_law(
-                law, linear_stiffness, n, overlap, v_rel, w_rel, row3(spring, c),
-                effective_young_modulus(materials.young[a], materials.poisson[a],
-                                        walls.young[w], walls.poisson[w]),
-                effective_shear_modulus(materials.young[a], materials.poisson[a],
-                                        walls.young[w], walls.poisson[w]),
-                restitution_beta(0.5 * (materials.restitution[a] + walls.restitution[w])),
-                0.5 * (materials.friction[a] + walls.friction[w]), mu_r, radius,
-                grains.mass[p], grains.inertia[p], dt)
+            force_i, torque, f_t, xi, energy = contact_law(
+                law, n, overlap, v_rel, w_rel, row3(spring, c), walls.pair,
+                a * walls.young.shape[0] + w, radius, grains.mass[p], grains.inertia[p], dt)
             moment_i, _ = contact_moments(n, f_t, torque, d, 0.0)
         for k in range(3):
             spring[c, k] = xi[k]

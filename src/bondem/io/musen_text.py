@@ -24,8 +24,8 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
-from ..physics import bond_models
-from ..physics.contact_hertz_musen import MUSEN_VERSION, MUSEN_VERSIONS
+from ..physics import bond_models, contact_models
+from ..physics.contact_hertz_musen import MUSEN_VDW_DMIN, MUSEN_VERSION, MUSEN_VERSIONS
 from ..timestep import step_count
 from .csv_files import float_text
 
@@ -45,7 +45,37 @@ _NAMES = {SPHERE: "sphere", SOLID_BOND: "solid bond", LIQUID_BOND: "liquid bond"
 BOND_MODELS = {m.MUSEN["model"]: m for m in bond_models.MODELS if getattr(m, "MUSEN", None)}
 UNMAPPED = {29: "anisotropy", 30: "contact radius", 34: "mixture", 38: "analysis volume",
             39: "package generator", 41: "bonds generator"}
-CONTACT_MODELS = {"ModelPPHertzMindlin": "hertz_mindlin", "ModelPWHertzMindlin": "hertz_mindlin"}
+# MUSEN's contact models that bondem reproduces (MODEL_PP name -> contact model) and the
+# wall model each runs with (physics/contact_*.py's MUSEN declarations)
+CONTACT_MODELS = {m.MUSEN["pp"]: m.NAME for m in contact_models.MODELS
+                  if "kind_pp" in getattr(m, "MUSEN", {})}
+WALL_MODELS = {m.NAME: m.MUSEN["pw"] for m in contact_models.MODELS
+               if "kind_pp" in getattr(m, "MUSEN", {})}
+SURFACE_ENERGY = 11   # MUSEN material property PROPERTY_SURFACE_ENERGY (J/m^2)
+
+
+def musen_surface_energy(model, values):
+    """{MUSEN property: value} of contact model ``model``'s keys in a material's
+    ``values`` (JKR: its surface energy; van der Waals: MUSEN's w = A / (24 pi Dmin^2))."""
+    if model == "jkr":
+        return {SURFACE_ENERGY: float(values.get("surface_energy", 0.0))}
+    if model == "vdw":
+        return {SURFACE_ENERGY: float(values.get("hamaker_constant", 0.0))
+                / (24 * math.pi * MUSEN_VDW_DMIN * MUSEN_VDW_DMIN)}
+    return {}
+
+
+def bondem_adhesion(model, props):
+    """A material's contact model keys from its MUSEN properties ``props`` (the inverse of
+    ``musen_surface_energy``, with MUSEN's own arithmetic for the Hamaker constant)."""
+    w = props.get(SURFACE_ENERGY)
+    if w is None:
+        return {}
+    if model == "jkr":
+        return {"surface_energy": w}
+    if model == "vdw":
+        return {"hamaker_constant": 24 * math.pi * MUSEN_VDW_DMIN * MUSEN_VDW_DMIN * w}
+    return {}
 
 
 @dataclass
@@ -444,10 +474,15 @@ def to_bondem(scene: MusenScene, script: dict | None, out_dir, *, end_time=None,
         simulation["gravity"] = [float(v) for v in script["EXT_ACCEL"].split()[:3]]
     pp = script.get("MODEL_PP", "").split()
     pw = script.get("MODEL_PW", "").split()
-    simulation["contact_model"] = CONTACT_MODELS.get(pp[0], "none") if pp else "none"
-    for model in (pp[:1] + pw[:1]):
-        if model not in CONTACT_MODELS:
-            notes.append(f"contact model {model}: not available; Hertz-Mindlin is used")
+    contact = CONTACT_MODELS.get(pp[0], "hertz_mindlin") if pp else "none"
+    simulation["contact_model"] = contact
+    if pp and pp[0] not in CONTACT_MODELS:
+        notes.append(f"contact model {pp[0]}: not available; Hertz-Mindlin is used")
+    if pw and contact != "none" and pw[0] != WALL_MODELS[contact]:
+        notes.append(f"contact model {pw[0]}: bondem's walls follow {contact!r} as MUSEN's "
+                     f"{WALL_MODELS[contact]}")
+    for key, values in materials.items():
+        values.update(bondem_adhesion(contact, scene.compounds.get(key, {})))
     if "CONNECTED_PP_CONTACT" in script:
         simulation["bonded_contacts"] = bool(int(float(script["CONNECTED_PP_CONTACT"])))
     if scene.periodic and scene.periodic[0]:
@@ -569,16 +604,18 @@ def write_script(scene, time_step, text_name, path):
     params = " ".join(words)
     # the runner's count, so the exported MUSEN run is as long as bondem's
     steps = max(1, step_count(simulation.get("end_time", 1e-3), time_step))
-    contacts = simulation.get("contact_model", "hertz_mindlin") != "none"
-    if simulation.get("contact_model") == "linear":
-        notes.append("contact_model = 'linear': written as MUSEN's Hertz-Mindlin")
+    contact = simulation.get("contact_model", "hertz_mindlin")
+    contacts = contact != "none"
+    if contacts and contact not in WALL_MODELS:
+        notes.append(f"contact_model = {contact!r}: written as MUSEN's Hertz-Mindlin")
     # "./": MUSEN 1.74 creates a result file's folder and fails on an empty name
     lines = ["JOB", "COMPONENT IMPORT_FROM_TEXT", f"SOURCE_FILE {text_name}",
              "RESULT_FILE ./scene_t0.mdem", "JOB", "COMPONENT SIMULATOR",
              "SOURCE_FILE ./scene_t0.mdem", "RESULT_FILE ./result.mdem", "SIMULATOR_TYPE CPU",
              f"MODEL_SB {sb}", f"MODEL_SB_PARAMS {params}"]
     if contacts:
-        lines += ["MODEL_PP ModelPPHertzMindlin", "MODEL_PW ModelPWHertzMindlin",
+        module = contact_models.BY_NAME[contact if contact in WALL_MODELS else "hertz_mindlin"]
+        lines += [f"MODEL_PP {module.MUSEN['pp']}", f"MODEL_PW {module.MUSEN['pw']}",
                   f"CONNECTED_PP_CONTACT {int(bool(simulation.get('bonded_contacts', False)))}"]
     lines += [f"SIMULATION_STEP {time_step!r}"]
     if "save_every" in simulation:
@@ -661,11 +698,14 @@ def export_musen(results_path, out_file, every=1):
         lines.append("28 1 " + " ".join(str(int(v)) for v in simulation["periodic"]) + " "
                      + " ".join(float_text(v) for v in [*low, *high]))
     tables = scene.get("materials", {})
+    simulation_model = simulation.get("contact_model", "hertz_mindlin")
     for key in names:
         props = tables.get(key, {})
         lines.append(f"32 {key} {key} {DENSITY} {float_text(props.get('density', 0.0))} "
                      f"{YOUNG} {float_text(props.get('young_modulus', 0.0))} "
-                     f"{POISSON} {float_text(props.get('poisson_ratio', 0.3))}")
+                     f"{POISSON} {float_text(props.get('poisson_ratio', 0.3))}"
+                     + "".join(f" {prop} {float_text(value)}" for prop, value in
+                               musen_surface_energy(simulation_model, props).items()))
     density = float(tables.get(names[0], {}).get("density", 1000.0)) if names else 1000.0
     for key in bond_names:
         props = scene.get("bond_materials", {}).get(key, {})

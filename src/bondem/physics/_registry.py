@@ -10,6 +10,11 @@ from types import SimpleNamespace
 
 _REGISTERED = []
 
+# Columns of the contact laws' pair table (physics/contact_models.py): the materials'
+# mixed properties, the linear law's k_n setting, then the model's own parameters.
+PAIR_E_STAR, PAIR_G_STAR, PAIR_BETA, PAIR_FRICTION, PAIR_ROLLING, PAIR_STIFFNESS = range(6)
+PAIR_MODEL = 6
+
 # Marks a parameter without a default in a bond model's PARAMETERS schema.
 REQUIRED = object()
 

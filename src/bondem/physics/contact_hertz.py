@@ -38,10 +38,19 @@ which also takes up Mindlin's non-conservative part (S_t changing under a held x
 """
 import math
 
-from ._registry import physics
+from ._registry import (PAIR_BETA, PAIR_E_STAR, PAIR_FRICTION, PAIR_G_STAR, PAIR_ROLLING,
+                        physics)
 from .vector import add, cross, dot, norm, scale, sub
 
 SQRT_5_6 = math.sqrt(5.0 / 6.0)
+
+# The contact model (physics/contact_models.py): the default law, no parameters of its own.
+NAME = "hertz_mindlin"
+PARAMETERS = {}
+UNITS = {}
+LAW = "hertz_mindlin_law"
+MUSEN = {"pp": "ModelPPHertzMindlin", "pw": "ModelPWHertzMindlin", "kind_pp": 0,
+         "kind_pw": 0}
 
 
 @physics
@@ -121,16 +130,11 @@ def friction_and_rolling(n, v_t, w_rel, spring, f_n, k_t, c_t, friction, rolling
 
 
 @physics
-def hertz_mindlin(n, overlap, v_rel, w_rel, spring, e_star, g_star, r_star, m_star, i_star,
-                  beta, friction, rolling_friction, dt):
-    """One step of the Hertz-Mindlin law for a contact with overlap > 0 (m).
-
-    n: unit normal from i to j; v_rel: velocity of j's surface relative to i's (m/s);
-    w_rel: w_i - w_j (rad/s); spring: tangential displacement (m); E*, G* (Pa), R* (m),
-    m* (kg), I* (kg m^2), beta from ``restitution_beta``; dt: s.
-    Returns (force on i N, rolling torque on i N m, F_t on i N, new spring m,
-    elastic energy J).
-    """
+def hertz_mindlin_pulled(n, overlap, v_rel, w_rel, spring, e_star, g_star, r_star, m_star,
+                         i_star, beta, friction, rolling_friction, dt, pull):
+    """``hertz_mindlin`` whose Coulomb and rolling limits take its normal force plus an
+    attraction ``pull`` (N, >= 0) that presses the surfaces together (van der Waals, a
+    liquid bridge); the force returned is Hertz-Mindlin's alone."""
     v_n = dot(v_rel, n)
     v_t = sub(v_rel, scale(n, v_n))
     root = math.sqrt(r_star * overlap)
@@ -139,10 +143,26 @@ def hertz_mindlin(n, overlap, v_rel, w_rel, spring, e_star, g_star, r_star, m_st
     c_n = -2.0 * SQRT_5_6 * beta * math.sqrt(s_n * m_star)
     c_t = -2.0 * SQRT_5_6 * beta * math.sqrt(s_t * m_star)
     f_n = 2.0 / 3.0 * s_n * overlap - c_n * v_n
-    f_t, torque, xi = friction_and_rolling(n, v_t, w_rel, spring, f_n, s_t, c_t, friction,
-                                           rolling_friction, r_star, i_star, dt)
+    f_t, torque, xi = friction_and_rolling(n, v_t, w_rel, spring, f_n + pull, s_t, c_t,
+                                           friction, rolling_friction, r_star, i_star, dt)
     energy = 0.4 * (2.0 / 3.0) * s_n * overlap * overlap + 0.5 * s_t * dot(xi, xi)
     return add(scale(n, -f_n), f_t), torque, f_t, xi, energy
+
+
+@physics
+def hertz_mindlin(n, overlap, v_rel, w_rel, spring, e_star, g_star, r_star, m_star, i_star,
+                  beta, friction, rolling_friction, dt):
+    """One step of the Hertz-Mindlin law for a contact with overlap > 0 (m).
+
+    n: unit normal from i to j; v_rel: velocity of j's surface relative to i's (m/s);
+    w_rel: w_i - w_j (rad/s); spring: tangential displacement (m); E*, G* (Pa), R* (m),
+    m* (kg), I* (kg m^2), beta from ``restitution_beta``; dt: s.
+    Returns (force on i N, rolling torque on i N m, F_t on i N, new spring m,
+    elastic energy J). (Its normal force is never -0, so adding a pull of +0 changes
+    no bit.)
+    """
+    return hertz_mindlin_pulled(n, overlap, v_rel, w_rel, spring, e_star, g_star, r_star,
+                                m_star, i_star, beta, friction, rolling_friction, dt, 0.0)
 
 
 @physics
@@ -150,3 +170,12 @@ def contact_moments(n, f_t, torque, arm_i, arm_j):
     """Moments (N m) on i and on j of a contact's tangential force on i and rolling torque."""
     lever = cross(n, f_t)
     return add(scale(lever, arm_i), torque), sub(scale(lever, arm_j), torque)
+
+
+@physics
+def hertz_mindlin_law(n, overlap, v_rel, w_rel, spring, pair, q, r_star, m_star, i_star, dt):
+    """``hertz_mindlin`` with the pair's properties from row q of the pair table
+    (contact_models.LAW)."""
+    return hertz_mindlin(n, overlap, v_rel, w_rel, spring, pair[q, PAIR_E_STAR],
+                         pair[q, PAIR_G_STAR], r_star, m_star, i_star, pair[q, PAIR_BETA],
+                         pair[q, PAIR_FRICTION], pair[q, PAIR_ROLLING], dt)

@@ -52,6 +52,15 @@ MUSEN_VERSIONS = {"1.70.0": MUSEN_1_70, "1.74.2": MUSEN_1_74}
 MUSEN_VERSION = "1.74.2"
 
 
+# MUSEN's contact models whose normal force this module writes (the rest is Hertz-
+# Mindlin's): ModelPPHertzMindlin / ModelPWHertzMindlin, ModelPPJKR / ModelPWJKR,
+# ModelPPHertzMindlinVdW (1.74.2; docs/contact_models.md).
+MUSEN_HERTZ_MINDLIN, MUSEN_JKR, MUSEN_VDW = 0, 1, 2
+# ModelPPHertzMindlinVdW's fixed minimum separation (m): Hamaker's constant is
+# 24 pi Dmin^2 times the surface energy.
+MUSEN_VDW_DMIN = 7.5e-10
+
+
 def musen_code(version=MUSEN_VERSION):
     """The kernels' code of MUSEN release ``version`` (a key of MUSEN_VERSIONS;
     ValueError naming the allowed ones)."""
@@ -109,16 +118,17 @@ def musen_carry_overlap(overlap_t, n, pp, version):
 
 
 @physics
-def musen_coulomb(xi, k_t, damping_t, f_n, damping, friction, f_t_prev, newer):
+def musen_coulomb(xi, k_t, damping_t, f_n, damping, friction, f_t_prev, newer, pull):
     """MUSEN's slip test on the spring force k_t xi (N; xi in m, k_t in N/m, negative for
     the particle-wall law's sign): (tangential force applied in N, spring xi in m).
     Sticking: the spring force plus its dashpot damping_t. Sliding, MUSEN 1.74 (newer):
     the spring force cut to mu |f_n + damping| (normal force with its dashpot, N); 1.70:
     the last sticking step's force f_t_prev while the spring is cut to mu |f_n|. In
-    either case the spring is the cut force over k_t, in MUSEN's order of operations."""
+    either case the spring is the cut force over k_t, in MUSEN's order of operations.
+    pull (N): ModelPPHertzMindlinVdW's attraction, in its 1.74 limit (0 otherwise)."""
     f_t = scale(xi, k_t)
     magnitude = norm(f_t)
-    limit = friction * abs(f_n + damping) if newer else friction * abs(f_n)
+    limit = friction * abs(f_n + damping + pull) if newer else friction * abs(f_n)
     if not magnitude > limit:      # as MUSEN's test reads (a NaN sticks)
         return add(f_t, damping_t), xi
     if newer:
@@ -130,13 +140,42 @@ def musen_coulomb(xi, k_t, damping_t, f_n, damping, friction, f_t_prev, newer):
 
 
 @physics
+def musen_normal_pp(kind, cv, overlap, r_i, r_j, r_star, e_star, adhesion):
+    """(elastic normal force along x_j - x_i in N (negative: pushes i away), stiffness k_n
+    N/m, attraction N, overlap the law uses m, potential J) of MUSEN's particle-particle
+    model ``kind`` (MUSEN_HERTZ_MINDLIN, MUSEN_JKR with surface energy ``adhesion`` J/m^2,
+    MUSEN_VDW with Hamaker's constant ``adhesion`` J) at ``overlap`` (m), in MUSEN's
+    order of operations."""
+    if kind == MUSEN_VDW:
+        # the gap as MUSEN's VdW model computes it, from the centres
+        surface = norm(cv) - r_i - r_j
+        pull = adhesion * (2.0 * r_star) / (12.0 * MUSEN_VDW_DMIN * MUSEN_VDW_DMIN)
+        overlap = abs(surface)
+        k_n = 2.0 * e_star * math.sqrt(r_star * overlap)
+        energy = 0.4 * (2.0 / 3.0) * k_n * overlap * overlap - pull * overlap
+        return -overlap * k_n * 2.0 / 3.0, k_n, pull, overlap, energy
+    a = math.sqrt(r_star * overlap)
+    k_n = 2.0 * e_star * a
+    if kind == MUSEN_JKR:
+        a3 = a ** 3.0
+        f_n = -1.0 * (4.0 * a3 * e_star / (3.0 * r_star)
+                      - math.sqrt(8.0 * math.pi * e_star * adhesion * a3))
+        # the potential of that force in delta (a = sqrt(R* delta))
+        energy = (0.4 * (2.0 / 3.0) * k_n * overlap * overlap
+                  - 4.0 / 7.0 * math.sqrt(8.0 * math.pi * e_star * adhesion) * a3 ** 0.5 * overlap)
+        return f_n, k_n, 0.0, overlap, energy
+    return -overlap * k_n * 2.0 / 3.0, k_n, 0.0, overlap, 0.4 * (2.0 / 3.0) * k_n * overlap * overlap
+
+
+@physics
 def hertz_mindlin_musen_pp(cv, overlap, r_i, r_j, vi, vj, wi, wj, overlap_t, f_t_prev,
                            e_star, g_star, alpha, friction, rolling, r_star, m_star, dt,
-                           version):
+                           version, kind, adhesion):
     """One step of MUSEN's ModelPPHertzMindlin for particles i < j touching with overlap
     (m) > 0; cv = x_j - x_i (m); overlap_t: tangential overlap (m); f_t_prev: the
     tangential force (N) of the last sticking step; alpha from ``musen_alpha``; version:
-    MUSEN_1_70 or MUSEN_1_74 (module docstring).
+    MUSEN_1_70 or MUSEN_1_74 (module docstring); kind, adhesion: ``musen_normal_pp``'s
+    (ModelPPJKR, ModelPPHertzMindlinVdW: the same law but for the normal force).
 
     Returns (force on i N, moment on i N m, moment on j N m, new overlap_t m, new
     tangential force N, elastic energy J). The force on j is minus the force on i."""
@@ -150,31 +189,33 @@ def hertz_mindlin_musen_pp(cv, overlap, r_i, r_j, vi, vj, wi, wj, overlap_t, f_t
     rel_t = sub(rel, scale(n, v_n))
     newer = version >= MUSEN_1_74
     constant = MUSEN_DAMPING_1_74 if newer else MUSEN_DAMPING
-    root = math.sqrt(r_star * overlap)
-    k_n = 2.0 * e_star * root
-    f_n = -overlap * k_n * 2.0 / 3.0
+    f_n, k_n, pull, overlap, normal_energy = musen_normal_pp(kind, cv, overlap, r_i, r_j,
+                                                             r_star, e_star, adhesion)
     damping = -constant * alpha * v_n * math.sqrt(k_n * m_star)
-    k_t = 8.0 * g_star * root
+    k_t = 8.0 * g_star * math.sqrt(r_star * overlap)
     xi = add(musen_carry_overlap(overlap_t, n, True, version), scale(rel_t, dt))
     damping_t = scale(rel_t, -constant * alpha * math.sqrt(k_t * m_star))
-    f_t_new, xi = musen_coulomb(xi, k_t, damping_t, f_n, damping, friction, f_t_prev, newer)
+    f_t_new, xi = musen_coulomb(xi, k_t, damping_t, f_n, damping, friction, f_t_prev, newer,
+                                pull)
     lever = cross(n, f_t_new)
     moment_i = add(scale(lever, r_i), musen_rolling_torque(wi, rolling, f_n, r_i))
     moment_j = add(scale(lever, r_j), musen_rolling_torque(wj, rolling, f_n, r_j))
-    force_i = add(scale(n, f_n + damping), f_t_new)
-    energy = 0.4 * (2.0 / 3.0) * k_n * overlap * overlap + 0.5 * k_t * dot(xi, xi)
+    force_i = add(scale(n, f_n + damping + pull), f_t_new)
+    energy = normal_energy + 0.5 * k_t * dot(xi, xi)
     return force_i, moment_i, moment_j, xi, f_t_new, energy
 
 
 @physics
 def hertz_mindlin_musen_pw(x, q, n_wall, radius, v, w, v_wall, omega_wall, center,
                            overlap_t, f_t_prev, e_star, g_star, alpha, friction, rolling,
-                           mass, dt, version):
+                           mass, dt, version, kind, adhesion):
     """One step of MUSEN's ModelPWHertzMindlin for a particle at x (m) touching a wall at
     its point q (m), |x - q| < radius; n_wall: the wall element's unit normal towards the
     particle; v_wall, omega_wall, center: the wall's velocity (m/s), spin (rad/s) and
     centre of rotation (m); v, w, mass: the particle's (m/s, rad/s, kg); version:
-    MUSEN_1_70 or MUSEN_1_74 (module docstring).
+    MUSEN_1_70 or MUSEN_1_74 (module docstring); kind: MUSEN_HERTZ_MINDLIN, or
+    MUSEN_JKR (ModelPWJKR, surface energy ``adhesion`` J/m^2: its adhesive term, not its
+    elastic one, scaled by |n_rc . n_wall|).
 
     Returns (force on the particle N, moment N m, its rolling torque N m, new overlap_t m,
     new tangential force N, elastic energy J)."""
@@ -190,17 +231,26 @@ def hertz_mindlin_musen_pw(x, q, n_wall, radius, v, w, v_wall, omega_wall, cente
     rel_t = sub(rel, scale(n_wall, v_n))
     newer = version >= MUSEN_1_74
     constant = MUSEN_DAMPING_1_74 if newer else MUSEN_DAMPING
-    k_n = 2.0 * e_star * math.sqrt(radius * overlap)
-    f_n = 2.0 / 3.0 * overlap * k_n * abs(dot(n_rc, n_wall))
+    a = math.sqrt(radius * overlap)
+    k_n = 2.0 * e_star * a
+    if kind == MUSEN_JKR:
+        a3 = a ** 3.0
+        f_n = (4.0 * a3 * e_star / (3.0 * radius)
+               - math.sqrt(8.0 * math.pi * e_star * adhesion * a3) * abs(dot(n_rc, n_wall)))
+        normal_energy = (0.4 * (2.0 / 3.0) * k_n * overlap * overlap - 4.0 / 7.0
+                         * math.sqrt(8.0 * math.pi * e_star * adhesion) * a3 ** 0.5 * overlap)
+    else:
+        f_n = 2.0 / 3.0 * overlap * k_n * abs(dot(n_rc, n_wall))
+        normal_energy = 0.4 * (2.0 / 3.0) * k_n * overlap * overlap
     damping = constant * alpha * v_n * math.sqrt(k_n * mass)
     xi = add(musen_carry_overlap(overlap_t, n_wall, False, version), scale(rel_t, dt))
     k_t = 8.0 * g_star * math.sqrt(radius * overlap)
     damping_t = scale(rel_t, constant * alpha * math.sqrt(k_t * mass))
     # the wall's spring pushes against its overlap: -k_t
     f_t_new, xi = musen_coulomb(xi, -k_t, damping_t, f_n, damping, friction, f_t_prev,
-                                newer)
+                                newer, 0.0)
     force = add(f_t_new, scale(n_wall, f_n + damping))
     torque = musen_rolling_torque(w, rolling, f_n, radius)
     moment = add(scale(cross(n_wall, f_t_new), -radius), torque)
-    energy = 0.4 * (2.0 / 3.0) * k_n * overlap * overlap + 0.5 * k_t * dot(xi, xi)
+    energy = normal_energy + 0.5 * k_t * dot(xi, xi)
     return force, moment, torque, xi, f_t_new, energy

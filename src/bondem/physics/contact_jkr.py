@@ -1,0 +1,125 @@
+"""JKR adhesive elastic contact (Johnson, Kendall & Roberts 1971), with its hysteresis.
+
+The normal law of two adhesive elastic spheres with work of adhesion w (J/m^2, the
+materials' ``surface_energy``, mixed as sqrt(w_i w_j) as MUSEN mixes it), E* and R* as
+Hertz-Mindlin's. The contact radius a (m) follows from the overlap delta (m, negative
+beyond contact) on the stable branch of
+    delta = a^2 / R* - sqrt(2 pi w a / E*)
+and the elastic normal force (repulsive > 0) and its potential are
+    F(a) = 4 E* a^3 / (3 R*) - sqrt(8 pi w E* a^3)
+    U(a) = 8 E* a^5 / (15 R*^2) - 4/3 E* k a^(7/2) / R* + E* k^2 a^2 / 2 - U(a_c),
+    k = sqrt(2 pi w / E*),  a_c = (pi w R*^2 / (8 E*))^(1/3),
+with U = integral of F d(delta) from the pull-off point (a_c, delta = -delta_c), so that
+the potential is zero when the neck breaks. Closed forms this law reaches exactly:
+the pull-off force (load control, the least F) -3/2 pi w R*; the contact radius at zero
+load a_0 = (9 pi w R*^2 / (2 E*))^(1/3); the pull-off separation (displacement control)
+    delta_c = 3/4 (pi^2 w^2 R* / E*^2)^(1/3),  F(-delta_c) = -5/6 pi w R*.
+Hysteresis: a contact forms when the surfaces touch (delta > 0) and then holds, neck
+stretched, until delta <= -delta_c (``REACH``, ``HYSTERETIC``); approaching surfaces feel
+nothing before they touch. At the touch the potential jumps from 0 to U(delta = 0) < 0:
+the loops book that jump, the energy of the whole approach-and-pull-off cycle, as
+dissipated (the snap-in's kinetic energy goes into elastic waves, which a DEM contact
+does not resolve).
+Damping as Hertz-Mindlin's with S_n = 2 E* a, tangential stiffness S_t = 8 G* a, and the
+Coulomb and rolling limits of the adhesive load F + 2 F_c (F_c = 3/2 pi w R*), as LAMMPS's
+granular jkr and Thornton & Yin (1991) take it: an adhesive contact resists sliding at
+zero load. With w = 0 the law is Hertz-Mindlin's (a = sqrt(R* delta)).
+The contact radius is found by Newton's method on s = sqrt(a) from above, where the
+curve is convex: monotone, so it stops when a step no longer lowers s (within
+round-off of the root, on every backend alike).
+"""
+import math
+
+from ._registry import (PAIR_BETA, PAIR_E_STAR, PAIR_FRICTION, PAIR_G_STAR, PAIR_MODEL,
+                        PAIR_ROLLING, physics)
+from .contact_hertz import SQRT_5_6, friction_and_rolling
+from .vector import add, dot, scale, sub
+
+NAME = "jkr"
+PARAMETERS = {"surface_energy": (("number", 0.0, 0.0, math.inf, True, False), "geometric")}
+UNITS = {"surface_energy": "J/m^2"}
+LAW = "jkr_law"
+REACH = "jkr_pull_off_gap"
+HYSTERETIC = True
+# MUSEN's ModelPPJKR / ModelPWJKR (musen_compat: contact_hertz_musen's MUSEN_JKR), with
+# the surface energy, material property 11, as w
+MUSEN = {"pp": "ModelPPJKR", "pw": "ModelPWJKR", "kind_pp": 1, "kind_pw": 1,
+         "properties": {"surface_energy": 11}}
+SURFACE_ENERGY = PAIR_MODEL
+
+
+@physics
+def jkr_contact_radius(overlap, r_star, e_star, w):
+    """Contact radius a (m) on JKR's stable branch at overlap (m) for R* (m), E* (Pa) and
+    work of adhesion w (J/m^2); overlap >= -delta_c (else the value at the tip)."""
+    k = math.sqrt(2.0 * math.pi * w / e_star)
+    # an upper bound of the root: s^3 >= 2 R k makes k s <= s^4 / (2 R)
+    s = (2.0 * r_star * k) ** (1.0 / 3.0)
+    bound = math.sqrt(math.sqrt(2.0 * r_star * abs(overlap)))
+    if bound > s:
+        s = bound
+    if s == 0.0:
+        return 0.0
+    for _ in range(100):
+        slope = 4.0 * s * s * s / r_star - k
+        if not slope > 0.0:
+            break
+        step = (s * s * s * s / r_star - k * s - overlap) / slope
+        new = s - step
+        if not new < s:
+            break
+        s = new
+    return s * s
+
+
+@physics
+def jkr_force(a, r_star, e_star, w):
+    """JKR's elastic normal force (N, repulsive > 0) at contact radius a (m)."""
+    return 4.0 * e_star * a * a * a / (3.0 * r_star) - math.sqrt(8.0 * math.pi * w * e_star
+                                                                * a * a * a)
+
+
+@physics
+def jkr_potential(a, r_star, e_star, w):
+    """JKR's elastic energy (J) at contact radius a (m), zero at the pull-off point."""
+    k = math.sqrt(2.0 * math.pi * w / e_star)
+    a_c = (math.pi * w * r_star * r_star / (8.0 * e_star)) ** (1.0 / 3.0)
+    u = (8.0 * e_star * a ** 5 / (15.0 * r_star * r_star)
+         - 4.0 / 3.0 * e_star * k * a ** 3.5 / r_star + 0.5 * e_star * k * k * a * a)
+    u_c = (8.0 * e_star * a_c ** 5 / (15.0 * r_star * r_star)
+           - 4.0 / 3.0 * e_star * k * a_c ** 3.5 / r_star + 0.5 * e_star * k * k * a_c * a_c)
+    return u - u_c
+
+
+@physics
+def jkr_pull_off_gap(pair, q, r_star):
+    """delta_c = 3/4 (pi^2 w^2 R* / E*^2)^(1/3) (m): the gap at which a JKR neck breaks
+    (row q of the pair table, R* in m)."""
+    w = pair[q, SURFACE_ENERGY]
+    e_star = pair[q, PAIR_E_STAR]
+    return 0.75 * (math.pi * math.pi * w * w * r_star / (e_star * e_star)) ** (1.0 / 3.0)
+
+
+@physics
+def jkr_law(n, overlap, v_rel, w_rel, spring, pair, q, r_star, m_star, i_star, dt):
+    """One step of the JKR law (module docstring); arguments and results as
+    contact_models.LAW."""
+    e_star = pair[q, PAIR_E_STAR]
+    g_star = pair[q, PAIR_G_STAR]
+    beta = pair[q, PAIR_BETA]
+    w = pair[q, SURFACE_ENERGY]
+    v_n = dot(v_rel, n)
+    v_t = sub(v_rel, scale(n, v_n))
+    a = jkr_contact_radius(overlap, r_star, e_star, w)
+    s_n = 2.0 * e_star * a
+    s_t = 8.0 * g_star * a
+    c_n = -2.0 * SQRT_5_6 * beta * math.sqrt(s_n * m_star)
+    c_t = -2.0 * SQRT_5_6 * beta * math.sqrt(s_t * m_star)
+    f_n = jkr_force(a, r_star, e_star, w) - c_n * v_n
+    # the limits of an adhesive contact: its load plus twice the pull-off force
+    load = f_n + 3.0 * math.pi * w * r_star
+    f_t, torque, xi = friction_and_rolling(n, v_t, w_rel, spring, load, s_t, c_t,
+                                           pair[q, PAIR_FRICTION], pair[q, PAIR_ROLLING],
+                                           r_star, i_star, dt)
+    energy = jkr_potential(a, r_star, e_star, w) + 0.5 * s_t * dot(xi, xi)
+    return add(scale(n, -f_n), f_t), torque, f_t, xi, energy

@@ -1,0 +1,290 @@
+"""Adhesive contacts (JKR, van der Waals, liquid bridge) against their closed forms.
+
+Every expected value is derived here from the theory, not from the code: JKR's pull-off
+force 3/2 pi w R* (load control) and separation 3/4 (pi^2 w^2 R*/E*^2)^(1/3), its contact
+radius at zero load (9 pi w R*^2 / (2 E*))^(1/3) and its force-overlap curve (the pair
+(a, delta) of the theory, parametrised by a); Hamaker's A R* / (6 h^2); a liquid bridge's
+2 pi R* gamma cos(theta) at contact and Lian et al.'s rupture distance (1 + theta/2)
+V^(1/3). Unlike spheres and mixed materials keep the tests off symmetric points.
+"""
+import math
+
+import numpy as np
+import pytest
+
+import bondem
+from bondem.contacts import ContactSettings
+from bondem.physics import contact_jkr, contact_liquid, contact_vdw
+from bondem.walls import PlaneWall
+
+E, NU = 1e8, 0.28
+
+
+def material(name="a", restitution=0.4, **keys):
+    return bondem.Material(density=2500.0, young_modulus=E, poisson_ratio=NU,
+                           restitution=restitution, friction=0.3, name=name, **keys)
+
+
+def e_star_of(*materials):
+    return 1.0 / sum((1 - m.poisson_ratio ** 2) / m.young_modulus for m in materials)
+
+
+# -- JKR: the law alone --------------------------------------------------------------------
+
+def jkr_overlap(a, r_star, e_star, w):
+    """The theory's overlap (m) at contact radius a (m)."""
+    return a * a / r_star - math.sqrt(2 * math.pi * w * a / e_star)
+
+
+def jkr_theory_force(a, r_star, e_star, w):
+    return 4 * e_star * a ** 3 / (3 * r_star) - math.sqrt(8 * math.pi * w * e_star * a ** 3)
+
+
+@pytest.mark.parametrize("w", [0.02, 0.3])
+def test_jkr_curve_pull_off_and_zero_load_radius(w):
+    r_star, e_star = 3.7e-6, 5.3e7
+    a_c = (math.pi * w * r_star ** 2 / (8 * e_star)) ** (1 / 3)
+    # the stable branch, from the pull-off point to a large load: the code's a(delta)
+    # inverts the theory's delta(a), and its force is the theory's
+    for a in a_c * np.array([1.02, 1.3, 2.0, 5.0, 40.0]):
+        delta = jkr_overlap(a, r_star, e_star, w)
+        found = contact_jkr.jkr_contact_radius(delta, r_star, e_star, w)
+        assert found == pytest.approx(a, rel=1e-9)
+        assert contact_jkr.jkr_force(found, r_star, e_star, w) == pytest.approx(
+            jkr_theory_force(a, r_star, e_star, w), rel=1e-8, abs=1e-12 * w * r_star)
+    # load control: the least force over the branch is -3/2 pi w R*
+    overlaps = np.linspace(jkr_overlap(a_c, r_star, e_star, w), 5 * a_c ** 2 / r_star, 4001)
+    forces = [contact_jkr.jkr_force(contact_jkr.jkr_contact_radius(d, r_star, e_star, w),
+                                    r_star, e_star, w) for d in overlaps]
+    assert min(forces) == pytest.approx(-1.5 * math.pi * w * r_star, rel=0.01)
+    # displacement control: the neck breaks at delta_c with -5/6 pi w R*
+    pair = np.zeros((1, 7))
+    pair[0, 0], pair[0, 6] = e_star, w
+    delta_c = 0.75 * (math.pi ** 2 * w ** 2 * r_star / e_star ** 2) ** (1 / 3)
+    assert contact_jkr.jkr_pull_off_gap(pair, 0, r_star) == pytest.approx(delta_c, rel=1e-12)
+    tip = contact_jkr.jkr_contact_radius(-delta_c * (1 - 1e-9), r_star, e_star, w)
+    assert contact_jkr.jkr_force(tip, r_star, e_star, w) == pytest.approx(
+        -5 / 6 * math.pi * w * r_star, rel=1e-3)
+    # zero load: a_0 = (9 pi w R*^2 / (2 E*))^(1/3), at the overlap a_0^2 / (3 R*)
+    a_0 = (9 * math.pi * w * r_star ** 2 / (2 * e_star)) ** (1 / 3)
+    found = contact_jkr.jkr_contact_radius(a_0 ** 2 / (3 * r_star), r_star, e_star, w)
+    assert found == pytest.approx(a_0, rel=1e-9)
+    assert abs(contact_jkr.jkr_force(found, r_star, e_star, w)) < 1e-9 * w * r_star
+
+
+def test_jkr_potential_is_the_integral_of_its_force_and_zero_at_pull_off():
+    r_star, e_star, w = 2.1e-6, 7.7e7, 0.11
+    delta_c = 0.75 * (math.pi ** 2 * w ** 2 * r_star / e_star ** 2) ** (1 / 3)
+
+    def u(delta):
+        return contact_jkr.jkr_potential(
+            contact_jkr.jkr_contact_radius(delta, r_star, e_star, w), r_star, e_star, w)
+
+    def f(delta):
+        return contact_jkr.jkr_force(
+            contact_jkr.jkr_contact_radius(delta, r_star, e_star, w), r_star, e_star, w)
+
+    tip = -delta_c * (1 - 1e-12)
+    assert abs(u(tip)) < 1e-6 * math.pi * w * r_star * delta_c
+    # a Simpson integral of the force from the tip matches the potential
+    for end in (-0.5 * delta_c, 0.0, 3 * delta_c):
+        x = np.linspace(tip, end, 2001)
+        y = np.array([f(d) for d in x])
+        integral = (x[1] - x[0]) / 3 * (y[0] + y[-1] + 4 * y[1:-1:2].sum() + 2 * y[2:-1:2].sum())
+        assert u(end) == pytest.approx(integral, rel=2e-4, abs=1e-4 * abs(integral) + 1e-30)
+
+
+def test_jkr_without_adhesion_is_hertz():
+    r_star, e_star = 1e-3, 5e7
+    for delta in (1e-7, 3e-6, 2e-5):
+        a = contact_jkr.jkr_contact_radius(delta, r_star, e_star, 0.0)
+        assert a == pytest.approx(math.sqrt(r_star * delta), rel=1e-12)
+        assert contact_jkr.jkr_force(a, r_star, e_star, 0.0) == pytest.approx(
+            4 / 3 * e_star * math.sqrt(r_star) * delta ** 1.5, rel=1e-11)
+
+
+# -- JKR in the simulator --------------------------------------------------------------------
+
+def pulled_pair(contact_model, mat_a, mat_b, r_a, r_b, gap0, settings_model=None):
+    """Particle 0 clamped, particle 1 free at surface gap gap0 (m, negative: overlap)."""
+    model, state = bondem.make_system([[0, 0, 0], [r_a + r_b + gap0, 0, 0]], [r_a, r_b],
+                                      [mat_a, mat_b], material_index=[0, 1],
+                                      fixed=[True, False])
+    sim = bondem.Simulation(model, state, contact=ContactSettings(model=contact_model),
+                            safety_factor=0.05)
+    return model, state, sim
+
+
+def test_jkr_pull_off_force_under_a_slowly_growing_load():
+    """A sphere held by JKR adhesion to a clamped one, pulled away by a force that grows
+    slowly: it lets go at 3/2 pi w R* (within 1 %), with w = sqrt(w_a w_b) and R* of two
+    unlike radii."""
+    a = material("a", surface_energy=0.09)
+    b = material("b", surface_energy=0.04)
+    r_a, r_b = 4e-6, 7e-6
+    w = math.sqrt(0.09 * 0.04)
+    r_star = r_a * r_b / (r_a + r_b)
+    e_star = e_star_of(a, b)
+    a_0 = (9 * math.pi * w * r_star ** 2 / (2 * e_star)) ** (1 / 3)
+    model, state, sim = pulled_pair("jkr", a, b, r_a, r_b, -a_0 ** 2 / (3 * r_star))
+    steps_per_period = None
+    f_c = 1.5 * math.pi * w * r_star
+    m_1 = model.mass[1]
+    period = 2 * math.pi * math.sqrt(m_1 / (2 * e_star * a_0))
+    ramp = 0.8 * f_c / (2000 * period)      # N/s: ~2000 oscillation periods to pull off
+    released = None
+    for k in range(2000000):
+        load = 0.3 * f_c + ramp * state.time
+        model.external_force[1, 0] = load
+        sim.step(1)
+        gap = state.position[1, 0] - r_a - r_b
+        if not np.any(state.extra["contact_force"] != 0.0):
+            released = load
+            break
+    assert released is not None
+    assert released == pytest.approx(f_c, rel=0.01)
+    assert gap == pytest.approx(0.75 * (math.pi ** 2 * w ** 2 * r_star / e_star ** 2) ** (1 / 3),
+                                rel=0.05)
+
+
+def test_jkr_hysteresis_touch_to_form_pull_off_gap_to_break():
+    """Approaching surfaces feel nothing before they touch; once touched the neck holds
+    beyond contact, to the pull-off gap."""
+    m = material(surface_energy=0.2)
+    r = 5e-6
+    model, state = bondem.make_system([[0, 0, 0], [2 * r + 2e-8, 0, 0]], r, m,
+                                      velocity=[[0, 0, 0], [-0.002, 0, 0]],
+                                      fixed=[True, False])
+    sim = bondem.Simulation(model, state, contact=ContactSettings(model="jkr"),
+                            safety_factor=0.05)
+    # approach: no force while apart, although within the pull-off gap
+    delta_c = 0.75 * (math.pi ** 2 * 0.2 ** 2 * (r / 2) / e_star_of(m, m) ** 2) ** (1 / 3)
+    assert 2e-8 < delta_c
+    touched = False
+    for _ in range(20000):
+        sim.step(1)
+        gap = state.position[1, 0] - 2 * r
+        force = state.extra["contact_force"]
+        if gap > 0:
+            assert touched or not np.any(force != 0.0)
+        else:
+            touched = True
+            break
+    assert touched
+    # it sticks (the impact is far too slow to bounce off)
+    sim.step(20000)
+    assert state.position[1, 0] - 2 * r < 0.0
+    assert abs(state.velocity[1, 0]) < 1e-4
+
+
+def test_jkr_energy_balance_closes_with_the_adhesion_booked():
+    """A sticking JKR impact: stored + dissipated = the initial kinetic energy (the snap-in
+    and the hysteresis booked as dissipated, never negative)."""
+    m = material(surface_energy=0.15)
+    r = 3e-6
+    model, state = bondem.make_system([[0, 0, 0], [2 * r + 1e-9, 0, 0]], r, m,
+                                      velocity=[[0.01, 0, 0], [-0.01, 0, 0]])
+    sim = bondem.Simulation(model, state, contact=ContactSettings(model="jkr"),
+                            safety_factor=0.05)
+    before = sum(sim.kinetic_energy())
+    sim.step(3000)
+    terms = sim.energy_terms()
+    stored = terms["kinetic_translational"] + terms["kinetic_rotational"] + terms["contact_elastic"]
+    assert terms["dissipated_contacts"] > 0
+    assert stored + terms["dissipated_contacts"] == pytest.approx(before, rel=1e-3)
+    assert terms["contact_elastic"] < 0   # bound in the adhesive well
+
+
+# -- van der Waals ---------------------------------------------------------------------------
+
+@pytest.mark.parametrize("gap", [2e-9, 1.3e-8])
+def test_van_der_waals_force_against_separation(gap):
+    """Two unlike clamped spheres a gap h apart: each feels A R* / (6 h^2) towards the
+    other, A = sqrt(A_a A_b); beyond the cut-off nothing."""
+    a = material("a", hamaker_constant=4e-20, vdw_cutoff=5e-8)
+    b = material("b", hamaker_constant=9e-20, vdw_cutoff=5e-8)
+    r_a, r_b = 3e-6, 8e-6
+    model, state = bondem.make_system([[0, 0, 0], [r_a + r_b + gap, 0, 0]], [r_a, r_b],
+                                      [a, b], material_index=[0, 1], fixed=[True, True])
+    sim = bondem.Simulation(model, state, contact=ContactSettings(model="vdw"),
+                            safety_factor=0.1)
+    sim.step(1)
+    r_star = r_a * r_b / (r_a + r_b)
+    expected = math.sqrt(4e-20 * 9e-20) * r_star / (6 * gap ** 2)
+    force = state.extra["contact_force"][0]      # on particle 0, towards particle 1: +x
+    assert force[0] == pytest.approx(expected, rel=1e-9)
+    assert force[1] == 0.0 and force[2] == 0.0
+    # the potential's derivative is the force
+    assert state.extra["contact_energy"][0] == pytest.approx(
+        -math.sqrt(4e-20 * 9e-20) * r_star / 6 * (1 / gap - 1 / 5e-8), rel=1e-9)
+
+
+def test_van_der_waals_beyond_its_cut_off_and_in_contact():
+    a = material("a", hamaker_constant=1e-19, vdw_cutoff=2e-8, vdw_min_distance=3e-10)
+    r = 2e-6
+    model, state = bondem.make_system([[0, 0, 0], [2 * r + 2.5e-8, 0, 0]], r, a,
+                                      fixed=[True, True])
+    sim = bondem.Simulation(model, state, contact=ContactSettings(model="vdw"))
+    sim.step(1)
+    assert not np.any(state.extra["contact_force"] != 0.0)
+    # in contact the force saturates: Hertz's push minus A R* / (6 h_0^2)
+    overlap = 1e-9
+    model, state = bondem.make_system([[0, 0, 0], [2 * r - overlap, 0, 0]], r, a,
+                                      fixed=[True, True])
+    sim = bondem.Simulation(model, state, contact=ContactSettings(model="vdw"))
+    sim.step(1)
+    e_star = e_star_of(a, a)
+    hertz = 4 / 3 * e_star * math.sqrt(r / 2) * overlap ** 1.5
+    pull = 1e-19 * (r / 2) / (6 * 3e-10 ** 2)
+    assert state.extra["contact_force"][0, 0] == pytest.approx(pull - hertz, rel=1e-9)
+
+
+def test_van_der_waals_towards_a_wall():
+    """A plane is a sphere of infinite radius: A r / (6 h^2)."""
+    a = material("a", hamaker_constant=6e-20, vdw_cutoff=4e-8)
+    r, gap = 5e-6, 7e-9
+    model, state = bondem.make_system([[0, 0, r + gap]], r, a, fixed=[True])
+    sim = bondem.Simulation(model, state, contact=ContactSettings(model="vdw"),
+                            walls=[PlaneWall([0, 0, 0], [0, 0, 1], a)])
+    sim.step(1)
+    assert state.extra["wall_force_rows"][0, 2] == pytest.approx(
+        -6e-20 * r / (6 * gap ** 2), rel=1e-9)
+
+
+# -- liquid bridge ---------------------------------------------------------------------------
+
+def test_liquid_bridge_force_at_contact_and_rupture_distance():
+    """A bridge formed at contact pulls with 2 pi R* gamma cos(theta) there; pulled apart
+    at constant speed it follows Rabinovich's meniscus force and breaks at (1 + theta/2)
+    V^(1/3) (theta in rad)."""
+    gamma, theta, volume = 0.072, 25.0, 3e-18
+    # no damping (e = 1): the Hertz force at a separating contact is elastic only
+    a = material("a", 1.0, surface_tension=gamma, contact_angle=theta, bridge_volume=volume)
+    r_a, r_b = 6e-6, 9e-6
+    r_star = r_a * r_b / (r_a + r_b)
+    speed = 0.01
+    model, state = bondem.make_system([[0, 0, 0], [r_a + r_b - 1e-10, 0, 0]], [r_a, r_b], a,
+                                      velocity=[[0, 0, 0], [speed, 0, 0]], fixed=[True, True])
+    sim = bondem.Simulation(model, state, contact=ContactSettings(model="liquid_bridge"),
+                            safety_factor=0.2)
+    f_0 = 2 * math.pi * r_star * gamma * math.cos(math.radians(theta))
+    sim.step(1)
+    hertz = 4 / 3 * e_star_of(a, a) * math.sqrt(r_star) * 1e-10 ** 1.5
+    assert state.extra["contact_force"][0, 0] == pytest.approx(f_0 - hertz, rel=1e-9)
+    rupture = (1 + math.radians(theta) / 2) * volume ** (1 / 3)
+    c = 2 * volume / (math.pi * r_star)
+    last_gap = None
+    checked = 0
+    while True:
+        gap = state.position[1, 0] - r_a - r_b    # where the step evaluates the force
+        sim.step(1)
+        force = state.extra["contact_force"][0, 0]
+        if force == 0.0:
+            break
+        last_gap = gap
+        if checked < 5 and gap > 0.2 * rupture * (checked + 1) / 5:
+            assert force == pytest.approx(f_0 * (1 - gap / math.sqrt(gap * gap + c)), rel=1e-9)
+            checked += 1
+    assert checked == 5
+    step = speed * sim.time_step
+    assert last_gap < rupture <= gap + step
