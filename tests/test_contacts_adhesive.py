@@ -105,46 +105,43 @@ def test_jkr_without_adhesion_is_hertz():
 
 # -- JKR in the simulator --------------------------------------------------------------------
 
-def pulled_pair(contact_model, mat_a, mat_b, r_a, r_b, gap0, settings_model=None):
-    """Particle 0 clamped, particle 1 free at surface gap gap0 (m, negative: overlap)."""
-    model, state = bondem.make_system([[0, 0, 0], [r_a + r_b + gap0, 0, 0]], [r_a, r_b],
-                                      [mat_a, mat_b], material_index=[0, 1],
-                                      fixed=[True, False])
-    sim = bondem.Simulation(model, state, contact=ContactSettings(model=contact_model),
-                            safety_factor=0.05)
-    return model, state, sim
-
-
-def test_jkr_pull_off_force_under_a_slowly_growing_load():
-    """A sphere held by JKR adhesion to a clamped one, pulled away by a force that grows
-    slowly: it lets go at 3/2 pi w R* (within 1 %), with w = sqrt(w_a w_b) and R* of two
-    unlike radii."""
+def test_jkr_pull_off_force_under_a_constant_load():
+    """A sphere held by JKR adhesion to a clamped one, pulled away by a constant force
+    and started at the theory's equilibrium for 0.99 of 3/2 pi w R* (on the stable branch,
+    between the pull-off point and zero load): with 0.99 it stays there; with 1.01, beyond
+    the pull-off force, no equilibrium is left and it lets go (w = sqrt(w_a w_b), R* of
+    two unlike radii)."""
+    from scipy.optimize import brentq
     a = material("a", surface_energy=0.09)
     b = material("b", surface_energy=0.04)
     r_a, r_b = 4e-6, 7e-6
     w = math.sqrt(0.09 * 0.04)
     r_star = r_a * r_b / (r_a + r_b)
     e_star = e_star_of(a, b)
-    a_0 = (9 * math.pi * w * r_star ** 2 / (2 * e_star)) ** (1 / 3)
-    model, state, sim = pulled_pair("jkr", a, b, r_a, r_b, -a_0 ** 2 / (3 * r_star))
-    steps_per_period = None
     f_c = 1.5 * math.pi * w * r_star
-    m_1 = model.mass[1]
-    period = 2 * math.pi * math.sqrt(m_1 / (2 * e_star * a_0))
-    ramp = 0.8 * f_c / (2000 * period)      # N/s: ~2000 oscillation periods to pull off
-    released = None
-    for k in range(2000000):
-        load = 0.3 * f_c + ramp * state.time
-        model.external_force[1, 0] = load
+    a_weakest = (9 * math.pi * w * r_star ** 2 / (8 * e_star)) ** (1 / 3)   # F = -F_c
+    a_0 = (9 * math.pi * w * r_star ** 2 / (2 * e_star)) ** (1 / 3)         # F = 0
+    a_held = brentq(lambda x: jkr_theory_force(x, r_star, e_star, w) + 0.99 * f_c,
+                    a_weakest, a_0, xtol=1e-20, rtol=1e-15)
+    overlap = jkr_overlap(a_held, r_star, e_star, w)
+    delta_c = 0.75 * (math.pi ** 2 * w ** 2 * r_star / e_star ** 2) ** (1 / 3)
+    gaps = {}
+    for factor in (0.99, 1.01):
+        # touching at zero load first (the neck forms), then moved to the equilibrium
+        model, state = bondem.make_system(
+            [[0, 0, 0], [r_a + r_b - a_0 ** 2 / (3 * r_star), 0, 0]], [r_a, r_b], [a, b],
+            material_index=[0, 1], fixed=[True, False])
+        sim = bondem.Simulation(model, state, contact=ContactSettings(model="jkr"),
+                                safety_factor=0.2)
         sim.step(1)
-        gap = state.position[1, 0] - r_a - r_b
-        if not np.any(state.extra["contact_force"] != 0.0):
-            released = load
-            break
-    assert released is not None
-    assert released == pytest.approx(f_c, rel=0.01)
-    assert gap == pytest.approx(0.75 * (math.pi ** 2 * w ** 2 * r_star / e_star ** 2) ** (1 / 3),
-                                rel=0.05)
+        state.position[1, 0] = r_a + r_b - overlap
+        state.velocity[1] = 0.0
+        model.external_force[1, 0] = factor * f_c
+        sim.step(3000)
+        gaps[factor] = state.position[1, 0] - r_a - r_b
+    assert gaps[0.99] == pytest.approx(-overlap, rel=1e-6)      # held where the theory says:
+    assert 0.0 < gaps[0.99] < delta_c                            # beyond contact, necked
+    assert gaps[1.01] > 10 * delta_c                             # gone
 
 
 def test_jkr_hysteresis_touch_to_form_pull_off_gap_to_break():
@@ -288,3 +285,28 @@ def test_liquid_bridge_force_at_contact_and_rupture_distance():
     assert checked == 5
     step = speed * sim.time_step
     assert last_gap < rupture <= gap + step
+
+
+def test_liquid_bridge_lubrication_resists_separation_and_sets_the_step():
+    """A wet bridge (no surface tension) pulled apart at constant speed v: the film pulls
+    back with Reynolds' 6 pi eta R*^2 v / s at gaps beyond s_min; its dashpot m* s_min /
+    (6 pi eta R*^2) of the lightest self-pair is one of the automatic step's limits."""
+    eta, s_min, speed = 0.05, 2e-8, 1.0
+    a = material("a", 1.0, viscosity=eta, bridge_volume=1e-17, bridge_min_gap=s_min)
+    r_a, r_b = 5e-6, 8e-6
+    r_star = r_a * r_b / (r_a + r_b)
+    model, state = bondem.make_system([[0, 0, 0], [r_a + r_b - 1e-11, 0, 0]], [r_a, r_b], a,
+                                      velocity=[[0, 0, 0], [speed, 0, 0]], fixed=[True, True])
+    sim = bondem.Simulation(model, state, contact=ContactSettings(model="liquid_bridge"))
+    m_star = 0.5 * model.mass[0]
+    assert sim.time_step_cause == "liquid_viscous"
+    assert sim.time_step == pytest.approx(
+        0.2 * m_star * s_min / (6 * math.pi * eta * (r_a / 2) ** 2), rel=1e-12)
+    checked = 0
+    while checked < 3:
+        gap = state.position[1, 0] - r_a - r_b
+        sim.step(1)
+        if gap > s_min * (2 + 4 * checked):
+            assert state.extra["contact_force"][0, 0] == pytest.approx(
+                6 * math.pi * eta * r_star ** 2 * speed / gap, rel=1e-9)
+            checked += 1

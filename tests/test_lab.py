@@ -217,6 +217,47 @@ def test_agglomerate_breaks_between_plates():
     assert result.notes[-1] == "stopped: post-peak"
 
 
+def test_an_adhesive_agglomerate_without_bonds_is_generated_and_compressed(tmp_path):
+    """JKR contacts alone hold a generated, consolidated agglomerate (no bond material):
+    pressed between plates it carries a load and is stopped past its peak once the plates
+    have moved 5 % of its diameter (no bonds to count); the same without adhesion is
+    refused, naming the adhesive models; a lab spec without [specimen.bond_material] and
+    with contact_model = "jkr" makes such a specimen."""
+    from bondem.lab.procedures import UNBONDED_MIN_STRAIN
+    from bondem.lab.spec import load_spec
+    powder = bondem.Material(density=2500.0, young_modulus=1e8, poisson_ratio=0.3,
+                             restitution=0.5, friction=0.3, surface_energy=0.5)
+    ball = make_specimen("sphere", [1.2e-4], particle_radius=1e-5, seed=3, material=powder,
+                         bond_material=None, contact_model="jkr", consolidation_stress=2e5)
+    assert ball.n_bonds == 0 and ball.n_particles > 50
+    result = agglomerate(ball)
+    curve = result.curve
+    k = int(np.argmax(curve["force"]))
+    assert result.numbers["breakage_force"] == pytest.approx(curve["force"][k])
+    assert curve["force"][k] > 0.0
+    assert result.notes[-1] == "stopped: post-peak"
+    assert curve["platen_strain"][-1] >= UNBONDED_MIN_STRAIN
+    with pytest.raises(ValueError, match="jkr"):
+        make_specimen("sphere", [1.2e-4], particle_radius=1e-5, seed=3, material=powder,
+                      bond_material=None, contact_model="hertz_mindlin")
+    spec = tmp_path / "s.toml"
+    spec.write_text("""
+[specimen]
+shape = "sphere"
+size = [1.2e-4]
+particle_radius = 1e-5
+seed = 3
+consolidation_stress = 2e5
+contact_model = "jkr"
+[specimen.material]
+density = 2500.0
+young_modulus = 1e8
+surface_energy = 0.5
+""")
+    specimen, _, _ = load_spec(spec)
+    assert specimen.n_bonds == 0 and specimen.contact_model == "jkr"
+
+
 def test_consolidated_specimen_starts_stress_free():
     specimen = make_specimen("cylinder", [4e-3, 4e-3], particle_radius=4e-4,
                              solids_fraction=0.45, seed=3, material=ROCK,

@@ -143,6 +143,36 @@ def test_a_plastic_bond_is_exported_elastic_and_named(tmp_path):
     assert not any("exported as elastic" in n for n in notes)
 
 
+def test_adhesive_contacts_map_to_lammps_jkr_and_dmt(tmp_path):
+    """JKR: LAMMPS's cohesion is the surface energy gamma = w/2 (its force
+    sqrt(16 pi gamma E* a^3) is bondem's sqrt(8 pi w E* a^3)), also on the wall; van der
+    Waals: dmt with gamma = A / (24 pi h_0^2), the same pull in contact, named in a note;
+    a liquid bridge has no counterpart and is named."""
+    path = write_scene(tmp_path / "s", walls=WALL)
+    text = path.read_text()
+    path.write_text(text.replace('contact_model = "hertz_mindlin"', 'contact_model = "jkr"')
+                    .replace("rolling_friction = 0.0", "rolling_friction = 0.0\n"
+                             "surface_energy = 0.3"))
+    _, deck, notes = export_lammps(path, tmp_path / "out")
+    lines = deck.read_text().splitlines()
+    assert any(line.startswith("pair_coeff      1 1 jkr 100000000.0 0.5 0.3 0.15 ")
+               for line in lines), lines
+    assert any("wall/gran/region granular jkr 100000000.0 0.5 0.3 0.15 " in line
+               for line in lines)
+    path.write_text(text.replace('contact_model = "hertz_mindlin"', 'contact_model = "vdw"')
+                    .replace("rolling_friction = 0.0", "rolling_friction = 0.0\n"
+                             "hamaker_constant = 1.2e-19\nvdw_min_distance = 5e-10"))
+    _, deck, notes = export_lammps(path, tmp_path / "out2")
+    gamma = 1.2e-19 / (24 * math.pi * 5e-10 ** 2)
+    (line,) = [x for x in deck.read_text().splitlines() if x.startswith("pair_coeff")]
+    assert line.split()[3] == "dmt" and float(line.split()[7]) == pytest.approx(gamma, rel=1e-15)
+    assert any("'vdw'" in n and "beyond contact" in n for n in notes)
+    path.write_text(text.replace('contact_model = "hertz_mindlin"',
+                                 'contact_model = "liquid_bridge"'))
+    _, _, notes = export_lammps(path, tmp_path / "out3")
+    assert any("'liquid_bridge': exported as Hertz-Mindlin" in n for n in notes)
+
+
 def test_command_line_writes_the_files_and_takes_set(tmp_path):
     path = write_scene(tmp_path / "s")
     out = tmp_path / "out"

@@ -6,6 +6,7 @@ scene's MUSEN-compatible mode, reproduce MUSEN's own trajectories to round-off; 
 exported run imports back to the same scene; what cannot be mapped is named.
 """
 import csv
+import math
 from pathlib import Path
 
 import numpy as np
@@ -407,3 +408,28 @@ def test_export_with_plane_and_mesh_walls_imports_back(tmp_path):
                                atol=1e-9)
     assert sorted(map(tuple, mesh.vertices)) == sorted(map(tuple, vertices.astype(np.float32)
                                                            .astype(float)))
+
+
+def test_adhesive_contact_models_are_written_as_musens(tmp_path):
+    """export musen: JKR runs as ModelPPJKR / ModelPWJKR, van der Waals as
+    ModelPPHertzMindlinVdW with MUSEN's Hertz-Mindlin walls, a liquid bridge (no MUSEN
+    counterpart here) as Hertz-Mindlin with a note; the surface energy (property 11) is
+    the JKR w, and for van der Waals A / (24 pi Dmin^2) with Dmin = 7.5e-10 m, which the
+    import turns back into the same Hamaker constant."""
+    from bondem.io import musen_text
+    for model, pp, pw, note in (("jkr", "ModelPPJKR", "ModelPWJKR", False),
+                                ("vdw", "ModelPPHertzMindlinVdW", "ModelPWHertzMindlin", False),
+                                ("liquid_bridge", "ModelPPHertzMindlin", "ModelPWHertzMindlin",
+                                 True)):
+        path = tmp_path / f"{model}.txt"
+        notes = musen_text.write_script({"simulation": {"contact_model": model,
+                                                        "end_time": 1e-6}}, 1e-7, "s.txt", path)
+        lines = path.read_text().splitlines()
+        assert f"MODEL_PP {pp}" in lines and f"MODEL_PW {pw}" in lines
+        assert any(model in n for n in notes) == note, notes
+    assert musen_text.musen_surface_energy("jkr", {"surface_energy": 0.7}) == {11: 0.7}
+    w = musen_text.musen_surface_energy("vdw", {"hamaker_constant": 3e-20})[11]
+    assert w == pytest.approx(3e-20 / (24 * math.pi * 7.5e-10 ** 2), rel=1e-15)
+    assert musen_text.bondem_adhesion("vdw", {11: w})["hamaker_constant"] == pytest.approx(
+        3e-20, rel=1e-15)
+    assert musen_text.bondem_adhesion("hertz_mindlin", {11: w}) == {}

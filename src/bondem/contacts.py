@@ -106,9 +106,14 @@ class ContactSettings:
 
 def contact_time_scales(model, settings):
     """Extra time scales (s) of the contact law: for the linear model sqrt(m*/k_n) of the
-    lightest self-pair (m* = m/2); Hertz-Mindlin is covered by the Rayleigh step."""
-    if settings is None or settings.model != "linear" or model.n_particles == 0:
+    lightest self-pair (m* = m/2), and the contact model's own ``time_scales(model)`` if it
+    declares one; Hertz-Mindlin is covered by the Rayleigh step."""
+    if settings is None or model.n_particles == 0 or settings.model == "none":
         return {}
+    module = contact_models.BY_NAME[settings.model]
+    scales = dict(module.time_scales(model)) if hasattr(module, "time_scales") else {}
+    if settings.model != "linear":
+        return scales
     table = model.material_table()
     young = table["young_modulus"][model.material]
     poisson = table["poisson_ratio"][model.material]
@@ -118,5 +123,5 @@ def contact_time_scales(model, settings):
         e_star = young / (2.0 * (1.0 - poisson ** 2))
         stiffness = (2.0 * e_star * math.sqrt(LINEAR_REFERENCE_OVERLAP)
                      * 0.5 * model.radius)
-    return {"contact_linear": float(np.sqrt(0.5 * model.mass / stiffness).min())}
-
+    scales["contact_linear"] = float(np.sqrt(0.5 * model.mass / stiffness).min())
+    return scales

@@ -21,7 +21,8 @@ bond type per distinct set of bond coefficients), ``bond_coeffs.lammps`` (those 
 - plane walls: fix wall/gran/region on a plane region, moving with a constant velocity.
 - fix nve/bpm/sphere, fix gravity, the scene's time step and end time.
 What has no counterpart is returned as notes (rolling friction, local damping, mesh walls,
-velocity profiles and servos, Kelvin bonds, the linear contact law, musen_compat).
+velocity profiles and servos, Kelvin bonds, the linear contact law and the liquid bridge,
+the van der Waals attraction beyond contact, musen_compat).
 """
 from __future__ import annotations
 
@@ -60,16 +61,27 @@ def bond_coefficients(model):
     return coefficients, bool(np.any(limits < BIG))
 
 
-def _granular(material):
-    """The granular model of LAMMPS for ``material`` (E Pa, restitution, nu, friction):
-    hertz/material with Tsuji damping (the restitution in place of a damping constant) and
-    Mindlin's tangential spring, its dashpot x = 2 sqrt(G*/E*) times the normal one (the
-    ratio of bondem's tangential dashpot to its normal one)."""
+def _granular(material, model="hertz_mindlin"):
+    """The granular model of LAMMPS for ``material`` (E Pa, restitution, nu, friction) and
+    contact model ``model``: hertz/material, jkr (LAMMPS's cohesion is the surface energy
+    gamma = w/2: its force sqrt(16 pi gamma E* a^3) is bondem's sqrt(8 pi w E* a^3)) or,
+    for van der Waals, dmt (its pull-off 4 pi gamma R* set to bondem's saturated pull in
+    contact, A R* / (6 h_0^2): gamma = A / (24 pi h_0^2)); Tsuji damping (the restitution
+    in place of a damping constant) and Mindlin's tangential spring, its dashpot
+    x = 2 sqrt(G*/E*) times the normal one (the ratio of bondem's tangential dashpot to its
+    normal one)."""
     young, poisson = material.young_modulus, material.poisson_ratio
     ratio = 2.0 * math.sqrt(effective_shear_modulus(young, poisson, young, poisson)
                             / effective_young_modulus(young, poisson, young, poisson))
-    return (f"hertz/material {float_text(young)} {float_text(material.restitution)} "
-            f"{float_text(poisson)} tangential mindlin NULL {ratio:.6f} "
+    normal = "hertz/material"
+    cohesion = ""
+    if model == "jkr":
+        normal, cohesion = "jkr", f" {float_text(0.5 * material.surface_energy)}"
+    elif model == "vdw":
+        normal = "dmt"
+        cohesion = f" {float_text(material.hamaker_constant / (24.0 * math.pi * material.vdw_min_distance ** 2))}"
+    return (f"{normal} {float_text(young)} {float_text(material.restitution)} "
+            f"{float_text(poisson)}{cohesion} tangential mindlin NULL {ratio:.6f} "
             f"{float_text(material.friction)} damping tsuji")
 
 
@@ -98,8 +110,12 @@ def _notes(model, options):
     if options.get("musen_compat"):
         notes.append("musen_compat: LAMMPS runs its own laws")
     contact = options.get("contact")
-    if contact is not None and contact.model == "linear":
-        notes.append("contact model 'linear': exported as Hertz-Mindlin")
+    if contact is not None and contact.model in ("linear", "liquid_bridge"):
+        notes.append(f"contact model {contact.model!r}: exported as Hertz-Mindlin (LAMMPS's "
+                     "granular styles have no counterpart)")
+    if contact is not None and contact.model == "vdw":
+        notes.append("contact model 'vdw': exported as LAMMPS's dmt with the same pull in "
+                     "contact; LAMMPS's granular styles have no force beyond contact")
     if contact is not None and contact.bonded_pairs:
         notes.append("bonded_contacts: not exported (bonded pairs carry no contact)")
     return notes
@@ -196,12 +212,13 @@ def write_lammps(model, state, options, out_dir, *, end_time, save_every, title=
         deck += [f"pair_style      zero {float_text(2 * reach + skin)}", "pair_coeff      * *"]
     else:
         deck.append("pair_style      granular")
-        deck += [f"pair_coeff      {t + 1} {t + 1} {_granular(material)}"
+        deck += [f"pair_coeff      {t + 1} {t + 1} {_granular(material, contact.model)}"
                  for t, material in enumerate(model.materials)]
         if types > 1:
             notes.append("mixed materials: LAMMPS mixes restitution and friction its own "
                          "way (bondem takes the mean)")
     deck += [f"neighbor        {float_text(skin)} bin", "neigh_modify    every 1 delay 0 check yes"]
+    contact_name = contact.model if contact is not None else "hertz_mindlin"
     for k, wall in enumerate(options.get("walls", [])):
         if not isinstance(wall, PlaneWall):
             notes.append(f"walls[{k}]: a mesh wall, not exported")
@@ -221,7 +238,7 @@ def write_lammps(model, state, options, out_dir, *, end_time, save_every, title=
                     + " ".join(float_text(c) for c in (*wall.point, *wall.normal))
                     + f" side in{move}")
         deck.append(f"fix             wall{k} all wall/gran/region granular "
-                    f"{_granular(wall.material)} region wall{k}")
+                    f"{_granular(wall.material, contact_name)} region wall{k}")
     deck.append("fix             integrate all nve/bpm/sphere")
     g = np.asarray(model.gravity, dtype=float)
     if np.any(g):

@@ -17,6 +17,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..contacts import ContactSettings
+from ..physics.contact_linear import LINEAR_REFERENCE_OVERLAP
 from ..model import Material
 from ..physics.bond_elastic import COMPRESSION, SHEAR, TENSION
 from ..simulation import Simulation
@@ -118,12 +119,27 @@ def _estimate_wave_time(specimen, axis):
     axial springs), and its bulk density."""
     size = specimen.size()
     volume = float(np.prod(size))
-    length = np.linalg.norm(specimen.position[specimen.bonds[:, 1]]
-                            - specimen.position[specimen.bonds[:, 0]], axis=1)
-    young = np.array([m.young_modulus for m in specimen.bond_materials])[
-        specimen.bond_material_index]
-    area = math.pi * 0.25 * specimen.bond_diameter ** 2
-    modulus = float(np.sum(young * area * length) / (5.0 * volume))
+    if specimen.n_bonds:
+        length = np.linalg.norm(specimen.position[specimen.bonds[:, 1]]
+                                - specimen.position[specimen.bonds[:, 0]], axis=1)
+        young = np.array([m.young_modulus for m in specimen.bond_materials])[
+            specimen.bond_material_index]
+        area = math.pi * 0.25 * specimen.bond_diameter ** 2
+        stiffness = young * area / length
+    else:
+        # an adhesive agglomerate: its touching pairs as springs of Hertz's stiffness at
+        # an overlap of LINEAR_REFERENCE_OVERLAP R* (contact_linear's default)
+        from ..neighbors import build_pairs
+        r = specimen.radius
+        pairs = build_pairs(specimen.position, r, 1e-3 * float(r.mean()),
+                            np.zeros(3, bool), np.zeros(3), np.zeros(3))
+        length = np.linalg.norm(specimen.position[pairs[:, 1]]
+                                - specimen.position[pairs[:, 0]], axis=1)
+        m = specimen.materials[0]
+        e_star = m.young_modulus / (2.0 * (1.0 - m.poisson_ratio ** 2))
+        r_star = r[pairs[:, 0]] * r[pairs[:, 1]] / (r[pairs[:, 0]] + r[pairs[:, 1]])
+        stiffness = 2.0 * e_star * math.sqrt(LINEAR_REFERENCE_OVERLAP) * r_star
+    modulus = float(np.sum(stiffness * length * length) / (5.0 * volume))
     density = np.array([m.density for m in specimen.materials])[specimen.material_index]
     mass = float(np.sum(density * 4.0 / 3.0 * math.pi * specimen.radius ** 3))
     return size[axis] / math.sqrt(modulus / (mass / volume))
@@ -245,13 +261,20 @@ def _limits(settings, test):
     return settings
 
 
+UNBONDED_MIN_STRAIN = 0.05
+
+
 def _stop(stress, broken, n_bonds, strain, settings, top):
-    """Stop rule: past the peak, with at least failure_bonds of the bonds broken, below
-    post_peak of it; or at the strain limit."""
+    """Stop rule: past the peak, with at least failure_bonds of the bonds broken (without
+    bonds: past a platen strain of UNBONDED_MIN_STRAIN), below post_peak of it; or at
+    the strain limit."""
     if strain >= settings.max_strain:
         return "strain limit"
-    if (broken >= max(1.0, settings.failure_bonds * n_bonds) and top > 0.0
-            and stress <= settings.post_peak * top):
+    # without bonds (an adhesive agglomerate) the fall past the peak, once the platens
+    # have pressed it by UNBONDED_MIN_STRAIN (before, the start's transients rule)
+    failing = (strain >= UNBONDED_MIN_STRAIN if n_bonds == 0
+               else broken >= max(1.0, settings.failure_bonds * n_bonds))
+    if failing and top > 0.0 and stress <= settings.post_peak * top:
         return "post-peak"
     return None
 

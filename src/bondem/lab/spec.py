@@ -13,7 +13,8 @@ scene files (every bad value an InputError naming the file and the key).
     consolidation_stress = 1e5  # Pa, optional
     contact_model = "hertz_mindlin"
     [specimen.material]         # the particles' material (scene keys)
-    [specimen.bond_material]    # the bonds' material (scene keys)
+    [specimen.bond_material]    # the bonds' material (scene keys); none with an adhesive
+                                # contact_model (jkr, vdw, liquid_bridge): no bonds
 
     [test]                      # LabSettings keys; [test.platen_material] optional
     strain_rate = 10.0          # 1/s
@@ -25,8 +26,9 @@ from pathlib import Path
 
 from ..errors import InputError, unknown_key
 from ..model import BondMaterial, Material
+from ..physics import contact_models
 from .procedures import LabSettings
-from .specimen import lattice_specimen, make_specimen, specimen_from_scene
+from .specimen import ADHESIVE, lattice_specimen, make_specimen, specimen_from_scene
 
 INF = float("inf")
 SPECIMEN_KEYS = {
@@ -43,7 +45,7 @@ SPECIMEN_KEYS = {
     "diameter_ratio": ("number", 0.5, 0.0, 1.0, False, True),
     "max_per_particle": ("int", None, 1, INF, True, False),
     "consolidation_stress": ("number", None, 0.0, INF, False, False),
-    "contact_model": ("str", "hertz_mindlin", ("hertz_mindlin", "linear", "none"), None, None,
+    "contact_model": ("str", "hertz_mindlin", (*contact_models.NAMES, "none"), None, None,
                       None),
     "material": ("table", None, None, None, None, None),
     "bond_material": ("table", None, None, None, None, None),
@@ -145,7 +147,10 @@ def _specimen(spec, path):
         # shape, if given, tells the scene body's geometry (for its cross-section)
         return specimen_from_scene(scene, shape=spec["shape"] or "box")
     material = _material(spec["material"], "specimen.material", path)
-    bond = _material(spec["bond_material"], "specimen.bond_material", path, bond=True)
+    # an adhesive contact model holds a body without bonds: the bond material is optional
+    adhesive = spec["contact_model"] in ADHESIVE
+    bond = (None if adhesive and spec["bond_material"] is None else
+            _material(spec["bond_material"], "specimen.bond_material", path, bond=True))
     if spec["lattice"] is not None:
         counts = _numbers(spec["lattice"], 3, "specimen.lattice", path, integer=True)
         if spec["radius"] is None:

@@ -19,8 +19,11 @@ import numpy as np
 
 from ..generate import Box, Cylinder, Sphere, bonds_from_gap, pack_spheres
 from ..model import BondMaterial, Material, make_system
+from ..physics import contact_models
 
 SHAPES = ("box", "cylinder", "disc", "sphere")
+# the contact models that hold particles together beyond contact (a REACH)
+ADHESIVE = tuple(m.NAME for m in contact_models.MODELS if getattr(m, "REACH", None))
 
 
 @dataclass
@@ -63,9 +66,14 @@ class Specimen:
             self.bond_material_index = np.zeros(self.bonds.shape[0], dtype=np.int64)
         if self.shape not in SHAPES:
             raise ValueError(f"shape = {self.shape!r}; allowed: {', '.join(SHAPES)}")
-        if n < 2 or self.bonds.shape[0] == 0:
-            raise ValueError(f"a specimen needs bonded particles; it has {n} particles and "
+        if n < 2 or (self.bonds.shape[0] == 0 and not self.adhesive()):
+            raise ValueError(f"a specimen needs bonded particles (or an adhesive contact "
+                             f"model: {', '.join(ADHESIVE)}); it has {n} particles and "
                              f"{self.bonds.shape[0]} bonds")
+
+    def adhesive(self):
+        """True when the contact model holds particles together without bonds."""
+        return self.contact_model in ADHESIVE
 
     @property
     def n_particles(self):
@@ -128,11 +136,14 @@ class Specimen:
         """(Model, State) of this specimen at rest: bonds' initial lengths are their current
         lengths; fixed (N,) bool and velocity (N,3) m/s for gripped particles; damping:
         local damping coefficient in [0, 1)."""
+        bonded = self.bonds.shape[0] > 0
         return make_system(self.position, self.radius, self.materials,
                            material_index=self.material_index, velocity=velocity,
-                           fixed=fixed, bonds=self.bonds, bond_diameter=self.bond_diameter,
-                           bond_material=self.bond_materials,
-                           bond_material_index=self.bond_material_index, damping=damping)
+                           fixed=fixed, bonds=self.bonds if bonded else None,
+                           bond_diameter=self.bond_diameter if bonded else None,
+                           bond_material=self.bond_materials if bonded else None,
+                           bond_material_index=self.bond_material_index if bonded else None,
+                           damping=damping)
 
 
 def lattice_specimen(counts, radius, material, bond_material, *, bond_diameter=None,
@@ -211,7 +222,8 @@ def make_specimen(shape, size, *, particle_radius=None, radius_distribution=None
     ([diameter, thickness], axis y) or "sphere" ([diameter]); particle_radius (m) or
     radius_distribution (see ``generate.sample_radii``); solids_fraction of the packing;
     seed: the same seed gives the same specimen; material: the particles' Material;
-    bond_material: a BondMaterial; max_gap (m): bonds between pairs whose surface gap is at
+    bond_material: a BondMaterial, or None for no bonds (with an adhesive contact_model:
+    its contacts hold the body); max_gap (m): bonds between pairs whose surface gap is at
     most this (overlaps count); diameter_ratio: bond diameter over the smaller particle's;
     consolidation_stress (Pa): if given, the packing is made in the box around the shape,
     pressed to this isotropic stress by six servo walls with frictionless contacts, bonded
@@ -220,6 +232,10 @@ def make_specimen(shape, size, *, particle_radius=None, radius_distribution=None
     """
     if shape not in SHAPES:
         raise ValueError(f"shape = {shape!r}; allowed: {', '.join(SHAPES)}")
+    if bond_material is None and contact_model not in ADHESIVE:
+        raise ValueError(f"bond_material: required with contact_model = {contact_model!r} "
+                         f"(without bonds only an adhesive model holds a body: "
+                         f"{', '.join(ADHESIVE)})")
     center = np.zeros(3)
     notes = []
     if consolidation_stress is None:
@@ -242,9 +258,14 @@ def make_specimen(shape, size, *, particle_radius=None, radius_distribution=None
                      + ("" if reached else " (not reached within the step limit)"))
         keep = _inside(shape, size, position, radius)
         position, radius = position[keep], radius[keep]
-    pairs, diameter = bonds_from_gap(position, radius, max_gap, diameter_ratio=diameter_ratio,
-                                     max_per_particle=max_per_particle)
-    specimen = Specimen(position, radius, pairs, diameter, [material], [bond_material],
+    if bond_material is None:    # an adhesive agglomerate: its contacts hold it
+        pairs, diameter = np.zeros((0, 2), dtype=np.int64), np.zeros(0)
+    else:
+        pairs, diameter = bonds_from_gap(position, radius, max_gap,
+                                         diameter_ratio=diameter_ratio,
+                                         max_per_particle=max_per_particle)
+    specimen = Specimen(position, radius, pairs, diameter, [material],
+                        [] if bond_material is None else [bond_material],
                         shape=shape, contact_model=contact_model, notes=notes)
     specimen.notes.append(f"{specimen.n_particles} particles, {specimen.n_bonds} bonds, "
                           f"coordination {specimen.coordination():.2f}, solids fraction "

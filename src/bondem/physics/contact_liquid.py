@@ -46,6 +46,21 @@ HYSTERETIC = True
 TENSION, ANGLE, VOLUME, VISCOSITY, MIN_GAP = range(PAIR_MODEL, PAIR_MODEL + 5)
 
 
+def time_scales(model):
+    """{"liquid_viscous": s}: m* s_min / (6 pi eta R*^2) of the most damped self-pair
+    (m* = m/2, R* = r/2), the step an explicit dashpot of the film needs; none without
+    viscosity."""
+    import numpy as np
+    eta = np.array([m.viscosity for m in model.materials])[model.material]
+    gap = np.array([m.bridge_min_gap for m in model.materials])[model.material]
+    wet = eta > 0.0
+    if not np.any(wet):
+        return {}
+    r_star = 0.5 * model.radius[wet]
+    scale = 0.5 * model.mass[wet] * gap[wet] / (6.0 * math.pi * eta[wet] * r_star * r_star)
+    return {"liquid_viscous": float(scale.min())}
+
+
 @physics
 def bridge_rupture_distance(pair, q, r_star):
     """Lian et al.'s rupture distance (1 + theta/2) V^(1/3) (m) of row q's bridge (0
