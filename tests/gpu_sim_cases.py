@@ -764,6 +764,7 @@ def case_musen_contacts_walls_match_cpu():
 
 # Adhesive laws strong enough to act within the case's 30 steps on 1 mm spheres.
 ADHESIVE = {"jkr": {"surface_energy": 2.0},
+            "popov_jkr": {"surface_energy": 2.0},
             "vdw": {"hamaker_constant": 1e-17, "vdw_cutoff": 3e-5, "vdw_min_distance": 4e-7},
             "liquid_bridge": {"surface_tension": 0.07, "contact_angle": 20.0,
                               "bridge_volume": 2e-12, "viscosity": 1e-3,
@@ -771,8 +772,8 @@ ADHESIVE = {"jkr": {"surface_energy": 2.0},
 
 
 def case_adhesive_contacts_match_cpu():
-    """Every adhesive contact model (JKR, van der Waals, liquid bridge; JKR and van der
-    Waals also in MUSEN's numerics) with a plane, a moving mesh wall and breakage: the
+    """Every adhesive contact model (JKR, Popov's JKR, van der Waals, liquid bridge; all but
+    the liquid bridge also in MUSEN's numerics) with a plane, a moving mesh wall and breakage: the
     CUDA kernels dispatch on the model's code as the CPU's do, GPU equals CPU."""
     from bondem.contacts import ContactSettings
     for name, keys in ADHESIVE.items():

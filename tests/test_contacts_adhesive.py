@@ -310,3 +310,42 @@ def test_liquid_bridge_lubrication_resists_separation_and_sets_the_step():
             assert state.extra["contact_force"][0, 0] == pytest.approx(
                 6 * math.pi * eta * r_star ** 2 * speed / gap, rel=1e-9)
             checked += 1
+
+
+def test_popov_jkr_pulled_apart_follows_its_curve_to_the_pull_off_force():
+    """Popov's JKR, two unlike spheres pulled apart at constant speed from contact: the
+    force at the touch is -0.88 F_A, the least force -F_A = -3/2 pi w R* (JKR's pull-off
+    force), reached where the neck breaks, at the gap S = (0.4626 (w/E*)^2 R*)^(1/3); the
+    potential is the integral of the force (Simpson) from that point."""
+    from bondem.physics import contact_popov
+    a = material("a", 1.0, surface_energy=0.2)
+    b = material("b", 1.0, surface_energy=0.05)
+    r_a, r_b = 3e-6, 5e-6
+    w = math.sqrt(0.2 * 0.05)
+    r_star = r_a * r_b / (r_a + r_b)
+    e_star = e_star_of(a, b)
+    f_a = 1.5 * math.pi * w * r_star
+    s = (0.4626 * (w / e_star) ** 2 * r_star) ** (1 / 3)
+    speed = 1e-3
+    model, state = bondem.make_system([[0, 0, 0], [r_a + r_b - 1e-12, 0, 0]], [r_a, r_b],
+                                      [a, b], material_index=[0, 1],
+                                      velocity=[[0, 0, 0], [speed, 0, 0]], fixed=[True, True])
+    sim = bondem.Simulation(model, state, contact=ContactSettings(model="popov_jkr"))
+    sim.time_step = s / speed / 400
+    forces, gaps = [], []
+    while True:
+        gap = state.position[1, 0] - r_a - r_b
+        sim.step(1)
+        force = -state.extra["contact_force"][0, 0]     # on 1 along +x: repulsive > 0
+        if force == 0.0:
+            break
+        forces.append(force)
+        gaps.append(gap)
+    assert forces[0] == pytest.approx(-0.88 * f_a, rel=1e-4)   # at an overlap of 1e-12 m
+    assert min(forces) == pytest.approx(-f_a, rel=1e-4)
+    assert s - speed * sim.time_step <= gaps[-1] < s
+    x = np.linspace(-s, 0.0, 2001)
+    y = np.array([contact_popov.popov_force(d, w, e_star, r_star)[0] for d in x])
+    integral = (x[1] - x[0]) / 3 * (y[0] + y[-1] + 4 * y[1:-1:2].sum() + 2 * y[2:-1:2].sum())
+    assert contact_popov.popov_force(0.0, w, e_star, r_star)[1] == pytest.approx(integral,
+                                                                                   rel=1e-6)

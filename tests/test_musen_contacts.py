@@ -196,14 +196,15 @@ def worst_rows(name, compat):
 
 
 @pytest.mark.parametrize("name", ["contacts", "moving_wall", "rotating_wall", "impact",
-                                  "contacts_1.74.2", "jkr_cluster", "vdw_cluster"])
+                                  "contacts_1.74.2", "jkr_cluster", "vdw_cluster",
+                                  "popov_cluster"])
 def test_real_musen_contact_runs_are_reproduced_to_round_off(name):
     """Positions, velocities and spins in every frame of MUSEN's run (impact: 14 of its 369
     particles, and every bond's break step): in compat mode within 1e-10 of the largest
     value (measured: 6e-15 or less for positions, 2e-11 for velocities, 5e-13 for spins;
     the impact's 220 breaks all in MUSEN's step; the JKR and van der Waals clusters of
-    1.74.2's ModelPPJKR / ModelPWJKR and ModelPPHertzMindlinVdW 3.4e-16 and 3.6e-16 in
-    velocity); SPEC mode parts by far more."""
+    1.74.2's ModelPPJKR / ModelPWJKR, ModelPPHertzMindlinVdW and ModelPPPopovJKR /
+    ModelPWPopovJKR 3.4e-16, 3.6e-16 and 8.4e-16 in velocity); SPEC mode parts by far more."""
     rows = worst_rows(name, "musen")
     assert len(rows) >= 3 and all(r.passed for r in rows), [(r.quantity, r.error) for r in rows]
     for row in rows:

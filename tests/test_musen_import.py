@@ -230,7 +230,8 @@ def test_imported_shared_runs_reproduce_the_real_musen(tmp_path, run):
 
 
 @pytest.mark.parametrize("run", ["contacts", "moving_wall", "rotating_wall",
-                                 "contacts_1.74.2", "jkr_cluster", "vdw_cluster"])
+                                 "contacts_1.74.2", "jkr_cluster", "vdw_cluster",
+                                 "popov_cluster"])
 def test_imported_contact_scenes_reproduce_the_real_musen(tmp_path, run):
     """MUSEN's text scenes with contacts: the plane becomes a two-triangle mesh wall (the
     moving one with its velocity, the turning one with its spin), the contacts MUSEN's

@@ -26,6 +26,7 @@ import refresh_runs  # noqa: E402  (this folder; it imports ../shared's make_ref
 
 make_refdata = refresh_runs.make_refdata
 P_SURFACE_ENERGY = 11   # Databases/MaterialsDatabase/DefinesMDB.h, PROPERTY_SURFACE_ENERGY
+P_SURFACE_TENSION = 13  # PROPERTY_SURFACE_TENSION
 MUSEN_TAG = "v1.74.2"
 MUSEN_VDW_DMIN = 7.5e-10  # ModelPPHertzMindlinVdW.cpp's Dmin (m)
 
@@ -51,8 +52,8 @@ def falling_cluster(title, story, seed, speed, spin, steps=5000):
                       f"then spins (27 x 3); gravity -9.81 m/s^2 in z. " + story)
 
 
-# name: (scene, MODEL_PP, MODEL_PW, MUSEN surface energy J/m^2, bondem contact model and
-# material keys)
+# name: (scene, MODEL_PP, MODEL_PW, MUSEN surface energy J/m^2 (Popov's JKR: its surface
+# tension, property 13), bondem contact model and material keys)
 MODELS = {
     "jkr_cluster": (
         lambda: falling_cluster("3x3x3 cluster of adhesive spheres (JKR) falling on a plane "
@@ -67,7 +68,14 @@ MODELS = {
                                 "24 pi Dmin^2 w, Dmin = 7.5e-10 m).", 20261211, 0.1, 50.0),
         "ModelPPHertzMindlinVdW", "ModelPWHertzMindlin", 0.5, "vdw",
         {"hamaker_constant": 24 * math.pi * MUSEN_VDW_DMIN * MUSEN_VDW_DMIN * 0.5}),
+    "popov_cluster": (
+        lambda: falling_cluster("3x3x3 cluster of adhesive spheres (Popov's JKR) falling on "
+                                "a plane (MUSEN 1.74.2, ModelPPPopovJKR, ModelPWPopovJKR)",
+                                "Surface tension (MUSEN's w of this model) 5 J/m^2.",
+                                20261212, 0.1, 50.0),
+        "ModelPPPopovJKR", "ModelPWPopovJKR", 5.0, "popov_jkr", {"surface_energy": 5.0}),
 }
+PROPERTY = {"popov_cluster": P_SURFACE_TENSION}
 
 
 def compare_rows(n):
@@ -109,7 +117,8 @@ def write(name, folder):
     (folder / "scene.toml").write_text(toml)
     (folder / "bonds.csv").unlink()
     lines = (folder / "musen_scene.txt").read_text().splitlines()
-    lines = [line + f" {P_SURFACE_ENERGY} {make_refdata.full(surface_energy)}"
+    prop = PROPERTY.get(name, P_SURFACE_ENERGY)
+    lines = [line + f" {prop} {make_refdata.full(surface_energy)}"
              if line.startswith("32 solid solid ") else line for line in lines]
     (folder / "musen_scene.txt").write_text("\n".join(lines) + "\n")
     script = (folder / "musen_script.txt").read_text()
@@ -127,7 +136,8 @@ def write(name, folder):
                   flags=re.S)
     text = re.sub(r"- particle-particle: `ModelPPHertzMindlin`.*?\n",
                   f"- particle-particle: `{pp}`; particle-wall: `{pw}` (MUSEN {MUSEN_TAG}); "
-                  f"surface energy (material property 11) {surface_energy:g} J/m^2; bondem: "
+                  f"material property {prop} ({'surface tension' if prop == 13 else 'surface energy'}) "
+                  f"{surface_energy:g} J/m^2; bondem: "
                   f"`contact_model = \"{model}\"`, "
                   + ", ".join(f"`{k} = {v!r}`" for k, v in keys.items())
                   + " (`bondem validate --compat musen` compares in MUSEN's numerics).\n",

@@ -75,7 +75,7 @@ def _granular(material, model="hertz_mindlin"):
                             / effective_young_modulus(young, poisson, young, poisson))
     normal = "hertz/material"
     cohesion = ""
-    if model == "jkr":
+    if model in ("jkr", "popov_jkr"):
         normal, cohesion = "jkr", f" {float_text(0.5 * material.surface_energy)}"
     elif model == "vdw":
         normal = "dmt"
@@ -113,6 +113,9 @@ def _notes(model, options):
     if contact is not None and contact.model in ("linear", "liquid_bridge"):
         notes.append(f"contact model {contact.model!r}: exported as Hertz-Mindlin (LAMMPS's "
                      "granular styles have no counterpart)")
+    if contact is not None and contact.model == "popov_jkr":
+        notes.append("contact model 'popov_jkr': exported as LAMMPS's jkr (the law Popov's "
+                     "fits)")
     if contact is not None and contact.model == "vdw":
         notes.append("contact model 'vdw': exported as LAMMPS's dmt with the same pull in "
                      "contact; LAMMPS's granular styles have no force beyond contact")

@@ -52,13 +52,17 @@ CONTACT_MODELS = {m.MUSEN["pp"]: m.NAME for m in contact_models.MODELS
 WALL_MODELS = {m.NAME: m.MUSEN["pw"] for m in contact_models.MODELS
                if "kind_pp" in getattr(m, "MUSEN", {})}
 SURFACE_ENERGY = 11   # MUSEN material property PROPERTY_SURFACE_ENERGY (J/m^2)
+SURFACE_TENSION = 13  # PROPERTY_SURFACE_TENSION, which MUSEN's PopovJKR reads as w
 
 
 def musen_surface_energy(model, values):
     """{MUSEN property: value} of contact model ``model``'s keys in a material's
-    ``values`` (JKR: its surface energy; van der Waals: MUSEN's w = A / (24 pi Dmin^2))."""
+    ``values`` (JKR: its surface energy; Popov's JKR: the surface tension; van der
+    Waals: MUSEN's w = A / (24 pi Dmin^2))."""
     if model == "jkr":
         return {SURFACE_ENERGY: float(values.get("surface_energy", 0.0))}
+    if model == "popov_jkr":
+        return {SURFACE_TENSION: float(values.get("surface_energy", 0.0))}
     if model == "vdw":
         return {SURFACE_ENERGY: float(values.get("hamaker_constant", 0.0))
                 / (24 * math.pi * MUSEN_VDW_DMIN * MUSEN_VDW_DMIN)}
@@ -68,6 +72,9 @@ def musen_surface_energy(model, values):
 def bondem_adhesion(model, props):
     """A material's contact model keys from its MUSEN properties ``props`` (the inverse of
     ``musen_surface_energy``, with MUSEN's own arithmetic for the Hamaker constant)."""
+    if model == "popov_jkr":
+        return ({"surface_energy": props[SURFACE_TENSION]} if SURFACE_TENSION in props
+                else {})
     w = props.get(SURFACE_ENERGY)
     if w is None:
         return {}

@@ -54,8 +54,9 @@ MUSEN_VERSION = "1.74.2"
 
 # MUSEN's contact models whose normal force this module writes (the rest is Hertz-
 # Mindlin's): ModelPPHertzMindlin / ModelPWHertzMindlin, ModelPPJKR / ModelPWJKR,
-# ModelPPHertzMindlinVdW (1.74.2; docs/contact_models.md).
-MUSEN_HERTZ_MINDLIN, MUSEN_JKR, MUSEN_VDW = 0, 1, 2
+# ModelPPHertzMindlinVdW, ModelPPPopovJKR / ModelPWPopovJKR (1.74.2;
+# docs/contact_models.md).
+MUSEN_HERTZ_MINDLIN, MUSEN_JKR, MUSEN_VDW, MUSEN_POPOV = 0, 1, 2, 3
 # ModelPPHertzMindlinVdW's fixed minimum separation (m): Hamaker's constant is
 # 24 pi Dmin^2 times the surface energy.
 MUSEN_VDW_DMIN = 7.5e-10
@@ -140,6 +141,19 @@ def musen_coulomb(xi, k_t, damping_t, f_n, damping, friction, f_t_prev, newer, p
 
 
 @physics
+def musen_popov(overlap, radius, e_star, w):
+    """ModelPPPopovJKR's / ModelPWPopovJKR's normal force (N, repulsive > 0) and its
+    potential (J, as contact_popov's) at overlap (m), in MUSEN's order of operations
+    (w: MUSEN's surface tension, J/m^2; radius: R*, m)."""
+    adh = 3.0 / 2.0 * w * math.pi * radius
+    ratio = w / e_star
+    s = (0.4626 * (ratio * ratio) * radius) ** (1.0 / 3.0)
+    x = overlap / s + 1.0
+    return (adh * (-1.0 + 0.12 * x ** (5.0 / 3.0)),
+            adh * (-(overlap + s) + 0.045 * s * x ** (8.0 / 3.0)))
+
+
+@physics
 def musen_normal_pp(kind, cv, overlap, r_i, r_j, r_star, e_star, adhesion):
     """(elastic normal force along x_j - x_i in N (negative: pushes i away), stiffness k_n
     N/m, attraction N, overlap the law uses m, potential J) of MUSEN's particle-particle
@@ -156,6 +170,9 @@ def musen_normal_pp(kind, cv, overlap, r_i, r_j, r_star, e_star, adhesion):
         return -overlap * k_n * 2.0 / 3.0, k_n, pull, overlap, energy
     a = math.sqrt(r_star * overlap)
     k_n = 2.0 * e_star * a
+    if kind == MUSEN_POPOV:
+        f_n, energy = musen_popov(overlap, r_star, e_star, adhesion)
+        return -f_n, k_n, 0.0, overlap, energy
     if kind == MUSEN_JKR:
         a3 = a ** 3.0
         f_n = -1.0 * (4.0 * a3 * e_star / (3.0 * r_star)
@@ -215,7 +232,8 @@ def hertz_mindlin_musen_pw(x, q, n_wall, radius, v, w, v_wall, omega_wall, cente
     centre of rotation (m); v, w, mass: the particle's (m/s, rad/s, kg); version:
     MUSEN_1_70 or MUSEN_1_74 (module docstring); kind: MUSEN_HERTZ_MINDLIN, or
     MUSEN_JKR (ModelPWJKR, surface energy ``adhesion`` J/m^2: its adhesive term, not its
-    elastic one, scaled by |n_rc . n_wall|).
+    elastic one, scaled by |n_rc . n_wall|), or MUSEN_POPOV (ModelPWPopovJKR: its whole
+    normal force scaled, its spring force from the previous step's overlap).
 
     Returns (force on the particle N, moment N m, its rolling torque N m, new overlap_t m,
     new tangential force N, elastic energy J)."""
@@ -233,7 +251,10 @@ def hertz_mindlin_musen_pw(x, q, n_wall, radius, v, w, v_wall, omega_wall, cente
     constant = MUSEN_DAMPING_1_74 if newer else MUSEN_DAMPING
     a = math.sqrt(radius * overlap)
     k_n = 2.0 * e_star * a
-    if kind == MUSEN_JKR:
+    if kind == MUSEN_POPOV:
+        popov, normal_energy = musen_popov(overlap, radius, e_star, adhesion)
+        f_n = popov * abs(dot(n_rc, n_wall))
+    elif kind == MUSEN_JKR:
         a3 = a ** 3.0
         f_n = (4.0 * a3 * e_star / (3.0 * radius)
                - math.sqrt(8.0 * math.pi * e_star * adhesion * a3) * abs(dot(n_rc, n_wall)))
@@ -247,8 +268,16 @@ def hertz_mindlin_musen_pw(x, q, n_wall, radius, v, w, v_wall, omega_wall, cente
     k_t = 8.0 * g_star * math.sqrt(radius * overlap)
     damping_t = scale(rel_t, constant * alpha * math.sqrt(k_t * mass))
     # the wall's spring pushes against its overlap: -k_t
-    f_t_new, xi = musen_coulomb(xi, -k_t, damping_t, f_n, damping, friction, f_t_prev,
-                                newer, 0.0)
+    if kind == MUSEN_POPOV:
+        # ModelPWPopovJKR's spring force takes the previous step's overlap (not carried,
+        # not advanced); a sticking contact still keeps the advanced one
+        f_t_new, cut = musen_coulomb(overlap_t, -k_t, damping_t, f_n, damping, friction,
+                                     f_t_prev, newer, 0.0)
+        if norm(scale(overlap_t, -k_t)) > friction * abs(f_n + damping):
+            xi = cut
+    else:
+        f_t_new, xi = musen_coulomb(xi, -k_t, damping_t, f_n, damping, friction, f_t_prev,
+                                    newer, 0.0)
     force = add(f_t_new, scale(n_wall, f_n + damping))
     torque = musen_rolling_torque(w, rolling, f_n, radius)
     moment = add(scale(cross(n_wall, f_t_new), -radius), torque)
