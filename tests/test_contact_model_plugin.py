@@ -5,8 +5,8 @@ nothing else edited.
 
 The test law is Hertz-Mindlin plus a constant attraction ``pull_force`` (N, mixed as the
 mean) that acts out to a gap ``pull_range`` (m): two clamped unlike spheres 0.6 of the
-range apart feel exactly the mean of the two pulls, 1.2 of the range apart nothing, and
-beyond the default Verlet skin (a fifth of the mean radius) the pair is still listed.
+range apart, four times the default Verlet skin (a fifth of the mean radius), are listed
+and feel exactly the mean of the two pulls; 1.2 of the range apart nothing.
 """
 import shutil
 import subprocess
@@ -55,12 +55,12 @@ import bondem
 from bondem.contacts import ContactSettings
 from bondem.scene import load_scene
 
-a = bondem.Material(density=2500.0, young_modulus=1e8, pull_force=2e-6, pull_range=4e-4,
+a = bondem.Material(density=2500.0, young_modulus=1e8, pull_force=2e-6, pull_range=2e-3,
                     name="a")
-b = bondem.Material(density=2500.0, young_modulus=1e8, pull_force=5e-6, pull_range=4e-4,
+b = bondem.Material(density=2500.0, young_modulus=1e8, pull_force=5e-6, pull_range=2e-3,
                     name="b")
 for fraction in (0.6, 1.2):
-    model, state = bondem.make_system([[0, 0, 0], [1e-3 + 2e-3 + fraction * 4e-4, 0, 0]],
+    model, state = bondem.make_system([[0, 0, 0], [1e-3 + 2e-3 + fraction * 2e-3, 0, 0]],
                                       [1e-3, 2e-3], [a, b], material_index=[0, 1],
                                       fixed=[True, True])
     sim = bondem.Simulation(model, state, contact=ContactSettings(model="pulling"))
@@ -101,7 +101,7 @@ def test_a_contact_model_file_is_all_a_new_model_needs(tmp_path):
                           capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stderr[-3000:]
     lines = dict(line.split(" ", 1) for line in done.stdout.splitlines())
-    # the pair 0.6 of the range apart, far beyond the skin (0.3 mm): listed and pulled
+    # the pair 0.6 of the range apart (1.2 mm), beyond the skin (0.3 mm): listed and pulled
     # with the mean of 2 and 5 uN towards each other (+x on particle 0)
     assert abs(float(lines["force0.6"]) - 3.5e-6) < 1e-18, lines
     assert lines["force1.2"] in ("unlisted", "0.0"), lines

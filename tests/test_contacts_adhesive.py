@@ -349,3 +349,30 @@ def test_popov_jkr_pulled_apart_follows_its_curve_to_the_pull_off_force():
     integral = (x[1] - x[0]) / 3 * (y[0] + y[-1] + 4 * y[1:-1:2].sum() + 2 * y[2:-1:2].sum())
     assert contact_popov.popov_force(0.0, w, e_star, r_star)[1] == pytest.approx(integral,
                                                                                    rel=1e-6)
+
+
+def test_a_jkr_neck_longer_than_the_skin_is_not_lost():
+    """The neighbour lists reach the pull-off gap beyond the skin (LAMMPS's issue 4685:
+    necks lost beyond the neighbour cut-off): with a skin of a thousandth of delta_c, a
+    pair pulled apart slowly still lets go at delta_c."""
+    m = material(surface_energy=0.3)
+    r = 4e-6
+    e_star = e_star_of(m, m)
+    w, r_star = 0.3, r / 2
+    delta_c = 0.75 * (math.pi ** 2 * w ** 2 * r_star / e_star ** 2) ** (1 / 3)
+    speed = 1e-3
+    model, state = bondem.make_system([[0, 0, 0], [2 * r - 1e-9, 0, 0]], r, m,
+                                      velocity=[[0, 0, 0], [speed, 0, 0]], fixed=[True, True])
+    sim = bondem.Simulation(model, state,
+                            contact=ContactSettings(model="jkr", skin=1e-3 * delta_c))
+    sim.time_step = delta_c / speed / 300
+    last = None
+    while True:
+        gap = state.position[1, 0] - 2 * r
+        sim.step(1)
+        if state.extra["contact_force"].shape[0] == 0 or \
+                not np.any(state.extra["contact_force"] != 0.0):
+            break
+        last = gap
+    assert last is not None and delta_c - 2 * speed * sim.time_step < last < delta_c
+    assert state.extra["contact_counters"][2] > 10      # the lists were rebuilt on the way
