@@ -20,6 +20,12 @@ from bondem.walls import PlaneWall
 E, NU = 1e8, 0.28
 
 
+def approx(expected, rel, abs=0.0):
+    """pytest.approx without its default absolute tolerance of 1e-12, which would pass
+    any of the micro-newton forces and femtojoule energies here."""
+    return pytest.approx(expected, rel=rel, abs=abs)
+
+
 def material(name="a", restitution=0.4, **keys):
     return bondem.Material(density=2500.0, young_modulus=E, poisson_ratio=NU,
                            restitution=restitution, friction=0.3, name=name, **keys)
@@ -49,26 +55,26 @@ def test_jkr_curve_pull_off_and_zero_load_radius(w):
     for a in a_c * np.array([1.02, 1.3, 2.0, 5.0, 40.0]):
         delta = jkr_overlap(a, r_star, e_star, w)
         found = contact_jkr.jkr_contact_radius(delta, r_star, e_star, w)
-        assert found == pytest.approx(a, rel=1e-9)
-        assert contact_jkr.jkr_force(found, r_star, e_star, w) == pytest.approx(
+        assert found == approx(a, rel=1e-9)
+        assert contact_jkr.jkr_force(found, r_star, e_star, w) == approx(
             jkr_theory_force(a, r_star, e_star, w), rel=1e-8, abs=1e-12 * w * r_star)
     # load control: the least force over the branch is -3/2 pi w R*
     overlaps = np.linspace(jkr_overlap(a_c, r_star, e_star, w), 5 * a_c ** 2 / r_star, 4001)
     forces = [contact_jkr.jkr_force(contact_jkr.jkr_contact_radius(d, r_star, e_star, w),
                                     r_star, e_star, w) for d in overlaps]
-    assert min(forces) == pytest.approx(-1.5 * math.pi * w * r_star, rel=0.01)
+    assert min(forces) == approx(-1.5 * math.pi * w * r_star, rel=0.01)
     # displacement control: the neck breaks at delta_c with -5/6 pi w R*
     pair = np.zeros((1, 7))
     pair[0, 0], pair[0, 6] = e_star, w
     delta_c = 0.75 * (math.pi ** 2 * w ** 2 * r_star / e_star ** 2) ** (1 / 3)
-    assert contact_jkr.jkr_pull_off_gap(pair, 0, r_star) == pytest.approx(delta_c, rel=1e-12)
+    assert contact_jkr.jkr_pull_off_gap(pair, 0, r_star) == approx(delta_c, rel=1e-12)
     tip = contact_jkr.jkr_contact_radius(-delta_c * (1 - 1e-9), r_star, e_star, w)
-    assert contact_jkr.jkr_force(tip, r_star, e_star, w) == pytest.approx(
+    assert contact_jkr.jkr_force(tip, r_star, e_star, w) == approx(
         -5 / 6 * math.pi * w * r_star, rel=1e-3)
     # zero load: a_0 = (9 pi w R*^2 / (2 E*))^(1/3), at the overlap a_0^2 / (3 R*)
     a_0 = (9 * math.pi * w * r_star ** 2 / (2 * e_star)) ** (1 / 3)
     found = contact_jkr.jkr_contact_radius(a_0 ** 2 / (3 * r_star), r_star, e_star, w)
-    assert found == pytest.approx(a_0, rel=1e-9)
+    assert found == approx(a_0, rel=1e-9)
     assert abs(contact_jkr.jkr_force(found, r_star, e_star, w)) < 1e-9 * w * r_star
 
 
@@ -91,15 +97,15 @@ def test_jkr_potential_is_the_integral_of_its_force_and_zero_at_pull_off():
         x = np.linspace(tip, end, 2001)
         y = np.array([f(d) for d in x])
         integral = (x[1] - x[0]) / 3 * (y[0] + y[-1] + 4 * y[1:-1:2].sum() + 2 * y[2:-1:2].sum())
-        assert u(end) == pytest.approx(integral, rel=2e-4, abs=1e-4 * abs(integral) + 1e-30)
+        assert u(end) == approx(integral, rel=2e-4, abs=1e-4 * abs(integral) + 1e-30)
 
 
 def test_jkr_without_adhesion_is_hertz():
     r_star, e_star = 1e-3, 5e7
     for delta in (1e-7, 3e-6, 2e-5):
         a = contact_jkr.jkr_contact_radius(delta, r_star, e_star, 0.0)
-        assert a == pytest.approx(math.sqrt(r_star * delta), rel=1e-12)
-        assert contact_jkr.jkr_force(a, r_star, e_star, 0.0) == pytest.approx(
+        assert a == approx(math.sqrt(r_star * delta), rel=1e-12)
+        assert contact_jkr.jkr_force(a, r_star, e_star, 0.0) == approx(
             4 / 3 * e_star * math.sqrt(r_star) * delta ** 1.5, rel=1e-11)
 
 
@@ -139,7 +145,7 @@ def test_jkr_pull_off_force_under_a_constant_load():
         model.external_force[1, 0] = factor * f_c
         sim.step(3000)
         gaps[factor] = state.position[1, 0] - r_a - r_b
-    assert gaps[0.99] == pytest.approx(-overlap, rel=1e-6)      # held where the theory says:
+    assert gaps[0.99] == approx(-overlap, rel=1e-6)      # held where the theory says:
     assert 0.0 < gaps[0.99] < delta_c                            # beyond contact, necked
     assert gaps[1.01] > 10 * delta_c                             # gone
 
@@ -188,7 +194,7 @@ def test_jkr_energy_balance_closes_with_the_adhesion_booked():
     terms = sim.energy_terms()
     stored = terms["kinetic_translational"] + terms["kinetic_rotational"] + terms["contact_elastic"]
     assert terms["dissipated_contacts"] > 0
-    assert stored + terms["dissipated_contacts"] == pytest.approx(before, rel=1e-3)
+    assert stored + terms["dissipated_contacts"] == approx(before, rel=1e-3)
     assert terms["contact_elastic"] < 0   # bound in the adhesive well
 
 
@@ -209,10 +215,10 @@ def test_van_der_waals_force_against_separation(gap):
     r_star = r_a * r_b / (r_a + r_b)
     expected = math.sqrt(4e-20 * 9e-20) * r_star / (6 * gap ** 2)
     force = state.extra["contact_force"][0]      # on particle 0, towards particle 1: +x
-    assert force[0] == pytest.approx(expected, rel=1e-9)
+    assert force[0] == approx(expected, rel=1e-9)
     assert force[1] == 0.0 and force[2] == 0.0
     # the potential's derivative is the force
-    assert state.extra["contact_energy"][0] == pytest.approx(
+    assert state.extra["contact_energy"][0] == approx(
         -math.sqrt(4e-20 * 9e-20) * r_star / 6 * (1 / gap - 1 / 5e-8), rel=1e-9)
 
 
@@ -233,7 +239,7 @@ def test_van_der_waals_beyond_its_cut_off_and_in_contact():
     e_star = e_star_of(a, a)
     hertz = 4 / 3 * e_star * math.sqrt(r / 2) * overlap ** 1.5
     pull = 1e-19 * (r / 2) / (6 * 3e-10 ** 2)
-    assert state.extra["contact_force"][0, 0] == pytest.approx(pull - hertz, rel=1e-9)
+    assert state.extra["contact_force"][0, 0] == approx(pull - hertz, rel=1e-9)
 
 
 def test_van_der_waals_towards_a_wall():
@@ -244,7 +250,7 @@ def test_van_der_waals_towards_a_wall():
     sim = bondem.Simulation(model, state, contact=ContactSettings(model="vdw"),
                             walls=[PlaneWall([0, 0, 0], [0, 0, 1], a)])
     sim.step(1)
-    assert state.extra["wall_force_rows"][0, 2] == pytest.approx(
+    assert state.extra["wall_force_rows"][0, 2] == approx(
         -6e-20 * r / (6 * gap ** 2), rel=1e-9)
 
 
@@ -267,7 +273,7 @@ def test_liquid_bridge_force_at_contact_and_rupture_distance():
     f_0 = 2 * math.pi * r_star * gamma * math.cos(math.radians(theta))
     sim.step(1)
     hertz = 4 / 3 * e_star_of(a, a) * math.sqrt(r_star) * 1e-10 ** 1.5
-    assert state.extra["contact_force"][0, 0] == pytest.approx(f_0 - hertz, rel=1e-9)
+    assert state.extra["contact_force"][0, 0] == approx(f_0 - hertz, rel=1e-9)
     rupture = (1 + math.radians(theta) / 2) * volume ** (1 / 3)
     c = 2 * volume / (math.pi * r_star)
     last_gap = None
@@ -280,7 +286,7 @@ def test_liquid_bridge_force_at_contact_and_rupture_distance():
             break
         last_gap = gap
         if checked < 5 and gap > 0.2 * rupture * (checked + 1) / 5:
-            assert force == pytest.approx(f_0 * (1 - gap / math.sqrt(gap * gap + c)), rel=1e-9)
+            assert force == approx(f_0 * (1 - gap / math.sqrt(gap * gap + c)), rel=1e-9)
             checked += 1
     assert checked == 5
     step = speed * sim.time_step
@@ -300,14 +306,14 @@ def test_liquid_bridge_lubrication_resists_separation_and_sets_the_step():
     sim = bondem.Simulation(model, state, contact=ContactSettings(model="liquid_bridge"))
     m_star = 0.5 * model.mass[0]
     assert sim.time_step_cause == "liquid_viscous"
-    assert sim.time_step == pytest.approx(
+    assert sim.time_step == approx(
         0.2 * m_star * s_min / (6 * math.pi * eta * (r_a / 2) ** 2), rel=1e-12)
     checked = 0
     while checked < 3:
         gap = state.position[1, 0] - r_a - r_b
         sim.step(1)
         if gap > s_min * (2 + 4 * checked):
-            assert state.extra["contact_force"][0, 0] == pytest.approx(
+            assert state.extra["contact_force"][0, 0] == approx(
                 6 * math.pi * eta * r_star ** 2 * speed / gap, rel=1e-9)
             checked += 1
 
@@ -341,13 +347,13 @@ def test_popov_jkr_pulled_apart_follows_its_curve_to_the_pull_off_force():
             break
         forces.append(force)
         gaps.append(gap)
-    assert forces[0] == pytest.approx(-0.88 * f_a, rel=1e-4)   # at an overlap of 1e-12 m
-    assert min(forces) == pytest.approx(-f_a, rel=1e-4)
+    assert forces[0] == approx(-0.88 * f_a, rel=1e-4)   # at an overlap of 1e-12 m
+    assert min(forces) == approx(-f_a, rel=1e-4)
     assert s - speed * sim.time_step <= gaps[-1] < s
     x = np.linspace(-s, 0.0, 2001)
     y = np.array([contact_popov.popov_force(d, w, e_star, r_star)[0] for d in x])
     integral = (x[1] - x[0]) / 3 * (y[0] + y[-1] + 4 * y[1:-1:2].sum() + 2 * y[2:-1:2].sum())
-    assert contact_popov.popov_force(0.0, w, e_star, r_star)[1] == pytest.approx(integral,
+    assert contact_popov.popov_force(0.0, w, e_star, r_star)[1] == approx(integral,
                                                                                    rel=1e-6)
 
 
@@ -376,3 +382,33 @@ def test_a_jkr_neck_longer_than_the_skin_is_not_lost():
         last = gap
     assert last is not None and delta_c - 2 * speed * sim.time_step < last < delta_c
     assert state.extra["contact_counters"][2] > 10      # the lists were rebuilt on the way
+
+
+def test_jkr_contact_at_zero_load_resists_sliding_with_its_pull_off_force():
+    """An adhesive contact slides only at mu (F_n + 2 F_c), F_c = 3/2 pi w R* (Thornton &
+    Yin; LAMMPS's granular jkr): two unlike spheres held at JKR's zero-load overlap, one
+    driven sideways at constant speed, the tangential force rises and stays at
+    mu x 3 pi w R* (F_n = 0), with mu the mean of the two frictions."""
+    a = bondem.Material(density=2500.0, young_modulus=1e8, poisson_ratio=0.28,
+                        restitution=1.0, friction=0.2, surface_energy=0.09, name="a")
+    b = bondem.Material(density=2500.0, young_modulus=2e8, poisson_ratio=0.22,
+                        restitution=1.0, friction=0.5, surface_energy=0.04, name="b")
+    r_a, r_b = 4e-6, 7e-6
+    w = math.sqrt(0.09 * 0.04)
+    r_star = r_a * r_b / (r_a + r_b)
+    e_star = e_star_of(a, b)
+    a_0 = (9 * math.pi * w * r_star ** 2 / (2 * e_star)) ** (1 / 3)
+    model, state = bondem.make_system(
+        [[0, 0, 0], [r_a + r_b - a_0 ** 2 / (3 * r_star), 0, 0]], [r_a, r_b], [a, b],
+        material_index=[0, 1], velocity=[[0, 0, 0], [0, 1e-3, 0]], fixed=[True, True])
+    sim = bondem.Simulation(model, state, contact=ContactSettings(model="jkr"),
+                            safety_factor=0.1)
+    sim.step(4000)
+    force = state.extra["contact_force"][0]              # on sphere 0
+    # the normal where the last step evaluated the force (before its drift)
+    centre = state.position[1] - state.velocity[1] * sim.time_step - state.position[0]
+    n = centre / np.linalg.norm(centre)
+    normal = -float(force @ n)                           # repulsive > 0
+    tangential = np.linalg.norm(force + normal * n)
+    assert abs(normal) < 0.01 * 1.5 * math.pi * w * r_star      # about zero load
+    assert tangential == approx(0.35 * (normal + 3 * math.pi * w * r_star), rel=1e-9)

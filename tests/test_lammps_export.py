@@ -165,7 +165,8 @@ def test_adhesive_contacts_map_to_lammps_jkr_and_dmt(tmp_path):
     _, deck, notes = export_lammps(path, tmp_path / "out2")
     gamma = 1.2e-19 / (24 * math.pi * 5e-10 ** 2)
     (line,) = [x for x in deck.read_text().splitlines() if x.startswith("pair_coeff")]
-    assert line.split()[3] == "dmt" and float(line.split()[7]) == pytest.approx(gamma, rel=1e-15)
+    assert line.split()[3] == "dmt" and float(line.split()[7]) == pytest.approx(gamma, rel=1e-15,
+                                                                          abs=0.0)
     assert any("'vdw'" in n and "beyond contact" in n for n in notes)
     path.write_text(text.replace('contact_model = "hertz_mindlin"',
                                  'contact_model = "liquid_bridge"'))
