@@ -14,9 +14,7 @@ cmusen in OUT/NAME and writes make_refdata's CSV files there.
 """
 import math
 import re
-import shutil
 import sys
-import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -96,16 +94,7 @@ def compare_rows(n):
 def write(name, folder):
     """Write scene ``name`` into ``folder`` (make_refdata.write, then the contact model)."""
     scene, pp, pw, surface_energy, model, keys = MODELS[name]
-    make_refdata.SCENES[name] = scene
-    with tempfile.TemporaryDirectory() as work:
-        here = Path.cwd()
-        try:
-            import os
-            os.chdir(work)
-            s = make_refdata.write(name)
-        finally:
-            os.chdir(here)
-        shutil.copytree(Path(work) / name, folder, dirs_exist_ok=True)
+    s = refresh_runs.write_scene(name, scene, folder)
     toml = (folder / "scene.toml").read_text()
     toml = toml.replace("[simulation]\n", "[simulation]\nmusen_version = \"1.74.2\"  "
                                           "# the release the run was made with\n")
@@ -127,13 +116,7 @@ def write(name, folder):
     (folder / "musen_script.txt").write_text(script)
     (folder / "compare.toml").write_text(compare_rows(len(s["x"])))
     text = (folder / "SCENE.md").read_text()
-    text = re.sub(r"Reference run .*?reference folder\.",
-                  f"Reference run `{name}` made with the real MUSEN: cmusen built from "
-                  f"github.com/msolids/musen tag `{MUSEN_TAG}` (MUSEN 1.74.2) by bondem's "
-                  "`tools/musen/build_musen.sh` (CPU-only build), run as `cmusen -t=1 "
-                  "-s=musen_script.txt` (one thread, SIMULATOR_TYPE CPU). Made with "
-                  f"`python tools/musen/contact_runs.py CMUSEN OUT {name}`.", text,
-                  flags=re.S)
+    text = refresh_runs.credit(text, name, "contact_runs.py", MUSEN_TAG)
     text = re.sub(r"- particle-particle: `ModelPPHertzMindlin`.*?\n",
                   f"- particle-particle: `{pp}`; particle-wall: `{pw}` (MUSEN {MUSEN_TAG}); "
                   f"material property {prop} ({'surface tension' if prop == 13 else 'surface energy'}) "
@@ -155,19 +138,7 @@ def write(name, folder):
 
 
 def main(cmusen, out, names):
-    out = Path(out)
-    for name in names:
-        source = out / (name + ".source")
-        shutil.rmtree(source, ignore_errors=True)
-        write(name, source)
-        target = out / name
-        shutil.rmtree(target, ignore_errors=True)
-        refresh_runs.adapt(source, target)
-        for kept in ("scene.toml", "particles.csv", "compare.toml", "SCENE.md"):
-            shutil.copy(source / kept, target / kept)
-        shutil.rmtree(source)
-        make_refdata.run(str(target), cmusen)
-        make_refdata.export(str(target))
+    refresh_runs.make_runs(cmusen, out, names, write, ("scene.toml", "particles.csv", "compare.toml", "SCENE.md"))
 
 
 if __name__ == "__main__":

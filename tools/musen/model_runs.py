@@ -13,9 +13,7 @@ files but musen_bonds.csv.) refresh_runs.py adapts the MUSEN files to 1.74's tex
 in OUT/NAME and writes make_refdata's CSV files there.
 """
 import re
-import shutil
 import sys
-import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -128,16 +126,7 @@ MODELS = {
 def write(name, folder):
     """Write scene ``name`` into ``folder`` (make_refdata.write, then the model)."""
     scene, musen_model, parameters, yield_strength, keys = MODELS[name]
-    make_refdata.SCENES[name] = scene
-    with tempfile.TemporaryDirectory() as work:
-        here = Path.cwd()
-        try:
-            import os
-            os.chdir(work)
-            s = make_refdata.write(name)
-        finally:
-            os.chdir(here)
-        shutil.copytree(Path(work) / name, folder, dirs_exist_ok=True)
+    s = refresh_runs.write_scene(name, scene, folder)
     toml = (folder / "scene.toml").read_text()
     # not musen_compat: the same parameters mean the same in bondem's own law, so SPEC
     # mode runs it too (info rows in `bondem validate`, checked with --compat musen)
@@ -156,13 +145,7 @@ def write(name, folder):
                     f"MODEL_SB {musen_model}\nMODEL_SB_PARAMS {parameters}\n", script)
     (folder / "musen_script.txt").write_text(script)
     text = (folder / "SCENE.md").read_text()
-    text = re.sub(r"Reference run .*?reference folder\.",
-                  f"Reference run `{name}` made with the real MUSEN: cmusen built from "
-                  f"github.com/msolids/musen tag `{MUSEN_TAG}` (MUSEN 1.74.2) by bondem's "
-                  "`tools/musen/build_musen.sh` (CPU-only build), run as `cmusen -t=1 "
-                  "-s=musen_script.txt` (one thread, SIMULATOR_TYPE CPU). Made with "
-                  f"`python tools/musen/model_runs.py CMUSEN OUT {name}`.", text,
-                  flags=re.S)
+    text = refresh_runs.credit(text, name, "model_runs.py", MUSEN_TAG)
     text = re.sub(r"- solid bond: `ModelSBElastic`.*?\n",
                   f"- solid bond: `{musen_model}` (MUSEN {MUSEN_TAG}), `MODEL_SB_PARAMS "
                   f"{parameters}`"
@@ -176,19 +159,7 @@ def write(name, folder):
 
 
 def main(cmusen, out, names):
-    out = Path(out)
-    for name in names:
-        source = out / (name + ".source")
-        shutil.rmtree(source, ignore_errors=True)
-        write(name, source)
-        target = out / name
-        shutil.rmtree(target, ignore_errors=True)
-        refresh_runs.adapt(source, target)
-        for kept in ("scene.toml", "particles.csv", "bonds.csv", "compare.toml", "SCENE.md"):
-            shutil.copy(source / kept, target / kept)
-        shutil.rmtree(source)
-        make_refdata.run(str(target), cmusen)
-        make_refdata.export(str(target))
+    refresh_runs.make_runs(cmusen, out, names, write, ("scene.toml", "particles.csv", "bonds.csv", "compare.toml", "SCENE.md"))
 
 
 if __name__ == "__main__":

@@ -15,8 +15,11 @@ the newer cmusen, run there and exported. What the adaptation does, and why:
   corners 44, a particle's principal stresses 42): they are read with 1.74's arities and
   the bond codes mapped back to make_refdata.py's.
 """
+import os
+import re
 import shutil
 import sys
+import tempfile
 from pathlib import Path
 
 SHARED = Path(__file__).resolve().parents[3] / "shared" / "tools" / "musen"
@@ -66,6 +69,51 @@ def adapt(source, target):
     script = (source / "musen_script.txt").read_text().replace(
         "RESULT_FILE musen_export.txt", "RESULT_FILE ./musen_export.txt")
     (target / "musen_script.txt").write_text(script)
+
+
+def write_scene(name, scene, folder):
+    """make_refdata.write of ``scene`` (a function returning its dict) under ``name`` into
+    ``folder`` (make_refdata writes into the working directory); returns its dict."""
+    make_refdata.SCENES[name] = scene
+    with tempfile.TemporaryDirectory() as work:
+        here = Path.cwd()
+        try:
+            os.chdir(work)
+            s = make_refdata.write(name)
+        finally:
+            os.chdir(here)
+        shutil.copytree(Path(work) / name, folder, dirs_exist_ok=True)
+    return s
+
+
+def credit(text, name, tool, tag="v1.74.2"):
+    """SCENE.md ``text`` with its "Reference run ..." sentence naming the cmusen of MUSEN
+    tag ``tag`` and the bondem ``tool`` (tools/musen/TOOL) that made run ``name``."""
+    return re.sub(r"Reference run .*?reference folder\.",
+                  f"Reference run `{name}` made with the real MUSEN: cmusen built from "
+                  f"github.com/msolids/musen tag `{tag}` (MUSEN {tag[1:]}) by bondem's "
+                  "`tools/musen/build_musen.sh` (CPU-only build), run as `cmusen -t=1 "
+                  "-s=musen_script.txt` (one thread, SIMULATOR_TYPE CPU). Made with "
+                  f"`python tools/musen/{tool} CMUSEN OUT {name}`.", text, flags=re.S)
+
+
+def make_runs(cmusen, out, names, write, kept):
+    """For each name: ``write(name, folder)`` the scene into OUT/NAME.source, adapt it to
+    1.74's import into OUT/NAME (with the ``kept`` bondem files), run cmusen there and
+    export make_refdata's CSV files."""
+    out = Path(out)
+    for name in names:
+        source = out / (name + ".source")
+        shutil.rmtree(source, ignore_errors=True)
+        write(name, source)
+        target = out / name
+        shutil.rmtree(target, ignore_errors=True)
+        adapt(source, target)
+        for file in kept:
+            shutil.copy(source / file, target / file)
+        shutil.rmtree(source)
+        make_refdata.run(str(target), cmusen)
+        make_refdata.export(str(target))
 
 
 def main(cmusen, out, folders):

@@ -194,18 +194,27 @@ def bond_update(musen, r, vi, vj, wi, wj, axis, previous_length, f_t0, m_n0, m_t
     return length, n, f_n, f_t, m_n, m_t, mode, kn, kt, ktw, kb
 
 
-def _generated(name, signature, dispatch, default, doc):
-    """A loop body ``name(code, signature)`` written from physics/bond_models.py's list of
-    models: ``dispatch(module)`` gives the lines of the branch of a model's code (or
-    None), ``default`` the lines for every other code."""
-    lines = [f"def {name}(code, {signature}):"]
-    for module in bond_models.MODELS:
+def _generated(name, signature, dispatch, default, doc, models=None, code="code",
+               none_first=False):
+    """A loop body ``name(code, signature)`` written from a list of models (``models``:
+    physics/bond_models.py's by default): ``dispatch(module)`` gives the lines of the
+    branch of a model's code (or None), ``default`` the lines for every other code.
+    none_first: a ``code`` of None (the CPU's default law, then compiled alone: Numba
+    prunes the other branch by type) runs ``default`` before any comparison."""
+    head = [f"def {name}({code}, {signature}):"]
+    indent = "    "
+    if none_first:
+        head += [f"    if {code} is None:"] + [f"        {x}" for x in default] + ["    else:"]
+        indent = "        "
+    lines = head
+    for module in (models if models is not None else bond_models.MODELS):
         branch = dispatch(module)
         if branch:
-            lines += [f"    if code == {module.CODE}:"] + [f"        {x}" for x in branch]
-    lines += [f"    {x}" for x in default]
+            lines += [f"{indent}if {code} == {module.CODE}:"] + [f"{indent}    {x}"
+                                                                 for x in branch]
+    lines += [f"{indent}{x}" for x in default]
     namespace = {}
-    exec(compile("\n".join(lines), f"<bond models: {__name__}>", "exec"), namespace)
+    exec(compile("\n".join(lines), f"<models: {__name__}>", "exec"), namespace)
     function = namespace[name]
     function.__doc__ = doc
     return function
@@ -412,23 +421,11 @@ def integrate_particle(p, load_f, load_m, particles, bodies, gravity, damping, k
 # -- contacts -----------------------------------------------------------------------------
 
 def _contact_generated(name, signature, dispatch, default, doc):
-    """A loop body ``name(law, signature)`` written from physics/contact_models.py's list
-    of models: ``dispatch(module)`` gives the lines of the branch of a model's code (or
-    None), ``default`` the lines for ``law`` None (CPU: the default law, compiled
-    alone) and every other code."""
-    lines = [f"def {name}(law, {signature}):", "    if law is None:"]
-    lines += [f"        {x}" for x in default]
-    lines += ["    else:"]
-    for module in contact_models.MODELS:
-        branch = dispatch(module)
-        if branch:
-            lines += [f"        if law == {module.CODE}:"] + [f"            {x}" for x in branch]
-    lines += [f"        {x}" for x in default]
-    namespace = {}
-    exec(compile("\n".join(lines), f"<contact models: {__name__}>", "exec"), namespace)
-    function = namespace[name]
-    function.__doc__ = doc
-    return function
+    """``_generated`` over physics/contact_models.py's list: ``name(law, signature)``,
+    ``default`` for ``law`` None (CPU: the default law, compiled alone) and every other
+    code."""
+    return _generated(name, signature, dispatch, default, doc, contact_models.MODELS,
+                      "law", none_first=True)
 
 
 _LAW_ARGUMENTS = "n, overlap, v_rel, w_rel, spring, pair, q, r_star, m_star, i_star, dt"
