@@ -9,7 +9,8 @@ particle (the JKR energy balance, Johnson & Pollock 1994; Thornton & Ning 1998).
 Primary particles: radius 5 um, density 2500 kg/m^3, E = 1e8 Pa, nu = 0.3, restitution
 0.5, friction 0.3, surface energy 0.05 J/m^2; the agglomerate: a random packing of a sphere
 pressed to 2e5 Pa by servo walls (lab.specimen.make_specimen, seed 1), then settled under
-its JKR contacts (local damping 0.7, 40 us). The plate is of the same material. Fragments: particles joined by loaded contacts (scipy's connected
+its JKR contacts (local damping 0.7, 40 us). The plate is of the same material.
+Fragments: particles joined by loaded contacts (scipy's connected
 components); "whole": the largest fragment keeps 90 % of the particles; "stuck": the
 agglomerate's centre of mass moves away from the plate at the end at less than 5 % of
 the impact speed.

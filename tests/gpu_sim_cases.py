@@ -772,15 +772,17 @@ ADHESIVE = {"jkr": {"surface_energy": 2.0},
 
 
 def case_adhesive_contacts_match_cpu():
-    """Every adhesive contact model (JKR, Popov's JKR, van der Waals, liquid bridge; all but
-    the liquid bridge also in MUSEN's numerics) with a plane, a moving mesh wall and breakage: the
+    """Every adhesive contact model (JKR, Popov's JKR, van der Waals, liquid bridge; Popov's
+    also in MUSEN's numerics) with a plane, a moving mesh wall and breakage: the
     CUDA kernels dispatch on the model's code as the CPU's do, GPU equals CPU."""
     from bondem.contacts import ContactSettings
+    # MUSEN's numerics once (Popov's: its own normal law on both kinds of contact, and its
+    # wall model's lagging spring): the other kinds share that dispatch and its code
     for name, keys in ADHESIVE.items():
-        for musen in ((False, True) if name != "liquid_bridge" else (False,)):
+        for musen in ((False, True) if name == "popov_jkr" else (False,)):
             print(f"-- {name}, musen_compat {musen}")
             cpu = compare_contact_runs(lambda: falling_clusters(keys=keys),
-                                       ContactSettings(model=name), steps=20,
+                                       ContactSettings(model=name), steps=16,
                                        musen_compat=musen)
             assert np.any(cpu.extra["contact_energy"] < 0.0) or musen, \
                 "the case must have an adhesive contact"

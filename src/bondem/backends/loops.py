@@ -456,8 +456,8 @@ musen_kind = body(_contact_generated(
         f"return {module.MUSEN['kind_pw']} if wall else {module.MUSEN['kind_pp']}"],
     ["return 0"],
     """The kind of MUSEN's law (physics/contact_hertz_musen.py: MUSEN_HERTZ_MINDLIN,
-    MUSEN_JKR, MUSEN_VDW) that contact model ``law`` follows with musen_compat, for a
-    wall contact or a particle pair."""))
+    MUSEN_JKR, MUSEN_VDW, MUSEN_POPOV) that contact model ``law`` follows with
+    musen_compat, for a wall contact or a particle pair."""))
 
 
 @body

@@ -79,7 +79,8 @@ def _granular(material, model="hertz_mindlin"):
         normal, cohesion = "jkr", f" {float_text(0.5 * material.surface_energy)}"
     elif model == "vdw":
         normal = "dmt"
-        cohesion = f" {float_text(material.hamaker_constant / (24.0 * math.pi * material.vdw_min_distance ** 2))}"
+        gamma = material.hamaker_constant / (24.0 * math.pi * material.vdw_min_distance ** 2)
+        cohesion = f" {float_text(gamma)}"
     return (f"{normal} {float_text(young)} {float_text(material.restitution)} "
             f"{float_text(poisson)}{cohesion} tangential mindlin NULL {ratio:.6f} "
             f"{float_text(material.friction)} damping tsuji")

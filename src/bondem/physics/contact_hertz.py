@@ -176,6 +176,7 @@ def contact_moments(n, f_t, torque, arm_i, arm_j):
 def hertz_mindlin_law(n, overlap, v_rel, w_rel, spring, pair, q, r_star, m_star, i_star, dt):
     """``hertz_mindlin`` with the pair's properties from row q of the pair table
     (contact_models.LAW)."""
-    return hertz_mindlin(n, overlap, v_rel, w_rel, spring, pair[q, PAIR_E_STAR],
-                         pair[q, PAIR_G_STAR], r_star, m_star, i_star, pair[q, PAIR_BETA],
-                         pair[q, PAIR_FRICTION], pair[q, PAIR_ROLLING], dt)
+    return hertz_mindlin_pulled(n, overlap, v_rel, w_rel, spring, pair[q, PAIR_E_STAR],
+                                pair[q, PAIR_G_STAR], r_star, m_star, i_star,
+                                pair[q, PAIR_BETA], pair[q, PAIR_FRICTION],
+                                pair[q, PAIR_ROLLING], dt, 0.0)
