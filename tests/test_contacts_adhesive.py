@@ -14,7 +14,7 @@ import pytest
 
 import bondem
 from bondem.contacts import ContactSettings
-from bondem.physics import contact_jkr, contact_liquid, contact_vdw
+from bondem.physics import contact_jkr
 from bondem.walls import PlaneWall
 
 E, NU = 1e8, 0.28

@@ -500,6 +500,14 @@ def pair_geometry(c, pairs, pair_bond, bond_active, position, radius, box, reach
 
 
 @body
+def row_formed(c, rows):
+    """True when contact row c (pair or wall rows) holds a load or an energy: its contact
+    held in the previous evaluation (a reset row holds neither)."""
+    return (rows.energy[c] != 0.0 or rows.force[c, 0] != 0.0 or rows.force[c, 1] != 0.0
+            or rows.force[c, 2] != 0.0)
+
+
+@body
 def row_quiet(c, rows):
     """1 when contact row c holds no load, no stored energy and no dissipation (a reset
     row: ``pair_contact`` leaves it as it is while its pair stays apart), else 0."""
@@ -531,15 +539,13 @@ def pair_contact(c, pairs, pair_bond, bond_active, particles, grains, materials,
                                                       box, reach)
     radius = grains.radius
     previous_energy = rows.energy[c]
-    reset = previous_energy == 0.0 and rows.force[c, 0] == 0.0 \
-        and rows.force[c, 1] == 0.0 and rows.force[c, 2] == 0.0
     if law is not None and not apart and overlap <= 0.0:
         # beyond contact: the law's own reach for this pair, and whether it formed
         apart = not contact_beyond(
             law, materials.pair, grains.material[i] * materials.young.shape[0]
             + grains.material[j], radius[i] * radius[j] / (radius[i] + radius[j]),
-            -overlap, not reset)
-    if apart and reset:
+            -overlap, row_formed(c, rows))
+    if apart and not row_formed(c, rows):
         # Apart now and a reset row before (a touching row stores a positive energy and
         # a force; with neither, its spring and moments are zero too): nothing to read,
         # nothing to write but its 0 J. Most listed pairs are such rows in a packing.
@@ -719,10 +725,9 @@ def wall_contacts_of(p, wall_start, wall_pairs, walls, particles, grains, materi
         keep = d < radius and d > -radius and (types[e] == PLANE or d > 0.0)
         if law is not None and not keep and d >= radius and d < radius + reach:
             # beyond contact: the law's own reach for this pair, and whether it formed
-            formed = rows.energy[c] != 0.0 or rows.force[c, 0] != 0.0 \
-                or rows.force[c, 1] != 0.0 or rows.force[c, 2] != 0.0
             keep = contact_beyond(law, walls.pair, a * walls.young.shape[0]
-                                  + element_wall[e], radius, d - radius, formed)
+                                  + element_wall[e], radius, d - radius,
+                                  row_formed(c, rows))
         if triangles is not None and keep and types[e] != PLANE:
             for c2 in range(first, last):
                 e2 = wall_pairs[c2, 1]

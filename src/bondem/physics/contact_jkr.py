@@ -80,15 +80,18 @@ def jkr_force(a, r_star, e_star, w):
 
 
 @physics
+def jkr_integral(a, r_star, e_star, k):
+    """The integral of F d(delta) up to contact radius a (m), to a constant (J)."""
+    return (8.0 * e_star * a ** 5 / (15.0 * r_star * r_star)
+            - 4.0 / 3.0 * e_star * k * a ** 3.5 / r_star + 0.5 * e_star * k * k * a * a)
+
+
+@physics
 def jkr_potential(a, r_star, e_star, w):
     """JKR's elastic energy (J) at contact radius a (m), zero at the pull-off point."""
     k = math.sqrt(2.0 * math.pi * w / e_star)
     a_c = (math.pi * w * r_star * r_star / (8.0 * e_star)) ** (1.0 / 3.0)
-    u = (8.0 * e_star * a ** 5 / (15.0 * r_star * r_star)
-         - 4.0 / 3.0 * e_star * k * a ** 3.5 / r_star + 0.5 * e_star * k * k * a * a)
-    u_c = (8.0 * e_star * a_c ** 5 / (15.0 * r_star * r_star)
-           - 4.0 / 3.0 * e_star * k * a_c ** 3.5 / r_star + 0.5 * e_star * k * k * a_c * a_c)
-    return u - u_c
+    return jkr_integral(a, r_star, e_star, k) - jkr_integral(a_c, r_star, e_star, k)
 
 
 @physics

@@ -12,7 +12,7 @@ A contact model file declares, besides its ``@physics`` functions:
                 force on i N, new spring m, stored energy J); n: unit normal i -> j;
                 v_rel: velocity of j's surface relative to i's (m/s); w_rel = w_i - w_j;
                 pair: the pair table (rows: ordered pairs of materials, columns PAIR_*
-                below and the model's own PARAMETERS from PAIR_MODEL on, in their
+                of _registry.py and the model's own PARAMETERS from PAIR_MODEL on, in their
                 order), q: the contact's row
     REACH       optional: name of (pair, q, r_star) -> m, how far beyond contact (a gap)
                 the law acts; 0 without
@@ -35,8 +35,6 @@ import math
 import pkgutil
 from pathlib import Path
 
-from ._registry import (PAIR_BETA, PAIR_E_STAR, PAIR_FRICTION, PAIR_G_STAR,  # noqa: F401
-                        PAIR_MODEL, PAIR_ROLLING, PAIR_STIFFNESS)
 
 _NAMES = sorted(info.name for info in pkgutil.iter_modules([str(Path(__file__).parent)])
                 if info.name.startswith("contact_") and info.name != "contact_models")
