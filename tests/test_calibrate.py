@@ -219,6 +219,22 @@ def test_a_failed_first_trial_fails_with_its_own_error(truth, monkeypatch):
     assert "nan" not in message
 
 
+def test_a_trial_whose_specimen_did_not_fail_is_a_failed_trial(truth):
+    """A tension test stopped at its strain limit (0.1 %, below the lattice's failure
+    strain sigma_b / E_b = 1.5 %) has no tensile strength: the first trial fails with the
+    lab's reason instead of scaling the largest stress reached as if it were one."""
+    folder, modulus, strength = truth
+    (folder / "short.toml").write_text(SPEC + "[test]\nmax_strain = 0.001\n")
+    path = folder / "short_calib.toml"
+    path.write_text(CALIBRATION.format(budget=4, modulus=modulus, strength=strength)
+                    .replace('"lattice.toml"', '"short.toml"'))
+    with pytest.raises(CalibrationFailed) as error:
+        run_calibration(path, folder / "short")
+    message = str(error.value)
+    assert "first trial" in message and "did not fail" in message
+    assert "strain limit" in message and "no tensile_strength: a failed trial" in message
+
+
 def test_linearised_uncertainty_of_a_combination_the_targets_cannot_split():
     """Targets in tolerances y1 = 2 u1 + u2 and y2 = 5 u3 (u: each parameter's place in
     its range): u1 and u2 enter only as one combination, so both are free along

@@ -200,7 +200,11 @@ def evaluate(spec, test, overrides):
     from .lab import RUNNERS
     from .lab.spec import load_spec
     specimen, settings, _ = load_spec(spec, overrides)
-    return RUNNERS[test](specimen, settings).numbers
+    result = RUNNERS[test](specimen, settings)
+    if result.no_failure is not None:
+        # its strengths are NaN: the trial failed for a strength target, and says why
+        return {**result.numbers, "no_failure": result.no_failure}
+    return result.numbers
 
 
 def misfit(calibration, predictions):
@@ -352,7 +356,7 @@ class _Evaluator:
         if self.kept_path is None or "error" in numbers:
             return
         names = {t.name for t in self.calibration.targets}
-        self.kept[key] = {k: v for k, v in numbers.items() if k in names}
+        self.kept[key] = {k: v for k, v in numbers.items() if k in names or k == "no_failure"}
         partial = self.kept_path.with_suffix(".tmp")
         partial.write_text(json.dumps(_clean(self.kept)))
         partial.replace(self.kept_path)
@@ -385,6 +389,9 @@ class _Evaluator:
                 predictions[t.name] = float(value) if value is not None else math.nan
                 if "error" in numbers:
                     self.errors.setdefault(trial, numbers["error"])
+                elif "no_failure" in numbers and not math.isfinite(predictions[t.name]):
+                    self.errors.setdefault(trial, f"{t.test}: {numbers['no_failure']}, so "
+                                                  f"no {t.name}: a failed trial")
             out[trial] = predictions
         return out
 

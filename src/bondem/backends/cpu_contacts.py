@@ -587,14 +587,22 @@ class ContactLaw:
         particle_contacts(
             self._live, self._quiet, extra["contact_pairs"], self._pair_bond,
             state.bond_active, cpu.particles(state), self.grains(model), self._materials,
-            self._law, self.reach()[0], bool(self.settings.rolling_resistance),
+            self._kernel_law(), self.reach()[0], bool(self.settings.rolling_resistance),
             cpu.box(model), rows, increment_dt, moved_dt,
-            self.musen_code if self.musen_compat else None, self._chunk_work, numba.get_num_threads())
+            self.musen_code if self.musen_compat else None, self._chunk_work,
+            numba.get_num_threads())
         gather_pair_loads(
             loops.PairIndex(self._i_start, self._i_order, self._j_start, self._j_order,
                             self._quiet),
             rows, force, moment)
         extra["contact_counters"][0] += float(self._dissipated.sum())
+
+    def _kernel_law(self):
+        """The kernels' law argument: None (Hertz-Mindlin pruned in by type) only in SPEC
+        mode. MUSEN's numerics always take the code, and the walls' triangle code too:
+        each mode then compiles one variant of the big kernels (compile time, not speed,
+        matters for the compatibility runs)."""
+        return self.wall_law if self.musen_compat else self._law
 
     def wall_loads(self, model, state, force, moment, increment_dt, moved_dt):
         """Add the particle-wall contacts' loads (N, N m) after ``update_lists``; the
@@ -609,8 +617,8 @@ class ContactLaw:
                 self._wall_near, self._wall_start, wall_pairs,
                 self.wall_tuple(self._t_wall, still=self._walls_still(state)),
                 cpu.particles(state), self.grains(model), self._materials,
-                self._law, self.reach()[1], bool(self.settings.rolling_resistance),
-                self._triangles,
+                self._kernel_law(), self.reach()[1], bool(self.settings.rolling_resistance),
+                True if self.musen_compat else self._triangles,
                 loops.WallRows(extra["wall_spring"], extra["wall_force_rows"],
                                extra["wall_moment_rows"], extra["wall_energy_rows"],
                                self._w_dissipated, self._w_work, self._w_distance,

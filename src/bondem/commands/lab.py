@@ -11,8 +11,8 @@ TESTS = ("ucs", "triaxial", "brazilian", "tension", "agglomerate")
 SHOWN = ("n_particles", "n_bonds", "ucs", "tensile_strength", "peak_deviator_stress",
          "breakage_force", "young_modulus_secant", "young_modulus_tangent", "poisson_ratio",
          "strain_at_peak", "crack_initiation_stress", "confining_stress_error",
-         "platen_force_mismatch", "kinetic_energy_ratio", "broken_bonds_final", "fragments",
-         "steps", "wall_time")
+         "crack_damage_stress", "platen_force_mismatch", "kinetic_energy_ratio",
+         "broken_bonds_final", "fragments", "ae_events", "b_value", "steps", "wall_time")
 
 # Why a number can be missing (NaN) from a test's results, as the command line says it.
 NOT_FOUND = {
@@ -22,6 +22,8 @@ NOT_FOUND = {
     "poisson_ratio": "the loading curve never reached half its peak stress",
     "platen_force_mismatch": "no sample above 20 % of the peak force",
     "kinetic_energy_ratio": "no elastic energy was stored",
+    "crack_damage_stress": "the volumetric strain did not turn to dilatancy before the peak",
+    "b_value": "fewer than 10 AE events, or all of one magnitude",
 }
 
 
@@ -37,6 +39,7 @@ def command(test, spec, out_dir, overrides, overwrite):
     """Run laboratory TEST on the specimen of SPEC (TOML: [specimen] and [test])."""
     from ..errors import InputError
     from ..lab import RUNNERS
+    from ..lab.procedures import STRENGTHS
     from ..lab.spec import load_spec
     from ..scene import parse_override
 
@@ -63,14 +66,17 @@ def command(test, spec, out_dir, overrides, overwrite):
             value = result.numbers[key]
             unit = result.units.get(key, "")
             if isinstance(value, float) and value != value:   # NaN: say why, not "nan Pa"
-                click.echo(f"  {key.replace('_', ' ')}: none ("
-                           f"{NOT_FOUND.get(key, 'the test did not reach it')})")
+                why = (result.no_failure if key in STRENGTHS and result.no_failure else
+                       NOT_FOUND.get(key, 'the test did not reach it'))
+                click.echo(f"  {key.replace('_', ' ')}: none ({why})")
                 continue
             shown = f"{value:.4g}" if isinstance(value, float) else str(value)
             click.echo(f"  {key.replace('_', ' ')}: {shown}"
                        + (f" {unit}" if unit not in ("", "1") else ""))
     click.echo(f"  ({result.notes[-1]})")
-    click.echo(f"table:   {paths['csv']}  and {paths['json'].name}")
-    figures = [p.name for k, p in paths.items() if k not in ("csv", "json")]
+    tables = [p.name for k, p in paths.items() if k.endswith("_csv")]
+    click.echo(f"table:   {paths['csv']}  and {', '.join([paths['json'].name, *tables])}")
+    figures = [p.name for k, p in paths.items() if k not in ("csv", "json")
+               and not k.endswith("_csv")]
     click.echo(f"figures: {', '.join(figures)}")
     click.echo(f"next: bondem report {out_dir / 'results.h5'}")

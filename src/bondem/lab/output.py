@@ -18,7 +18,11 @@ CAPTIONS = {
     "stress_strain": "Stress against axial strain: from the gauge bands of the specimen's own "
                      "particles (solid) and from the platen gap (dashed); the peak is marked.",
     "volumetric": "Volumetric strain (compaction positive) against axial strain.",
-    "cracks": "Broken bonds by mode against axial strain.",
+    "cracks": "Broken bonds by mode against the platen (or grip) strain, which only grows "
+              "(the gauge strain turns back after the peak).",
+    "ae": "Acoustic emission: AE events (cracks grouped in space and time) against the "
+          "platen strain, and the number of events of at least each magnitude with the "
+          "b-value's Gutenberg-Richter line.",
     "specimen": "The specimen at the end of the test, projected on the x-z plane; particles "
                 "coloured by the number of their bonds that broke.",
 }
@@ -55,9 +59,13 @@ def write_result(result, out_dir, figures=True):
         "test": result.test, "numbers": result.numbers,
         "units": {k: result.units.get(k, "") for k in result.numbers},
         "settings": result.settings, "notes": result.notes,
+        "failed": result.no_failure is None, "no_failure": result.no_failure,
         # the report (analysis/report.py, a layer below the lab) reads them from here
         "captions": CAPTIONS}), indent=2) + "\n")
     paths["json"] = path
+    for name, table in (("cracks", result.cracks), ("ae", result.ae)):
+        if table is not None:
+            paths[name + "_csv"] = _write_table(out_dir / f"lab_{name}.csv", table)
     if figures:
         for name, fig in build_lab_figures(result).items():
             target = out_dir / f"lab_{name}.png"
@@ -66,6 +74,18 @@ def write_result(result, out_dir, figures=True):
             plt.close(fig)
             paths[name] = target
     return paths
+
+
+def _write_table(path, table):
+    """{column: (K,) array} as CSV with units in the header (lab/cracks.py's UNITS)."""
+    from .cracks import UNITS
+    columns = list(table)
+    with open(path, "w", newline="") as handle:
+        writer = csv.writer(handle)
+        writer.writerow([f"{c} ({UNITS.get(c) or '1'})" for c in columns])
+        for k in range(len(table[columns[0]]) if columns else 0):
+            writer.writerow([repr(float(table[c][k])) for c in columns])
+    return path
 
 
 def build_lab_figures(result):
@@ -103,13 +123,34 @@ def build_lab_figures(result):
         fig.tight_layout()
         figures["volumetric"] = fig
     fig, ax = plt.subplots(figsize=(6, 4))
+    platen = curve["platen_strain"] * 100.0
+    grip = "grip" if test == "tension" else "platen"
     for mode in ("tension", "compression", "shear"):
-        ax.plot(x, curve[f"broken_{mode}"], label=mode)
-    ax.set_xlabel(f"{strain_key.replace('_', ' ')} ({strain_unit})")
+        ax.plot(platen, curve[f"broken_{mode}"], label=mode)
+    ax.set_xlabel(f"{grip} strain (%)")
     ax.set_ylabel("broken bonds")
     ax.legend()
     fig.tight_layout()
     figures["cracks"] = fig
+    if result.ae is not None and "ae_events" in curve:
+        from .cracks import b_value
+        fig, (left, right) = plt.subplots(1, 2, figsize=(9, 4))
+        left.plot(platen, curve["ae_events"])
+        left.set_xlabel(f"{grip} strain (%)")
+        left.set_ylabel("AE events")
+        magnitudes = np.sort(result.ae["magnitude"][np.isfinite(result.ae["magnitude"])])
+        if magnitudes.size:
+            at_least = np.arange(magnitudes.size, 0, -1)
+            right.semilogy(magnitudes, at_least, ".", label="events")
+            b = b_value(magnitudes)
+            if b == b:
+                line = magnitudes.size * 10.0 ** (-b * (magnitudes - magnitudes[0]))
+                right.semilogy(magnitudes, line, "-", label=f"b = {b:.3g}")
+            right.legend()
+        right.set_xlabel("magnitude")
+        right.set_ylabel("events of at least this magnitude")
+        fig.tight_layout()
+        figures["ae"] = fig
     if result.position is not None:
         fig, ax = plt.subplots(figsize=(5, 5))
         counts = np.zeros(result.position.shape[0])

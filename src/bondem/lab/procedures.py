@@ -12,6 +12,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import time as clock
+import warnings
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -22,10 +23,12 @@ from ..model import Material
 from ..physics.bond_elastic import COMPRESSION, SHEAR, TENSION
 from ..simulation import Simulation
 from ..walls import PlaneWall, Servo, VelocityProfile
+from . import cracks as cracks_mod
 from . import measure
 from .specimen import box_widths
 
 TESTS = ("ucs", "triaxial", "brazilian", "tension", "agglomerate")
+AE_RADIUS_DEFAULT = 2.0   # mean particle diameters: an AE event's source (Hazzard & Young)
 
 
 @dataclass
@@ -36,7 +39,11 @@ class LabSettings:
     [None: 5e-4 over the time a compression wave takes to cross the specimen];
     post_peak: stop once the stress has fallen to this fraction of the peak after it, with
     at least ``failure_bonds`` of the bonds broken [0.7]; failure_bonds: that fraction
-    [0.01: a local break at a platen contact is not the failure]; max_strain: stop at this
+    [0.01: a local break at a platen contact is not the failure; agglomerate 0.1: a chip
+    is not its breakage]; largest_fragment: the agglomerate's drop counts as its breakage
+    only once its largest fragment holds at most this fraction of the mass [0.9];
+    ae_radius: an acoustic-emission event's source radius in mean particle diameters [2];
+    max_strain: stop at this
     axial strain (platen or grip strain; for the agglomerate the plate displacement over
     the diameter) [0.05; Brazilian 0.1, agglomerate 0.2]; damping: local (non-viscous) damping
     coefficient [0.7, as PFC's default]; confining_stress: Pa, triaxial only;
@@ -50,7 +57,9 @@ class LabSettings:
     """
     strain_rate: float | None = None
     post_peak: float = 0.7
-    failure_bonds: float = 0.01
+    failure_bonds: float | None = None
+    largest_fragment: float = 0.9
+    ae_radius: float = AE_RADIUS_DEFAULT
     max_strain: float | None = None
     damping: float = 0.7
     confining_stress: float | None = None
@@ -65,7 +74,8 @@ class LabSettings:
     backend: str = "cpu"
 
     def __post_init__(self):
-        checks = [("post_peak", 0.0, 1.0), ("failure_bonds", -1e-300, 1.0),
+        checks = [("post_peak", 0.0, 1.0), ("largest_fragment", 0.0, 1.0 + 1e-12),
+                  ("ae_radius", 0.0, math.inf),
                   ("damping", -1e-300, 1.0),
                   ("ramp", -1e-300, math.inf), ("grip", 0.0, 0.5),
                   ("safety_factor", 0.0, 1.0)]
@@ -74,6 +84,9 @@ class LabSettings:
             if not (isinstance(value, (int, float)) and low < value < high
                     or (name == "safety_factor" and value == 1.0)):
                 raise ValueError(f"{name} = {value!r}; allowed range ({max(low, 0):g}, {high:g})")
+        if self.failure_bonds is not None and not (isinstance(self.failure_bonds, (int, float))
+                                                   and 0.0 <= self.failure_bonds < 1.0):
+            raise ValueError(f"failure_bonds = {self.failure_bonds!r}; allowed range [0, 1)")
         if self.max_strain is not None and not 0.0 < self.max_strain < 1.0:
             raise ValueError(f"max_strain = {self.max_strain!r}; allowed range (0, 1)")
         if self.strain_rate is not None and not (self.strain_rate > 0.0
@@ -94,7 +107,10 @@ class LabResult:
     """A finished test: ``curve`` {column: (S,) array} one row per sample (units in
     ``units``), ``numbers`` {name: value} (SI units, see ``units``), the settings used,
     notes, and the final state for the specimen picture: ``position`` (N,3) m, ``bonds``
-    (B,2) and ``broken`` (B,) bool."""
+    (B,2) and ``broken`` (B,) bool; ``cracks``: the crack log {column: (K,) array} (one
+    row per broken bond, lab/cracks.py's COLUMNS) and ``ae`` the AE events grouped from it
+    ({column: (E,) array}). ``no_failure``: None when the specimen failed, else
+    why it has no strength (its strength numbers are then NaN)."""
     test: str
     curve: dict
     numbers: dict
@@ -105,6 +121,9 @@ class LabResult:
     bonds: np.ndarray | None = None
     broken: np.ndarray | None = None
     break_mode: np.ndarray | None = None
+    no_failure: str | None = None
+    cracks: dict | None = None
+    ae: dict | None = None
 
     def write(self, out_dir, figures=True):
         """Write lab.csv (the curve), lab.json (numbers, units, settings, notes) and the
@@ -164,6 +183,33 @@ class _Probe:
         self.moving = np.ones(sim.model.n_particles, bool)
         if exclude is not None:
             self.moving[exclude] = False
+        self.seen = np.zeros(sim.model.n_bonds, bool)
+        self.cracks = []
+
+    def log_cracks(self):
+        """Keep the bonds broken since the last sample as crack events: where (the bond's
+        midpoint now, m), when, how, and the loads of its last intact step (the normal
+        force as E_b A_b times the bond strain)."""
+        state, model = self.sim.state, self.sim.model
+        new = np.flatnonzero((state.bond_break_mode != 0) & ~self.seen)
+        if new.size == 0:
+            return
+        self.seen[new] = True
+        i, j = model.bond_pairs[new, 0], model.bond_pairs[new, 1]
+        middle = 0.5 * (state.position[i] + state.position[j])
+        l0 = model.bond_initial_length[new]
+        strain = (state.bond_previous_length[new] - l0) / l0
+        young = np.array([m.young_modulus for m in model.bond_materials])[
+            model.bond_material[new]]
+        area = math.pi * 0.25 * model.bond_diameter[new] ** 2
+        self.cracks.append({
+            "time": state.bond_break_time[new], "x": middle[:, 0], "y": middle[:, 1],
+            "z": middle[:, 2], "mode": state.bond_break_mode[new].astype(np.float64),
+            "bond": new.astype(np.float64), "energy": state.bond_break_energy[new],
+            "bond_strain": strain, "normal_force": young * area * strain,
+            "tangential_force": np.linalg.norm(state.bond_tangential_force[new], axis=1),
+            "twisting_moment": np.linalg.norm(state.bond_normal_moment[new], axis=1),
+            "bending_moment": np.linalg.norm(state.bond_tangential_moment[new], axis=1)})
 
     def gauge_strain(self):
         """Extension of the gauge length (positive when it lengthens)."""
@@ -175,6 +221,7 @@ class _Probe:
                                       self.axis)
 
     def broken(self):
+        self.log_cracks()
         mode = self.sim.state.bond_break_mode
         return (int(np.count_nonzero(mode == TENSION)),
                 int(np.count_nonzero(mode == COMPRESSION)),
@@ -254,20 +301,30 @@ SERVO_GAIN = 0.15   # of the dead-beat gain 1 / (k dt), k the wall's contact sti
 SERVO_INTEGRAL = 30   # steps: the servos' integral time (0.3 / 0 oscillates; measured)
 
 
-def _limits(settings, test):
-    """The settings with the test's default strain limit filled in."""
+FAILURE_BONDS = {"agglomerate": 0.1}   # others 0.01
+
+
+def _limits(settings, test, specimen):
+    """The settings with the test's default strain limit and failure fraction filled in;
+    warns of a coarse specimen (``resolution_note``) before the test starts."""
+    coarse = resolution_note(specimen)
+    if coarse is not None:
+        warnings.warn(coarse, stacklevel=3)
     if settings.max_strain is None:
-        return dataclasses.replace(settings, max_strain=MAX_STRAIN[test])
+        settings = dataclasses.replace(settings, max_strain=MAX_STRAIN[test])
+    if settings.failure_bonds is None:
+        settings = dataclasses.replace(settings, failure_bonds=FAILURE_BONDS.get(test, 0.01))
     return settings
 
 
 UNBONDED_MIN_STRAIN = 0.05
 
 
-def _stop(stress, broken, n_bonds, strain, settings, top):
+def _stop(stress, broken, n_bonds, strain, settings, top, pieces=None):
     """Stop rule: past the peak, with at least failure_bonds of the bonds broken (without
-    bonds: past a platen strain of UNBONDED_MIN_STRAIN), below post_peak of it; or at
-    the strain limit."""
+    bonds: past a platen strain of UNBONDED_MIN_STRAIN), below post_peak of it, and (an
+    agglomerate: ``pieces()`` given) its largest fragment at most largest_fragment of the
+    mass; or at the strain limit."""
     if strain >= settings.max_strain:
         return "strain limit"
     # without bonds (an adhesive agglomerate) the fall past the peak, once the platens
@@ -275,7 +332,13 @@ def _stop(stress, broken, n_bonds, strain, settings, top):
     failing = (strain >= UNBONDED_MIN_STRAIN if n_bonds == 0
                else broken >= max(1.0, settings.failure_bonds * n_bonds))
     if failing and top > 0.0 and stress <= settings.post_peak * top:
-        return "post-peak"
+        if pieces is None or n_bonds == 0:
+            return "post-peak"
+        count, largest = pieces()
+        if largest <= settings.largest_fragment:
+            return (f"post-peak (breakage: {100.0 * broken / n_bonds:.3g} % of the bonds "
+                    f"broken, {count} fragments of 2+ particles, the largest "
+                    f"{100.0 * largest:.3g} % of the mass)")
     return None
 
 
@@ -286,6 +349,9 @@ def _common_numbers(curve, strain_key, stress_key, lateral_key=None):
     out.update(measure.moduli(strain, stress, curve[lateral_key] if lateral_key else None))
     broken = curve["broken_tension"] + curve["broken_compression"] + curve["broken_shear"]
     out["crack_initiation_stress"] = measure.crack_initiation(stress, broken)
+    if "volumetric_strain" in curve:
+        out["crack_damage_stress"] = cracks_mod.crack_damage(stress,
+                                                             curve["volumetric_strain"])
     out["broken_bonds_at_peak"] = int(broken[k])
     out["broken_bonds_final"] = int(broken[-1])
     before = slice(0, k + 1)
@@ -311,7 +377,9 @@ UNITS = {"time": "s", "axial_stress": "Pa", "axial_strain": "1", "platen_strain"
          "tensile_strength": "Pa", "ucs": "Pa", "breakage_force": "N",
          "displacement_at_peak": "m", "confining_stress": "Pa",
          "peak_deviator_stress": "Pa", "confining_stress_error": "1",
-         "mismatch": "1", "diameter": "m", "thickness": "m", "height": "m",
+         "mismatch": "1", "largest_stress": "Pa", "crack_damage_stress": "Pa",
+         "cracks": "1", "ae_events": "1", "b_value": "1", "diameter": "m", "thickness": "m",
+         "height": "m",
          "cross_section": "m^2", "n_particles": "1", "n_bonds": "1"}
 
 
@@ -340,19 +408,115 @@ def _platens(specimen, settings, axis, speed, wave_time, material):
     return walls
 
 
+MIN_ACROSS = 10   # particles across the smallest dimension below which results are coarse
+
+
+def resolution_note(specimen):
+    """A warning (str) when fewer than MIN_ACROSS particle diameters span the specimen's
+    smallest dimension (its strength and modulus then depend on the packing's details);
+    None otherwise, and for a lattice."""
+    if specimen.lattice:
+        return None
+    size = specimen.size()
+    across = float(np.min(size)) / (2.0 * float(np.mean(specimen.radius)))
+    if across >= MIN_ACROSS:
+        return None
+    return (f"only {across:.3g} particle diameters across the specimen's smallest "
+            f"dimension ({float(np.min(size)):.4g} m; at least {MIN_ACROSS} advised): its "
+            f"numbers depend on the packing's details")
+
+
 def _finish(test, specimen, settings, sim, runner, numbers, stop, notes):
     curve, wall_time = runner.finish()
     state = sim.state
+    coarse = resolution_note(specimen)
+    if coarse is not None:
+        notes = [*notes, f"warning: {coarse}"]
+    cracks, ae = _crack_log(runner, curve, specimen, settings)
+    numbers.update({"cracks": int(cracks["time"].size), "ae_events": int(ae["time"].size),
+                    "b_value": cracks_mod.b_value(ae["magnitude"])})
+    if curve:
+        curve["ae_events"] = np.searchsorted(np.sort(ae["time"]), curve["time"],
+                                             side="right").astype(np.float64)
     count, largest = measure.fragments(sim.model.bond_pairs, state.bond_active, sim.model.mass)
     numbers.update({"fragments": count, "largest_fragment_fraction": largest,
                     "time_step": sim.time_step, "steps": int(state.step),
                     "wall_time": wall_time, "n_particles": specimen.n_particles,
                     "n_bonds": specimen.n_bonds})
     notes = [*specimen.notes, *notes, f"stopped: {stop}"]
-    return LabResult(test, curve, numbers, {k: UNITS.get(k, "") for k in (*curve, *numbers)},
-                     _settings_dict(settings), notes, state.position.copy(),
-                     sim.model.bond_pairs.copy(), ~state.bond_active.copy(),
-                     state.bond_break_mode.copy())
+    result = LabResult(test, curve, numbers, {k: UNITS.get(k, "") for k in (*curve, *numbers)},
+                       _settings_dict(settings), notes, state.position.copy(),
+                       sim.model.bond_pairs.copy(), ~state.bond_active.copy(),
+                       state.bond_break_mode.copy(), cracks=cracks, ae=ae)
+    if runner.writer is not None:
+        _write_cracks(runner.writer.path, cracks, ae)
+    if not stop.startswith("post-peak"):
+        broken = int(np.count_nonzero(~state.bond_active))
+        result.no_failure = (f"the specimen did not fail: stopped at the {stop} with "
+                             f"{broken} of {sim.model.n_bonds} bonds broken and no fall to "
+                             f"{settings.post_peak:g} of the peak")
+    return result
+
+
+def _crack_log(runner, curve, specimen, settings):
+    """The crack events (``cracks.COLUMNS``, by time) and the AE events grouped from them:
+    within ``settings.ae_radius`` mean particle diameters of an event's crack and within
+    the time a compression wave takes to cross that distance of its latest crack."""
+    parts = runner.probe.cracks
+    cracks = ({k: np.concatenate([p[k] for p in parts]) for k in parts[0]} if parts else
+              {k: np.zeros(0) for k in cracks_mod.COLUMNS if k not in
+               ("axial_strain", "platen_strain", "event")})
+    order = np.argsort(cracks["time"], kind="stable")
+    cracks = {k: v[order] for k, v in cracks.items()}
+    for key in ("axial_strain", "platen_strain"):
+        cracks[key] = (np.interp(cracks["time"], curve["time"], curve[key])
+                       if curve and cracks["time"].size else np.zeros(cracks["time"].size))
+    radius = settings.ae_radius * 2.0 * float(np.mean(specimen.radius))
+    position = np.stack([cracks["x"], cracks["y"], cracks["z"]], axis=1)
+    label = cracks_mod.group_events(cracks["time"], position, radius,
+                                    radius / runner.wave_speed)
+    cracks["event"] = label.astype(np.float64)
+    return cracks, cracks_mod.events(cracks["time"], position, cracks["energy"], label)
+
+
+def _write_cracks(path, cracks, ae):
+    """The crack log and the AE events into results file ``path`` (/lab/cracks,
+    /lab/ae_events: one dataset per column, units as attributes)."""
+    import h5py
+    try:   # no file lock, as the results writer (a reader may hold the file open)
+        handle = h5py.File(path, "r+", locking=False)
+    except TypeError:
+        handle = h5py.File(path, "r+")
+    with handle as f:
+        if "lab" in f:
+            del f["lab"]
+        for name, table in (("cracks", cracks), ("ae_events", ae)):
+            group = f.create_group(f"lab/{name}")
+            for key, values in table.items():
+                data = group.create_dataset(key, data=np.asarray(values))
+                data.attrs["unit"] = cracks_mod.UNITS.get(key, {
+                    "cracks": "1", "magnitude": "1"}.get(key, ""))
+
+
+def _honest(result):
+    """A test that did not fail has no strength: its strength numbers become NaN (null in
+    lab.json, missing in calibration) and ``no_failure`` says why; largest_stress keeps
+    the largest stress (or force) the curve reached."""
+    result.numbers["largest_stress"] = result.numbers.get("peak_stress", math.nan)
+    if result.no_failure is not None:
+        for name in STRENGTHS:
+            if name in result.numbers:
+                result.numbers[name] = math.nan
+        result.notes.append(f"no strength: {result.no_failure}")
+    result.units = {k: UNITS.get(k, "") for k in (*result.curve, *result.numbers)}
+    if result.test == "agglomerate":   # a force, not a stress
+        result.units.update(peak_stress="N", largest_stress="N")
+    return result
+
+
+# what only a specimen that failed has (a curve stopped at its strain limit has none)
+STRENGTHS = ("ucs", "tensile_strength", "peak_deviator_stress", "breakage_force",
+             "peak_stress", "strain_at_peak", "displacement_at_peak")
 
 
 def _settings_dict(settings):
@@ -388,8 +552,12 @@ def _compression(test, specimen, settings, axis, out_dir, scene_text, confining=
     area0 = specimen.cross_section(axis)
     steps_to_limit = settings.max_strain / rate / sim.time_step
     runner = _Runner(sim, settings, steps_to_limit, out_dir, scene_text)
+    runner.probe, runner.wave_speed = probe, height / wave
     force = np.zeros((len(sim.walls), 3))
     top_stress, stop = 0.0, None
+    # an agglomerate's breakage asks how many pieces it is in (only past a drop)
+    pieces = None if test != "agglomerate" else (lambda: measure.fragments(
+        sim.model.bond_pairs, sim.state.bond_active, sim.model.mass))
     while stop is None and sim.state.step < settings.max_steps:
         runner.step()
         force = runner.wall_force(force)
@@ -420,7 +588,7 @@ def _compression(test, specimen, settings, axis, out_dir, scene_text, confining=
         key = "axial_stress" if confining is None else "deviator_stress"
         top_stress = max(top_stress, row[key])
         stop = _stop(row[key], tension + compression + shear, sim.model.n_bonds,
-                     row["platen_strain"], settings, top_stress)
+                     row["platen_strain"], settings, top_stress, pieces)
     return sim, runner, rate, stop or "max_steps", notes
 
 
@@ -519,7 +687,7 @@ def uniaxial(specimen, settings=None, *, out_dir=None, scene_text="", axis=2):
     young_modulus_secant and _tangent at 50 % of the peak (Pa), poisson_ratio,
     crack_initiation_stress, platen_force_mismatch (largest |F_top - F_bottom| / mean before
     the peak, above 20 % of it), kinetic_energy_ratio, broken bonds, fragments."""
-    settings = _limits(settings or LabSettings(), "ucs")
+    settings = _limits(settings or LabSettings(), "ucs", specimen)
     sim, runner, rate, stop, notes = _compression("ucs", specimen, settings, axis, out_dir,
                                                   scene_text)
     result = _finish("ucs", specimen, settings, sim, runner, {}, stop, notes)
@@ -530,8 +698,7 @@ def uniaxial(specimen, settings=None, *, out_dir=None, scene_text="", axis=2):
                            "height": float(specimen.size()[axis]),
                            "platen_force_mismatch": _mismatch(result.curve, "axial_stress"),
         "platen_force_mismatch_max": _mismatch(result.curve, "axial_stress", worst=True)})
-    result.units = {k: UNITS.get(k, "") for k in (*result.curve, *result.numbers)}
-    return result
+    return _honest(result)
 
 
 def _mismatch(curve, key, worst=False):
@@ -554,7 +721,7 @@ def triaxial(specimen, settings=None, *, out_dir=None, scene_text="", axis=2):
     ``uniaxial`` on the deviator stress q = sigma_1 - sigma_3 (peak_deviator_stress), and
     confining_stress_error: the largest relative deviation of a lateral wall's stress from
     the target before the peak."""
-    settings = _limits(settings or LabSettings(), "triaxial")
+    settings = _limits(settings or LabSettings(), "triaxial", specimen)
     sim, runner, rate, stop, notes = _compression("triaxial", specimen, settings, axis,
                                                   out_dir, scene_text,
                                                   confining=settings.confining_stress)
@@ -570,8 +737,7 @@ def triaxial(specimen, settings=None, *, out_dir=None, scene_text="", axis=2):
         "confining_stress_error": float(np.max(curve["lateral_stress_worst"][:k + 1])),
         "platen_force_mismatch": _mismatch(curve, "deviator_stress"),
         "platen_force_mismatch_max": _mismatch(curve, "deviator_stress", worst=True)})
-    result.units = {k: UNITS.get(k, "") for k in (*result.curve, *result.numbers)}
-    return result
+    return _honest(result)
 
 
 def brazilian(specimen, settings=None, *, out_dir=None, scene_text=""):
@@ -579,7 +745,7 @@ def brazilian(specimen, settings=None, *, out_dir=None, scene_text=""):
     Tensile strength 2 F_peak / (pi D t), D the diameter (extent along z), t the thickness
     (extent along y); the curve's tensile_stress is 2F/(pi D t) of the mean platen force
     and its strain the platen displacement over D."""
-    settings = _limits(settings or LabSettings(), "brazilian")
+    settings = _limits(settings or LabSettings(), "brazilian", specimen)
     if specimen.shape not in ("disc", "cylinder", "box"):
         raise ValueError("a Brazilian test needs a disc specimen")
     axis = 2
@@ -605,15 +771,14 @@ def brazilian(specimen, settings=None, *, out_dir=None, scene_text=""):
         "diameter": diameter, "thickness": thickness, "strain_rate": rate,
         "platen_force_mismatch": _mismatch(curve, "tensile_stress"),
         "platen_force_mismatch_max": _mismatch(curve, "tensile_stress", worst=True)})
-    result.units = {k: UNITS.get(k, "") for k in (*result.curve, *result.numbers)}
-    return result
+    return _honest(result)
 
 
 def agglomerate(specimen, settings=None, *, out_dir=None, scene_text=""):
     """An agglomerate pressed between two plates along z (Kozhar et al. 2015): force
     against the decrease of the plate gap; breakage_force is the peak force before the
     force falls to post_peak of it; displacement_at_peak in m."""
-    settings = _limits(settings or LabSettings(), "agglomerate")
+    settings = _limits(settings or LabSettings(), "agglomerate", specimen)
     sim, runner, rate, stop, notes = _compression("agglomerate", specimen, settings, 2,
                                                   out_dir, scene_text)
     result = _finish("agglomerate", specimen, settings, sim, runner, {}, stop, notes)
@@ -630,8 +795,7 @@ def agglomerate(specimen, settings=None, *, out_dir=None, scene_text=""):
         "diameter": float(specimen.size()[2]), "strain_rate": rate,
         "platen_force_mismatch": _mismatch(curve, "force"),
         "platen_force_mismatch_max": _mismatch(curve, "force", worst=True)})
-    result.units = {k: UNITS.get(k, "") for k in (*result.curve, *result.numbers)}
-    return result
+    return _honest(result)
 
 
 def direct_tension(specimen, settings=None, *, out_dir=None, scene_text="", axis=2):
@@ -641,7 +805,7 @@ def direct_tension(specimen, settings=None, *, out_dir=None, scene_text="", axis
     cross-section; axial strain from the gauge bands (extension positive), lateral strain
     from the middle band (its contraction gives Poisson's ratio). Numbers: tensile_strength
     (the peak), E secant and tangent, poisson_ratio, crack initiation, broken bonds."""
-    settings = _limits(settings or LabSettings(), "tension")
+    settings = _limits(settings or LabSettings(), "tension", specimen)
     z = specimen.position[:, axis]
     low, high = z.min(), z.max()
     h = high - low
@@ -661,6 +825,7 @@ def direct_tension(specimen, settings=None, *, out_dir=None, scene_text="", axis
     area = specimen.cross_section(axis)
     steps_to_limit = settings.max_strain / rate / sim.time_step
     runner = _Runner(sim, settings, steps_to_limit, out_dir, scene_text)
+    runner.probe, runner.wave_speed = probe, height / wave
     top_stress, stop = 0.0, None
     from ..io.results import _host
     while stop is None and sim.state.step < settings.max_steps:
@@ -697,8 +862,7 @@ def direct_tension(specimen, settings=None, *, out_dir=None, scene_text="", axis
                                                               "tensile_stress"),
         "platen_force_mismatch_max": _mismatch(result.curve,
                                                               "tensile_stress", worst=True)})
-    result.units = {k: UNITS.get(k, "") for k in (*result.curve, *result.numbers)}
-    return result
+    return _honest(result)
 
 
 RUNNERS = {"ucs": uniaxial, "triaxial": triaxial, "brazilian": brazilian,

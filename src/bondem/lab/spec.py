@@ -53,7 +53,9 @@ SPECIMEN_KEYS = {
 TEST_KEYS = {
     "strain_rate": ("number", None, 0.0, INF, False, False),
     "post_peak": ("number", 0.7, 0.0, 1.0, False, False),
-    "failure_bonds": ("number", 0.01, 0.0, 1.0, True, False),
+    "failure_bonds": ("number", None, 0.0, 1.0, True, False),
+    "largest_fragment": ("number", 0.9, 0.0, 1.0, False, True),
+    "ae_radius": ("number", 2.0, 0.0, INF, False, False),
     "max_strain": ("number", None, 0.0, 1.0, False, False),
     "damping": ("number", 0.7, 0.0, 1.0, True, False),
     "confining_stress": ("number", None, 0.0, INF, False, False),

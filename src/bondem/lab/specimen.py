@@ -35,7 +35,7 @@ class Specimen:
     bond_material_index (B,); shape: "box", "cylinder" (axis along z), "disc" (a cylinder
     whose axis is y: thickness along y, diameter in the x-z plane) or "sphere";
     contact_model: the particle contact law during the tests ("hertz_mindlin", "linear",
-    "none").
+    "none"); lattice: True for a regular lattice (its closed forms hold at any size).
     """
     position: np.ndarray
     radius: np.ndarray
@@ -48,6 +48,7 @@ class Specimen:
     bond_material_index: np.ndarray | None = None
     contact_model: str = "hertz_mindlin"
     notes: list = field(default_factory=list)
+    lattice: bool = False
 
     def __post_init__(self):
         self.position = np.ascontiguousarray(self.position, dtype=np.float64)
@@ -172,7 +173,7 @@ def lattice_specimen(counts, radius, material, bond_material, *, bond_diameter=N
     pairs = pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))]
     diameter = 2.0 * radius * diameter_ratio if bond_diameter is None else bond_diameter
     return Specimen(position, radius, pairs, diameter, [material], [bond_material],
-                    shape="box", contact_model=contact_model,
+                    shape="box", contact_model=contact_model, lattice=True,
                     notes=[f"simple cubic lattice {counts[0]} x {counts[1]} x {counts[2]}, "
                            f"spacing {a:.4g} m"])
 

@@ -1,0 +1,127 @@
+"""The lab's crack log and acoustic emission against definitions and closed forms.
+
+A bond of stiffness k_n = E_b A_b / L0 that breaks in tension at sigma_b held the elastic
+energy (sigma_b A_b)^2 / (2 k_n) = sigma_b^2 A_b L0 / (2 E_b); alone, it is one AE event
+whose energy magnitude is (log10 E - 4.8) / 1.5 (Kanamori 1977). Aki's b-value of a
+Gutenberg-Richter sample (magnitudes above M_min exponential with rate b ln 10) returns
+its b. Cracks far apart in space or in time are separate events.
+"""
+import json
+import math
+
+import h5py
+import numpy as np
+import pytest
+
+import bondem
+from bondem.lab import LabSettings, direct_tension, lattice_specimen, uniaxial
+from bondem.lab import cracks
+
+RADIUS = 1e-3
+E_BOND = 1e8
+STRENGTH = 1e6
+RATIO = 0.5
+GLASS = bondem.Material(density=2500.0, young_modulus=1e8, poisson_ratio=0.3, friction=0.3)
+BINDER = bondem.BondMaterial(young_modulus=E_BOND, poisson_ratio=0.3,
+                             normal_strength=STRENGTH, tangential_strength=STRENGTH)
+
+
+def test_magnitude_is_kanamoris_energy_magnitude():
+    # log10 E = 1.5 M + 4.8: 10^4.8 J is magnitude 0, every factor 10^1.5 one unit more
+    assert cracks.magnitude(10.0 ** 4.8) == pytest.approx(0.0, abs=1e-12)
+    assert cracks.magnitude(10.0 ** 6.3) == pytest.approx(1.0, rel=1e-12)
+    assert cracks.magnitude(1e-6) == pytest.approx((-6.0 - 4.8) / 1.5, rel=1e-12)
+
+
+def test_b_value_of_a_gutenberg_richter_sample():
+    rng = np.random.default_rng(5)
+    for b in (0.7, 1.6):
+        m = -4.0 + rng.exponential(1.0 / (b * math.log(10.0)), size=40_000)
+        # the estimator's standard error is b / sqrt(n): 0.5 % here
+        assert cracks.b_value(m) == pytest.approx(b, rel=0.02)
+        assert cracks.b_value(m, minimum=-3.5) == pytest.approx(b, rel=0.03)
+    assert math.isnan(cracks.b_value(np.linspace(-3.0, -2.0, 9)))   # too few events
+
+
+def test_cracks_group_by_distance_and_time():
+    # a chain of three cracks 0.8 mm apart (each within 1 mm of the last) within the
+    # window, one crack 5 mm away at the same time, and one at the chain's start point
+    # after the window has closed: three events
+    time = np.array([0.0, 1e-6, 2e-6, 1e-6, 9e-6])
+    position = np.array([[0, 0, 0], [0.8e-3, 0, 0], [1.6e-3, 0, 0], [5e-3, 0, 0],
+                         [0, 0, 0]], float)
+    label = cracks.group_events(time, position, radius=1e-3, window=3e-6)
+    assert label.tolist() == [0, 0, 0, 1, 2]
+    energy = np.array([1.0, 2.0, 3.0, 4.0, 5.0])
+    ae = cracks.events(time, position, energy, label)
+    assert ae["cracks"].tolist() == [3, 1, 1]
+    np.testing.assert_allclose(ae["energy"], [6.0, 4.0, 5.0])
+    np.testing.assert_allclose(ae["x"], [0.8e-3, 5e-3, 0.0])
+    np.testing.assert_allclose(ae["time"], [0.0, 1e-6, 9e-6])
+    # a longer window joins the last crack to the chain's event
+    assert cracks.group_events(time, position, 1e-3, 1e-5).tolist() == [0, 0, 0, 1, 0]
+
+
+def test_crack_damage_is_where_the_volume_turns_to_dilatancy():
+    strain = np.linspace(0.0, 1.0, 101)
+    stress = 10.0 * strain - 5.0 * strain ** 2                   # peak at strain 1
+    volumetric = strain * (0.62 - strain)                         # largest at 0.31
+    assert cracks.crack_damage(stress, volumetric) == pytest.approx(
+        10.0 * 0.31 - 5.0 * 0.31 ** 2, rel=1e-12)
+    assert math.isnan(cracks.crack_damage(stress, strain))       # compacting to the peak
+
+
+def test_one_bond_in_tension_is_one_event_with_its_energys_magnitude(tmp_path):
+    specimen = lattice_specimen((1, 1, 2), RADIUS, GLASS, BINDER, diameter_ratio=RATIO)
+    result = direct_tension(specimen, out_dir=tmp_path)
+    area = math.pi * (RATIO * RADIUS) ** 2
+    length = 2.0 * RADIUS
+    stored = STRENGTH ** 2 * area * length / (2.0 * E_BOND)
+    log, ae = result.cracks, result.ae
+    assert log["time"].size == 1 == result.numbers["broken_bonds_final"]
+    assert int(log["mode"][0]) == 1                                # tension
+    # the step before the break: the bond at (just below) its strength
+    assert log["bond_strain"][0] == pytest.approx(STRENGTH / E_BOND, rel=0.01)
+    assert log["normal_force"][0] == pytest.approx(STRENGTH * area, rel=0.01)
+    assert log["energy"][0] == pytest.approx(stored, rel=0.02)
+    assert ae["cracks"].tolist() == [1] and result.numbers["ae_events"] == 1
+    assert ae["magnitude"][0] == pytest.approx((math.log10(stored) - 4.8) / 1.5,
+                                               abs=0.01)
+    assert log["time"][0] == pytest.approx(ae["time"][0]) and log["time"][0] > 0.0
+    # the grip strain at the break: the bond's strain (the grips are its two particles)
+    assert log["platen_strain"][0] == pytest.approx(STRENGTH / E_BOND, rel=0.03)
+    paths = result.write(tmp_path, figures=False)
+    with h5py.File(tmp_path / "results.h5", "r") as f:
+        np.testing.assert_array_equal(f["lab/cracks/energy"][...], log["energy"])
+        assert f["lab/ae_events/magnitude"].attrs["unit"] == "1"
+        assert f["lab/cracks/time"].attrs["unit"] == "s"
+    rows = paths["cracks_csv"].read_text().splitlines()
+    assert rows[0].startswith("time (s),x (m)") and len(rows) == 2
+
+
+def test_every_broken_bond_is_one_crack_in_a_lattice_that_fails(tmp_path):
+    specimen = lattice_specimen((3, 3, 6), RADIUS, GLASS, BINDER, diameter_ratio=RATIO)
+    result = direct_tension(specimen, out_dir=tmp_path, settings=LabSettings(frames=2))
+    n = result.numbers
+    assert n["cracks"] == n["broken_bonds_final"] == result.cracks["time"].size > 0
+    assert result.cracks["event"].max() + 1 == n["ae_events"]
+    assert int(result.ae["cracks"].sum()) == n["cracks"]
+    np.testing.assert_allclose(result.ae["energy"].sum(), result.cracks["energy"].sum(),
+                               rtol=1e-12)
+    # the curve's cumulative AE count ends at the number of events
+    assert result.curve["ae_events"][-1] == n["ae_events"]
+    assert np.all(np.diff(result.curve["ae_events"]) >= 0)
+    result.write(tmp_path)
+    saved = json.loads((tmp_path / "lab.json").read_text())
+    assert saved["failed"] is True and saved["no_failure"] is None
+    assert (tmp_path / "lab_ae.png").is_file()
+
+
+def test_a_test_that_does_not_fail_writes_null_strengths(tmp_path):
+    specimen = lattice_specimen((3, 3, 6), RADIUS, GLASS, BINDER, diameter_ratio=RATIO)
+    result = uniaxial(specimen, LabSettings(max_strain=0.002, samples=200))
+    result.write(tmp_path, figures=False)
+    saved = json.loads((tmp_path / "lab.json").read_text())
+    assert saved["failed"] is False and "strain limit" in saved["no_failure"]
+    assert saved["numbers"]["ucs"] is None and saved["numbers"]["largest_stress"] > 0.0
+    assert result.cracks["time"].size == 0 and saved["numbers"]["ae_events"] == 0
