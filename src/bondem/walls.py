@@ -169,6 +169,7 @@ class Servo:
         self.speed = 0.0       # m/s along the normal
         self.measured = 0.0    # N, the particles' push in the last step
         self.held = False      # True: moving at a held speed, the force only measured
+        self.held_speed = self.acceleration = 0.0
 
     def target(self):
         """The target force (N) now."""
@@ -200,13 +201,20 @@ class Servo:
         """True when the last step's force lay within the tolerance of the target."""
         return abs(self.error) <= self.tolerance
 
-    def hold(self, speed):
+    def hold(self, speed, ramp=0.0):
         """Stop controlling: move on at ``speed`` (m/s along the normal, within the cap),
-        still measuring the force (a platen switched from confinement to loading)."""
+        still measuring the force (a platen switched from confinement to loading);
+        ramp (s): reach that speed linearly from the current one over this time (a
+        sudden start sends a stress wave through the specimen)."""
         if abs(speed) > self.max_velocity:
             raise ValueError(f"servo: held speed {speed!r} m/s exceeds max_velocity "
                              f"{self.max_velocity!r} m/s")
-        self.held, self.speed = True, float(speed)
+        if not (isinstance(ramp, (int, float)) and math.isfinite(ramp) and ramp >= 0.0):
+            raise ValueError(f"servo: ramp = {ramp!r}; must be a time >= 0 s")
+        self.held, self.held_speed = True, float(speed)
+        self.acceleration = abs(self.held_speed - self.speed) / ramp if ramp > 0.0 else 0.0
+        if ramp == 0.0:
+            self.speed = self.held_speed
 
     def update(self, wall_force, time_step):
         """After a step of ``time_step`` s whose load on the wall was ``wall_force`` (3,) N:
@@ -214,6 +222,11 @@ class Servo:
         self.travel += self.speed * time_step
         self.measured = -float(np.dot(wall_force, self.normal))
         if self.held:
+            if self.speed != self.held_speed:   # on the ramp to the held speed
+                change = self.acceleration * time_step
+                self.speed = (min(self.speed + change, self.held_speed)
+                              if self.held_speed > self.speed
+                              else max(self.speed - change, self.held_speed))
             return
         if self.stiffness is not None:
             k = float(self.stiffness())

@@ -7,7 +7,7 @@ import click
 
 from .run import _folder
 
-TESTS = ("ucs", "triaxial", "brazilian", "tension", "agglomerate")
+TESTS = ("ucs", "triaxial", "brazilian", "tension", "agglomerate", "envelope")
 SHOWN = ("n_particles", "n_bonds", "ucs", "tensile_strength", "peak_deviator_stress",
          "breakage_force", "young_modulus_secant", "young_modulus_tangent", "poisson_ratio",
          "strain_at_peak", "crack_initiation_stress", "confining_stress_error",
@@ -35,8 +35,19 @@ NOT_FOUND = {
 @click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE",
               help="Override a spec value, e.g. --set test.strain_rate=5 (repeatable).")
 @click.option("--overwrite", is_flag=True, help="Replace an earlier test's files there.")
-def command(test, spec, out_dir, overrides, overwrite):
-    """Run laboratory TEST on the specimen of SPEC (TOML: [specimen] and [test])."""
+@click.option("--confining", "pressures", multiple=True, type=float, metavar="PA",
+              help="envelope: a confining stress (Pa) of one of its triaxial tests "
+                   "(repeat, at least two).")
+@click.option("--scheduler", default=None,
+              help="envelope: Dask scheduler address (tcp://host:8786), or 'serial' for this "
+                   "process (default: a local cluster).")
+@click.option("--workers", type=click.IntRange(min=1), default=None,
+              help="envelope: processes of the local cluster (default: one per test, at "
+                   "most the cores).")
+def command(test, spec, out_dir, overrides, overwrite, pressures, scheduler, workers):
+    """Run laboratory TEST on the specimen of SPEC (TOML: [specimen] and [test]).
+    ``envelope`` runs triaxial tests at each --confining stress and fits the
+    Mohr-Coulomb envelope through their peaks."""
     from ..errors import InputError
     from ..lab import RUNNERS
     from ..lab.procedures import STRENGTHS
@@ -45,6 +56,8 @@ def command(test, spec, out_dir, overrides, overwrite):
 
     changes = dict(parse_override(text) for text in overrides)
     out_dir = out_dir or spec.with_name(f"{spec.stem}_{test}")
+    if test == "envelope":
+        return _envelope(spec, out_dir, changes, overwrite, pressures, scheduler, workers)
     if (out_dir / "lab.json").exists() and not overwrite:
         raise InputError("holds the files of an earlier test; give --overwrite to replace "
                          "them or --out for another folder", file=out_dir, key="--out")
@@ -52,9 +65,10 @@ def command(test, spec, out_dir, overrides, overwrite):
     if test == "triaxial" and settings.confining_stress is None:
         raise InputError("a triaxial test needs test.confining_stress (Pa)", file=spec,
                          key="test.confining_stress")
-    if test == "triaxial" and specimen.shape != "box":
-        raise InputError(f"a triaxial test needs a box specimen (plane lateral walls); "
-                         f"this one is a {specimen.shape}", file=spec, key="specimen.shape")
+    if test == "triaxial" and specimen.shape not in ("box", "cylinder"):
+        raise InputError(f"a triaxial test needs a cylinder (in a membrane) or a box (plane "
+                         f"lateral walls); this one is a {specimen.shape}", file=spec,
+                         key="specimen.shape")
     click.echo(f"bondem lab {test}: {specimen.n_particles} particles, {specimen.n_bonds} "
                f"bonds ({'; '.join(specimen.notes)})")
     for name in ("results.h5", "lab.json"):
@@ -80,3 +94,40 @@ def command(test, spec, out_dir, overrides, overwrite):
                and not k.endswith("_csv")]
     click.echo(f"figures: {', '.join(figures)}")
     click.echo(f"next: bondem report {out_dir / 'results.h5'}")
+
+
+def _envelope(spec, out_dir, changes, overwrite, pressures, scheduler, workers):
+    """``bondem lab envelope``: the triaxial tests and the Mohr-Coulomb fit."""
+    from ..errors import InputError
+    from ..lab.envelope import run_envelope, write_envelope
+    from ..lab.spec import load_spec
+    if len(set(pressures)) < 2 or min(pressures) <= 0.0:
+        raise InputError(f"value {list(pressures)!r}: give at least two different confining "
+                         f"stresses > 0 Pa (--confining 1e5 --confining 3e5 ...)",
+                         key="--confining")
+    if (out_dir / "envelope.json").exists() and not overwrite:
+        raise InputError("holds an earlier envelope; give --overwrite to replace it or "
+                         "--out for another folder", file=out_dir, key="--out")
+    specimen, _, _ = load_spec(spec, {**changes, "test.confining_stress": pressures[0]})
+    if specimen.shape not in ("box", "cylinder"):
+        raise InputError(f"a triaxial test needs a cylinder (in a membrane) or a box; this "
+                         f"one is a {specimen.shape}", file=spec, key="specimen.shape")
+    click.echo(f"bondem lab envelope: {len(pressures)} triaxial tests of "
+               f"{specimen.n_particles} particles, {specimen.n_bonds} bonds")
+    try:
+        summary = run_envelope(spec, pressures, overrides=changes or None,
+                               scheduler=scheduler if scheduler is not None else None,
+                               workers=workers)
+    except ValueError as error:
+        raise InputError(str(error), file=spec) from None
+    for t in summary["tests"]:
+        state = (f"peak sigma_1 {t['peak_stress']:.4g} Pa" if not t["no_failure"] else
+                 f"no failure ({t['no_failure']})")
+        click.echo(f"  sigma_3 {t['confining_stress']:.4g} Pa: {state}")
+    fit = summary["fit"]
+    click.echo(f"  cohesion: {fit['cohesion']:.4g} Pa")
+    click.echo(f"  friction angle: {fit['friction_angle']:.4g} degrees")
+    click.echo(f"  R^2 of the line through the peaks: {fit['r_squared']:.4f}")
+    paths = write_envelope(summary, out_dir)
+    click.echo(f"table:   {paths['csv']}  and {paths['json'].name}")
+    click.echo(f"figure:  {paths['figure'].name}")

@@ -118,3 +118,22 @@ def fragments(pairs, active, mass):
     sizes = np.bincount(labels, minlength=count)
     weights = np.bincount(labels, weights=mass, minlength=count)
     return int(np.count_nonzero(sizes >= 2)), float(weights.max() / mass.sum())
+
+
+def unloading_modulus(strain, stress, loading):
+    """Slope (Pa) of the first unloading branch (the first run of samples with
+    ``loading`` < 0): the least-squares slope of stress against strain over the middle
+    half of the stress range it unloads through (the platens' turn and return excluded);
+    NaN without an unloading branch of three such samples."""
+    strain, stress = np.asarray(strain, float), np.asarray(stress, float)
+    down = np.flatnonzero(np.asarray(loading) < 0.0)
+    if down.size == 0:
+        return math.nan
+    end = down[0] + int(np.argmax(np.diff(np.r_[down, down[-1] + 2]) > 1))
+    branch = np.arange(down[0], end + 1)
+    high, low = stress[max(down[0] - 1, 0)], float(stress[branch].min())
+    band = branch[(stress[branch] >= low + 0.25 * (high - low))
+                  & (stress[branch] <= high - 0.25 * (high - low))]
+    if band.size < 3 or np.ptp(strain[band]) == 0.0:
+        return math.nan
+    return float(np.polyfit(strain[band], stress[band], 1)[0])

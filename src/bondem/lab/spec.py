@@ -56,6 +56,10 @@ TEST_KEYS = {
     "failure_bonds": ("number", None, 0.0, 1.0, True, False),
     "largest_fragment": ("number", 0.9, 0.0, 1.0, False, True),
     "ae_radius": ("number", 2.0, 0.0, INF, False, False),
+    "stress_path": ("str", "constant_sigma3", ("constant_sigma3", "constant_mean"), None,
+                    None, None),
+    "unload_at": ("any", [], None, None, None, None),
+    "unload_to": ("number", 0.3, 0.0, 1.0, True, False),
     "max_strain": ("number", None, 0.0, 1.0, False, False),
     "damping": ("number", 0.7, 0.0, 1.0, True, False),
     "confining_stress": ("number", None, 0.0, INF, False, False),
@@ -157,9 +161,13 @@ def _specimen(spec, path):
         counts = _numbers(spec["lattice"], 3, "specimen.lattice", path, integer=True)
         if spec["radius"] is None:
             raise InputError("a lattice needs radius (m)", file=path, key="specimen.radius")
+        if spec["shape"] not in (None, "box", "cylinder"):
+            raise InputError(f"value {spec['shape']!r}: a lattice is a box or a cylinder",
+                             file=path, key="specimen.shape")
         return lattice_specimen(counts, spec["radius"], material, bond,
                                 diameter_ratio=spec["diameter_ratio"],
-                                contact_model=spec["contact_model"])
+                                contact_model=spec["contact_model"],
+                                shape=spec["shape"] or "box")
     shape = spec["shape"]
     if spec["size"] is None:
         raise InputError("missing required key", file=path, key="specimen.size")
@@ -183,8 +191,13 @@ def _specimen(spec, path):
 
 def _settings(test, path):
     gauge = _numbers(test["gauge"], 2, "test.gauge", path, positive=False)
-    values = {k: v for k, v in test.items() if k not in ("gauge", "platen_material")}
+    values = {k: v for k, v in test.items() if k not in ("gauge", "platen_material",
+                                                          "unload_at")}
     values["gauge"] = tuple(float(v) for v in gauge)
+    if test["unload_at"]:
+        values["unload_at"] = tuple(float(v) for v in _numbers(
+            test["unload_at"], len(test["unload_at"]) if isinstance(test["unload_at"], list)
+            else 1, "test.unload_at", path))
     if test["platen_material"] is not None:
         values["platen_material"] = _material(test["platen_material"],
                                               "test.platen_material", path)

@@ -148,14 +148,19 @@ class Specimen:
 
 
 def lattice_specimen(counts, radius, material, bond_material, *, bond_diameter=None,
-                     diameter_ratio=1.0, spacing=None, contact_model="hertz_mindlin"):
+                     diameter_ratio=1.0, spacing=None, contact_model="hertz_mindlin",
+                     shape="box"):
     """A simple cubic lattice of counts = (nx, ny, nz) spheres of ``radius`` (m) at
     ``spacing`` (m, default 2 radius: touching), each bonded to its six neighbours with
     bonds of ``bond_diameter`` (m; default diameter_ratio times the particle diameter).
 
     Along an axis it is a set of parallel chains: E = k_n / a = E_b A_b / a^2 with
     A_b = pi d_b^2 / 4, Poisson's ratio 0, and in direct tension it fails when the bonds
-    reach their normal strength: sigma_t = sigma_b A_b / a^2 (see docs/lab.md)."""
+    reach their normal strength: sigma_t = sigma_b A_b / a^2 (see docs/lab.md).
+    shape "cylinder": only the particles whose centres lie within (min(nx, ny) - 1) a / 2
+    of the z axis through the lattice's middle (and their bonds): a cylinder of chains."""
+    if shape not in ("box", "cylinder"):
+        raise ValueError(f"shape = {shape!r}; a lattice is a box or a cylinder")
     counts = [int(c) for c in counts]
     if len(counts) != 3 or min(counts) < 1 or np.prod(counts) < 2:
         raise ValueError(f"counts = {counts}: expected three integers >= 1")
@@ -172,10 +177,16 @@ def lattice_specimen(counts, radius, material, bond_material, *, bond_diameter=N
     pairs = np.concatenate(pairs)
     pairs = pairs[np.lexsort((pairs[:, 1], pairs[:, 0]))]
     diameter = 2.0 * radius * diameter_ratio if bond_diameter is None else bond_diameter
+    what = f"simple cubic lattice {counts[0]} x {counts[1]} x {counts[2]}, spacing {a:.4g} m"
+    if shape == "cylinder":
+        cut = 0.5 * (min(counts[0], counts[1]) - 1) * a * (1.0 + 1e-9)
+        keep = np.hypot(position[:, 0], position[:, 1]) <= cut
+        new = np.cumsum(keep) - 1
+        pairs = new[pairs[keep[pairs[:, 0]] & keep[pairs[:, 1]]]]
+        position = position[keep]
+        what += f", cut to a cylinder of centres within {cut:.4g} m of the axis"
     return Specimen(position, radius, pairs, diameter, [material], [bond_material],
-                    shape="box", contact_model=contact_model, lattice=True,
-                    notes=[f"simple cubic lattice {counts[0]} x {counts[1]} x {counts[2]}, "
-                           f"spacing {a:.4g} m"])
+                    shape=shape, contact_model=contact_model, lattice=True, notes=[what])
 
 
 def _container(shape, size, center):

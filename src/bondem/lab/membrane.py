@@ -1,0 +1,72 @@
+"""A flexible membrane around a cylindrical specimen: the confining pressure applied as
+forces on its outermost particles (pure functions of arrays).
+
+The lateral surface between the platens is cut into cells of about one particle diameter
+in angle and in height. In each cell the particle reaching farthest from the axis
+(radial distance plus radius) carries the cell's share of the pressure: sigma_3 times the
+cell's area at that particle's reach, R_c dtheta dz, pushing towards the axis. The forces
+follow the particles as the specimen bulges, narrows or breaks, as a latex membrane's
+would (the boundary-particle method of PFC's and Yade's flexible-membrane triaxial tests,
+e.g. Cheung and O'Sullivan 2008, with cells instead of a Voronoi tessellation). Their sum
+is sigma_3 times the specimen's current lateral surface.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+
+def membrane_forces(position, radius, axis, low, high, pressure, cell):
+    """Forces (N,3) N of the confining ``pressure`` (Pa) on the outermost particle of each
+    cell of the lateral surface between ``low`` and ``high`` (m, along ``axis``), the
+    surface (m^2) they press on and its mean radius (m). A row's empty cells are pressed
+    through the nearest filled one (the one before it when tied); a row without a
+    particle is not pressed. cell: the cells'
+    target size (m), about a particle diameter. The axis passes through the centroid of
+    the particles between low and high."""
+    force = np.zeros_like(position)
+    z = position[:, axis]
+    inside = np.flatnonzero((z >= low) & (z <= high))
+    if inside.size == 0 or high <= low:
+        return force, 0.0, 0.0
+    lateral = [k for k in range(3) if k != axis]
+    xy = position[inside][:, lateral]
+    xy = xy - xy.mean(axis=0)
+    rho = np.hypot(xy[:, 0], xy[:, 1])
+    reach = rho + radius[inside]
+    mean_reach = float(np.percentile(reach, 90.0))
+    n_theta = max(6, int(round(2.0 * math.pi * mean_reach / cell)))
+    n_z = max(1, int(round((high - low) / cell)))
+    d_theta, d_z = 2.0 * math.pi / n_theta, (high - low) / n_z
+    theta = np.arctan2(xy[:, 1], xy[:, 0])
+    i_theta = np.minimum((theta + math.pi) / d_theta, n_theta - 1).astype(np.int64)
+    i_z = np.minimum((z[inside] - low) / d_z, n_z - 1).astype(np.int64)
+    key = i_z * n_theta + i_theta
+    order = np.lexsort((reach, key))
+    last = np.flatnonzero(np.r_[key[order][1:] != key[order][:-1], True])
+    outer = order[last]                      # the farthest-reaching particle of each cell
+    # an empty cell (a gap in a staircase of particles, a crack) gives its area to the
+    # nearest filled cell of its row: the membrane spans it
+    cells = np.zeros(n_z * n_theta, np.int64)
+    filled = key[outer]
+    np.add.at(cells, filled, 1)
+    share = np.ones(outer.size)
+    if np.any(cells == 0):
+        where = {int(c): k for k, c in enumerate(filled)}
+        for c in np.flatnonzero(cells == 0):
+            row, column = divmod(int(c), n_theta)
+            for step in range(1, n_theta // 2 + 1):
+                near = [row * n_theta + (column + s) % n_theta for s in (-step, step)]
+                near = [k for k in near if k in where]
+                if near:
+                    share[where[near[0]]] += 1.0
+                    break
+    r_cell = reach[outer]
+    area = r_cell * d_theta * d_z * share
+    unit = np.zeros((outer.size, 3))
+    safe = np.maximum(rho[outer], 1e-300)
+    unit[:, lateral[0]] = xy[outer, 0] / safe
+    unit[:, lateral[1]] = xy[outer, 1] / safe
+    np.add.at(force, inside[outer], -pressure * area[:, None] * unit)
+    return force, float(area.sum()), float(np.sum(r_cell * share) / np.sum(share))

@@ -1,0 +1,104 @@
+"""The Mohr-Coulomb envelope: the fit against the criterion's closed form, and
+``bondem lab envelope`` on a parallel-bonded cylinder (its friction angle makes the bonds'
+shear strength grow with confinement) as a Dask ensemble."""
+import json
+import math
+
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from bondem.cli import main
+from bondem.lab.envelope import mohr_coulomb
+
+SPEC = """
+[specimen]
+shape = "cylinder"
+size = [0.006, 0.012]
+particle_radius = 5e-4
+solids_fraction = 0.55
+seed = 1
+max_gap = 5e-5
+diameter_ratio = 0.6
+[specimen.material]
+density = 2500.0
+young_modulus = 1e9
+poisson_ratio = 0.3
+friction = 0.5
+[specimen.bond_material]
+model = "parallel"
+young_modulus = 1e9
+poisson_ratio = 0.3
+normal_strength = 3e6
+tangential_strength = 6e6
+friction_angle = 30.0
+"""
+
+
+def test_the_fit_returns_the_criterions_cohesion_and_angle():
+    cohesion, phi = 2.5e6, math.radians(33.0)
+    sigma3 = np.array([0.0, 1e6, 3e6, 7e6])
+    sigma1 = (2 * cohesion * math.cos(phi) / (1 - math.sin(phi))
+              + sigma3 * (1 + math.sin(phi)) / (1 - math.sin(phi)))
+    fit = mohr_coulomb(sigma3, sigma1)
+    assert fit["cohesion"] == pytest.approx(cohesion, rel=1e-9)
+    assert fit["friction_angle"] == pytest.approx(33.0, rel=1e-9)
+    assert fit["r_squared"] == pytest.approx(1.0, abs=1e-12)
+    # on the envelope: the Mohr circle of each test touches tau = c + sigma tan(phi)
+    centre, radius = 0.5 * (sigma1 + sigma3), 0.5 * (sigma1 - sigma3)
+    np.testing.assert_allclose(radius, (cohesion + centre * math.tan(phi)) * math.cos(phi),
+                               rtol=1e-9)
+    noisy = mohr_coulomb(sigma3, sigma1 * np.array([1.0, 1.05, 0.97, 1.0]))
+    assert noisy["r_squared"] < 0.999
+    flat = mohr_coulomb(sigma3, 5e6 + 0.5 * sigma3)      # slope below 1: no friction
+    assert math.isnan(flat["friction_angle"]) and math.isnan(flat["cohesion"])
+    with pytest.raises(ValueError, match="two confining"):
+        mohr_coulomb([1e6, 1e6], [3e6, 3.1e6])
+
+
+def test_envelope_of_a_parallel_bonded_cylinder_is_a_straight_line(tmp_path):
+    spec = tmp_path / "rock.toml"
+    spec.write_text(SPEC)
+    out = tmp_path / "env"
+    result = CliRunner().invoke(main, ["lab", "envelope", str(spec), "--out", str(out),
+                                       "--confining", "2e5", "--confining", "6e5",
+                                       "--confining", "1.2e6", "--workers", "2"])
+    assert result.exit_code == 0, result.output
+    saved = json.loads((out / "envelope.json").read_text())
+    fit, tests = saved["fit"], saved["tests"]
+    assert fit["r_squared"] > 0.98
+    assert 5.0 < fit["friction_angle"] < 60.0 and fit["cohesion"] > 0.0
+    peaks = [t["peak_stress"] for t in tests]
+    assert peaks == sorted(peaks) and all(t["no_failure"] is None for t in tests)
+    # the fit is the one of its own table's peaks
+    again = mohr_coulomb([t["confining_stress"] for t in tests], peaks)
+    assert again["cohesion"] == pytest.approx(fit["cohesion"], rel=1e-12)
+    assert (out / "lab_envelope.png").is_file() and (out / "envelope.csv").is_file()
+    assert "friction angle" in result.output
+
+
+def test_an_envelope_without_failures_is_refused(tmp_path):
+    spec = tmp_path / "lattice.toml"
+    spec.write_text("""
+[specimen]
+lattice = [6, 6, 12]
+shape = "cylinder"
+radius = 1e-3
+diameter_ratio = 0.5
+[specimen.material]
+density = 2500.0
+young_modulus = 1e8
+[specimen.bond_material]
+young_modulus = 1e8
+normal_strength = 1e6
+tangential_strength = 1e6
+[test]
+max_strain = 0.0005
+""")
+    result = CliRunner().invoke(main, ["lab", "envelope", str(spec), "--scheduler", "serial",
+                                       "--confining", "1e4", "--confining", "2e4"])
+    assert result.exit_code == 2
+    assert "fewer than two confining stresses gave a failure" in result.output
+    assert "did not fail" in result.output
+    result = CliRunner().invoke(main, ["lab", "envelope", str(spec), "--confining", "1e4"])
+    assert result.exit_code == 2 and "--confining" in result.output
