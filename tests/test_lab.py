@@ -210,14 +210,64 @@ def test_brazilian_strength_is_2f_over_pi_d_t():
         2 * n["breakage_force"] / (math.pi * size[2] * size[1]), rel=1e-12)
     assert n["tensile_strength"] == pytest.approx(curve["tensile_stress"].max(), rel=1e-12)
     assert n["broken_bonds_at_peak"] >= 1 and result.notes[-1] == "stopped: post-peak"
+    # ISRM's jaws (the default): arcs of radius 1.5 D about axes along y, their lowest and
+    # highest points touching the disc, spanning D across
+    from bondem.lab.procedures import _jaws
+    low, high = disc.bounds()
+    jaws = _jaws(disc, LabSettings(), 1.0, 1e-3, ROCK)
+    for jaw, apex, sign in ((jaws[0], low[2], -1.0), (jaws[1], high[2], 1.0)):
+        v = jaw.vertices
+        axis = apex + sign * 1.5 * size[2]             # the arc's centre line (z)
+        x0 = 0.5 * (low[0] + high[0])
+        np.testing.assert_allclose(np.hypot(v[:, 0] - x0, v[:, 2] - axis), 1.5 * size[2],
+                                   rtol=1e-12)
+        assert np.min(sign * (v[:, 2] - apex)) == pytest.approx(0.0, abs=1e-15)
+        assert np.ptp(v[:, 0]) == pytest.approx(size[2], rel=1e-12)
+        assert v[:, 1].min() < low[1] and v[:, 1].max() > high[1]
+        assert jaw.position(0.0)[2] == pytest.approx(apex, rel=1e-12)
+    # a flattened disc (loading angle 2 alpha = 24 degrees): flat ends at (D / 2) cos alpha
+    # from the centre, and Wang's cos^3 alpha in the strength
+    from bondem.lab.procedures import flatten_disc
+    alpha = math.radians(12.0)
+    cut = flatten_disc(disc, 24.0)
+    middle = 0.5 * (disc.bounds()[0][2] + disc.bounds()[1][2])
+    reach = np.abs(cut.position[:, 2] - middle) + cut.radius
+    assert reach.max() <= 0.5 * size[2] * math.cos(alpha) + 1e-12
+    assert cut.n_particles < disc.n_particles and cut.n_bonds < disc.n_bonds
+    flattened = brazilian(disc, LabSettings(flattened=24.0))
+    m = flattened.numbers
+    assert m["tensile_strength"] == pytest.approx(
+        math.cos(alpha) ** 3 * 2 * m["breakage_force"] / (math.pi * size[2] * size[1]),
+        rel=1e-12)
 
 
-def test_agglomerate_breaks_between_plates():
+def test_agglomerate_breaks_between_plates(tmp_path):
+    import h5py
     ball = make_specimen("sphere", [6e-3], particle_radius=5e-4, solids_fraction=0.5,
                          seed=1, material=ROCK, bond_material=CEMENT, max_gap=5e-5,
                          diameter_ratio=0.6)
-    result = agglomerate(ball)
+    result = agglomerate(ball, out_dir=tmp_path)
     n, curve = result.numbers, result.curve
+    # the fragments hold every particle once; a fragment's size is the diameter of the
+    # sphere of its particles' volume; d50: half the mass lies in fragments no larger
+    table = result.fragments
+    assert table["particles"].sum() == ball.n_particles
+    mass = 2500.0 * 4.0 / 3.0 * math.pi * ball.radius ** 3
+    assert table["mass"].sum() == pytest.approx(mass.sum(), rel=1e-12)
+    np.testing.assert_allclose(table["size"] ** 3, 6.0 * table["mass"] / (math.pi * 2500.0),
+                               rtol=1e-12)
+    assert int(np.count_nonzero(table["particles"] >= 2)) == n["fragments"]
+    assert table["mass"][0] / mass.sum() == pytest.approx(n["largest_fragment_fraction"])
+    below = table["mass"][table["size"] <= n["fragment_size_d50"]].sum() / mass.sum()
+    smaller = table["mass"][table["size"] < n["fragment_size_d50"]].sum() / mass.sum()
+    assert smaller < 0.5 <= below
+    # the plates' work from the sampled forces against the simulation's own book of the
+    # walls' work (every step): within 2 %
+    with h5py.File(tmp_path / "results.h5", "r") as f:
+        work = float(f["energy/work_walls"][-1])
+    assert n["applied_energy"] == pytest.approx(work, rel=0.02)
+    assert 0.0 < n["breakage_energy"] < n["applied_energy"]
+    assert curve["fragments"][-1] == n["fragments"] and curve["fragments"][0] == 1
     k = int(np.argmax(curve["force"]))
     assert n["breakage_force"] == pytest.approx(curve["force"][k]) and n["breakage_force"] > 0
     assert np.all(np.diff(curve["displacement"]) >= -1e-15)

@@ -125,3 +125,19 @@ def test_a_test_that_does_not_fail_writes_null_strengths(tmp_path):
     assert saved["failed"] is False and "strain limit" in saved["no_failure"]
     assert saved["numbers"]["ucs"] is None and saved["numbers"]["largest_stress"] > 0.0
     assert result.cracks["time"].size == 0 and saved["numbers"]["ae_events"] == 0
+
+
+def test_the_rate_is_checked_by_a_run_at_half_the_rate():
+    """The lattice's tensile strength at the default rate moves by less than 2 % at half
+    the rate (its closed form does not depend on it); a hundred times the default rate is
+    not quasi-static and is warned of, with the kinetic-energy ratio."""
+    specimen = lattice_specimen((3, 3, 6), RADIUS, GLASS, BINDER, diameter_ratio=RATIO)
+    result = direct_tension(specimen, LabSettings(rate_check="repeat", samples=500))
+    n = result.numbers
+    assert abs(n["rate_change_strength"]) < 0.02 and abs(n["rate_change_modulus"]) < 0.005
+    assert not any("half the strain rate" in note for note in result.notes)
+    fast = 100.0 * n["strain_rate"]
+    with pytest.warns(UserWarning, match="not quasi-static"):
+        hasty = direct_tension(specimen, LabSettings(strain_rate=fast, samples=200))
+    assert hasty.numbers["kinetic_energy_ratio"] > 0.01
+    assert any("not quasi-static" in note for note in hasty.notes)

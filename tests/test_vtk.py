@@ -69,7 +69,7 @@ def test_export_reads_back(tmp_path):
 
     collection = ET.parse(folder / "results.pvd").getroot().find("Collection")
     entries = collection.findall("DataSet")
-    assert len(entries) == 3 * F
+    assert len(entries) == 4 * F   # particles, bonds, walls and contacts per frame
     np.testing.assert_array_equal(sorted({float(e.get("timestep")) for e in entries}), r["time"])
 
     k = F - 1
@@ -87,6 +87,18 @@ def test_export_reads_back(tmp_path):
                                   r["particles/force"][k])
     assert np.any(r["particles/force"][k] != 0)
     np.testing.assert_array_equal(vtk_to_numpy(data.GetArray("fragment")), np.arange(N) % 3)
+
+    # the contact forces as lines, read back by VTK: one per touching contact
+    end = r["contacts/end"]
+    busiest = int(np.argmax(np.diff(np.r_[0, end])))
+    lines = _read(folder / f"contacts_{busiest:06d}.vtp")
+    rows = slice(int(end[busiest - 1]) if busiest else 0, int(end[busiest]))
+    force = r["contact_rows/force"][rows]
+    assert lines.GetNumberOfLines() == force.shape[0]   # (tests/test_contact_output.py: some)
+    np.testing.assert_array_equal(vtk_to_numpy(lines.GetCellData().GetArray("force")), force)
+    np.testing.assert_allclose(
+        vtk_to_numpy(lines.GetCellData().GetArray("force_magnitude")),
+        np.linalg.norm(force, axis=1), rtol=1e-15)
 
     bonds = _read(folder / f"bonds_{k:06d}.vtp")
     active = r["bonds/active"][k]

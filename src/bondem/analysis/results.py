@@ -170,6 +170,19 @@ class Results:
             return None
         return np.asarray(self._dataset("bonds/break_time")[()], dtype=np.float64)
 
+    def contacts(self, frame=-1):
+        """The contacts that carried a load at ``frame``: {"i": (K,) particle, "j": (K,)
+        the other particle or -1 - w for wall w, "force": (K,3) N on particle i}; empty
+        arrays in files written before contacts were saved."""
+        if "contacts/end" not in self.file:
+            return {"i": np.zeros(0, np.int64), "j": np.zeros(0, np.int64),
+                    "force": np.zeros((0, 3))}
+        k = self.frame_index(frame)
+        end = self._dataset("contacts/end")
+        start, stop = (int(end[k - 1]) if k else 0), int(end[k])
+        return {name: np.asarray(self._dataset(f"contact_rows/{name}")[start:stop])
+                for name in ("i", "j", "force")}
+
     def active(self, frame=None):
         """Intact-bond flags: (B,) for one frame, (F,B) for all complete frames."""
         if self.n_bonds == 0:

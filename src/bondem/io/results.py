@@ -51,7 +51,35 @@ UNITS = {
     "bonds/normal_moment": "N m", "bonds/tangential_moment": "N m", "walls/force": "N",
     "walls/torque": "N m", "walls/position": "m", "particles/force": "N",
     "walls/history/time": "s", "walls/history/force": "N", "walls/history/position": "m",
+    "contacts/end": "1", "contact_rows/i": "1", "contact_rows/j": "1",
+    "contact_rows/force": "N",
 }
+ROWS = "contact_rows/"   # the touching contacts of every frame, one after the other
+
+
+def contact_rows(sim):
+    """The contacts that carried a load in the last step: i (K,) particle, j (K,) the
+    other particle or -1 - w for wall w, force (K,3) N on particle i (particle pairs
+    first, then walls)."""
+    extra = sim.state.extra
+    parts = []
+    if "contact_pairs" in extra and extra["contact_pairs"].shape[0]:
+        force = np.asarray(extra["contact_force"])
+        live = np.any(force != 0.0, axis=1)
+        pairs = np.asarray(extra["contact_pairs"])[live]
+        parts.append((pairs[:, 0], pairs[:, 1], force[live]))
+    walls = getattr(getattr(sim, "contacts", None), "walls", None)
+    if "wall_pairs" in extra and extra["wall_pairs"].shape[0] and walls is not None:
+        force = np.asarray(extra["wall_force_rows"])
+        live = np.any(force != 0.0, axis=1)
+        pairs = np.asarray(extra["wall_pairs"])[live]
+        parts.append((pairs[:, 0], -1 - np.asarray(walls.element_wall)[pairs[:, 1]],
+                      force[live]))
+    if not parts:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, 3))
+    return (np.concatenate([p[0] for p in parts]).astype(np.int64),
+            np.concatenate([p[1] for p in parts]).astype(np.int64),
+            np.concatenate([p[2] for p in parts]).astype(np.float64))
 
 
 def bond_forces(model, state):
@@ -199,10 +227,21 @@ class ResultsWriter:
         energy = sim.energy_terms() if energy is None else energy
         for name in self.energy_names:
             values[f"energy/{name}"] = energy.get(name, np.nan)
+        pull = getattr(getattr(sim, "contacts", None), "_pull_history", None)
+        if getattr(sim, "backend_name", "cpu") != "cpu" and pull is not None:
+            pull(state)   # the device's rows (not to_host: it books the energy counters)
+        rows = contact_rows(sim)
         values["time"] = state.time
         broken = int(np.count_nonzero(~state.bond_active))
         f = self._open()
         try:
+            if "contacts/end" in f:   # files of earlier versions have no contact rows
+                start = int(f["contacts/end"][k - 1]) if k else 0
+                for name, data in zip(("i", "j", "force"), rows):
+                    dataset = f[ROWS + name]
+                    dataset.resize(start + data.shape[0], axis=0)
+                    dataset[start:] = data
+                values["contacts/end"] = start + rows[0].shape[0]
             for name, value in values.items():
                 if name in f:   # files of earlier versions have no /particles/force
                     dataset = f[name]
@@ -347,6 +386,13 @@ def _create_layout(f, sim, *, scene_text, backend, scene_name, material_names,
             frames(f"walls/history/{name}", (w, 3))
     for name in energy_names:
         frames(f"energy/{name}", (), unit="J")
+    # the touching contacts: frame k's rows are end[k - 1]:end[k] of /contact_rows
+    frames("contacts/end", (), dtype=np.int64)
+    for name, shape, dtype in (("i", (), np.int64), ("j", (), np.int64),
+                               ("force", (3,), np.float64)):
+        f.create_dataset(ROWS + name, shape=(0, *shape), maxshape=(None, *shape),
+                         dtype=dtype, chunks=(4096, *shape), **options)
+        f[ROWS + name].attrs["unit"] = UNITS[ROWS + name]
     return energy_names
 
 
@@ -359,7 +405,8 @@ def _frame_datasets(f, history=False):
     names = []
     f.visititems(lambda name, obj: names.append(name)
                  if isinstance(obj, h5py.Dataset) and obj.maxshape[:1] == (None,)
-                 and name.startswith(HISTORY) == history else None)
+                 and name.startswith(HISTORY) == history and not name.startswith(ROWS)
+                 else None)
     return names
 
 
@@ -457,6 +504,10 @@ def rewrite_results(path, n_frames=None, history_until=None) -> int:
                     source.copy(source[name], target, name=name)
                 for name in _frame_datasets(target):
                     target[name].resize(keep, axis=0)
+                if "contacts/end" in target:
+                    end = int(target["contacts/end"][keep - 1]) if keep else 0
+                    for name in ("i", "j", "force"):
+                        target[ROWS + name].resize(end, axis=0)
                 rows = _frame_datasets(target, history=True)
                 if rows:
                     whole = min(target[name].shape[0] for name in rows)

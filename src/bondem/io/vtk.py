@@ -189,6 +189,26 @@ def bonds_polydata(position, pairs, active, force, normal_stress, shear_stress,
     return poly
 
 
+def contacts_polydata(position, radius, i, j, force):
+    """Contact forces as lines, for force chains: a particle pair from centre to centre, a
+    wall contact from the particle's centre one radius against its force (towards the
+    wall); cell data force (N, on particle i), force_magnitude and wall (-1 for pairs,
+    else the wall's index)."""
+    wall = j < 0
+    other = np.where(wall, 0, j)
+    magnitude = np.linalg.norm(force, axis=1)
+    unit = force / np.maximum(magnitude, 1e-300)[:, None]
+    end = np.where(wall[:, None], position[i] - radius[i][:, None] * unit, position[other])
+    k = i.shape[0]
+    poly = _PolyData(np.concatenate([position[i], end]) if k else np.zeros((0, 3)))
+    poly.set_cells("Lines", np.column_stack([np.arange(k), k + np.arange(k)]),
+                   np.full(k, 2))
+    poly.cell_data += [("force", np.asarray(force, np.float64)),
+                       ("force_magnitude", magnitude),
+                       ("wall", np.where(wall, -1 - j, -1).astype(np.int32))]
+    return poly
+
+
 def plane_square(point, normal, center, side):
     """Four corners (4,3) m of a square of ``side`` (m) in the plane through ``point``
     with ``normal``, centred on the projection of ``center`` onto the plane."""
@@ -259,8 +279,10 @@ def export_vtk(results_path, out_dir=None, *, every=1) -> Path:
     """Write ParaView files for every ``every``-th frame of a results file.
 
     out_dir: default ``<results folder>/vtk``. Writes particles_NNNNNN.vtp,
-    bonds_NNNNNN.vtp, walls_NNNNNN.vtp (with walls) and results.pvd (part 0 particles,
-    part 1 bonds, part 2 walls, with the frame times in s). Returns the .pvd path.
+    bonds_NNNNNN.vtp, walls_NNNNNN.vtp (with walls), contacts_NNNNNN.vtp (the contact
+    forces as lines, ``contacts_polydata``) and results.pvd (part 0 particles, part 1
+    bonds, part 2 walls, part 3 contacts, with the frame times in s). Returns the .pvd
+    path.
     """
     from ..analysis.fragments import fragment_labels
     results_path = Path(results_path)
@@ -327,6 +349,16 @@ def export_vtk(results_path, out_dir=None, *, every=1) -> Path:
             name = f"bonds_{k:06d}.vtp"
             bonds.write(out_dir / name)
             entries.append((times[k], 1, name))
+            if "contacts/end" in f:
+                end = f["contacts/end"]
+                start, stop = (int(end[k - 1]) if k else 0), int(end[k])
+                lines = contacts_polydata(position, radius,
+                                          f["contact_rows/i"][start:stop],
+                                          f["contact_rows/j"][start:stop],
+                                          f["contact_rows/force"][start:stop])
+                name = f"contacts_{k:06d}.vtp"
+                lines.write(out_dir / name)
+                entries.append((times[k], 3, name))
             if geometry is not None and geometry["type"].shape[0]:
                 walls = walls_polydata(geometry, times[k], f["walls/force"][k], center, side,
                                        f["walls/position"][k] if "walls/position" in f

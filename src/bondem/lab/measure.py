@@ -137,3 +137,31 @@ def unloading_modulus(strain, stress, loading):
     if band.size < 3 or np.ptp(strain[band]) == 0.0:
         return math.nan
     return float(np.polyfit(strain[band], stress[band], 1)[0])
+
+
+def fragment_table(pairs, active, radius, mass):
+    """Every fragment (particles held together by intact bonds; a loose particle is one),
+    largest mass first: {"particles": (K,), "mass": (K,) kg, "size": (K,) m, the
+    diameter of the sphere of its particles' volume}."""
+    from ..analysis.fragments import fragment_labels
+    radius, mass = np.asarray(radius, float), np.asarray(mass, float)
+    count, labels = fragment_labels(pairs, active, mass.shape[0], mass)
+    volume = np.bincount(labels, weights=4.0 / 3.0 * math.pi * radius ** 3, minlength=count)
+    return {"particles": np.bincount(labels, minlength=count).astype(np.float64),
+            "mass": np.bincount(labels, weights=mass, minlength=count),
+            "size": np.cbrt(6.0 * volume / math.pi)}
+
+
+def passing(size, mass):
+    """The fragment size distribution by mass: (sizes ascending in m, mass fraction in
+    fragments of that size or smaller), the sieve curve."""
+    order = np.argsort(np.asarray(size, float), kind="stable")
+    mass = np.asarray(mass, float)[order]
+    return np.asarray(size, float)[order], np.cumsum(mass) / mass.sum()
+
+
+def size_at(size, mass, fraction=0.5):
+    """Size (m) below which ``fraction`` of the mass lies (d50 at 0.5): the smallest
+    fragment size whose cumulative mass fraction reaches it."""
+    sizes, cumulative = passing(size, mass)
+    return float(sizes[int(np.searchsorted(cumulative, fraction - 1e-12))])

@@ -20,11 +20,17 @@ CAPTIONS = {
     "volumetric": "Volumetric strain (compaction positive) against axial strain.",
     "cracks": "Broken bonds by mode against the platen (or grip) strain, which only grows "
               "(the gauge strain turns back after the peak).",
+    "fragments": "Fragment size distribution by mass (a fragment's size: the diameter of "
+                 "the sphere of its particles' volume): the mass fraction passing each size, "
+                 "the mass per logarithmic size class, and the number of fragments of two or "
+                 "more particles against the energy the plates applied.",
     "ae": "Acoustic emission: AE events (cracks grouped in space and time) against the "
           "platen strain, and the number of events of at least each magnitude with the "
           "b-value's Gutenberg-Richter line.",
-    "specimen": "The specimen at the end of the test, projected on the x-z plane; particles "
-                "coloured by the number of their bonds that broke.",
+    "specimen": "The specimen at the end of the test in 3D and its slice through the middle "
+                "(one particle diameter either side of the x-z plane through its centre); "
+                "each particle coloured by the mode in which most of its broken bonds broke "
+                "(grey: none broke).",
 }
 
 
@@ -63,7 +69,8 @@ def write_result(result, out_dir, figures=True):
         # the report (analysis/report.py, a layer below the lab) reads them from here
         "captions": CAPTIONS}), indent=2) + "\n")
     paths["json"] = path
-    for name, table in (("cracks", result.cracks), ("ae", result.ae)):
+    for name, table in (("cracks", result.cracks), ("ae", result.ae),
+                        ("fragments", result.fragments)):
         if table is not None:
             paths[name + "_csv"] = _write_table(out_dir / f"lab_{name}.csv", table)
     if figures:
@@ -79,10 +86,12 @@ def write_result(result, out_dir, figures=True):
 def _write_table(path, table):
     """{column: (K,) array} as CSV with units in the header (lab/cracks.py's UNITS)."""
     from .cracks import UNITS
+    units = {**UNITS, "particles": "1", "mass": "kg", "size": "m", "cracks": "1",
+             "magnitude": "1"}
     columns = list(table)
     with open(path, "w", newline="") as handle:
         writer = csv.writer(handle)
-        writer.writerow([f"{c} ({UNITS.get(c) or '1'})" for c in columns])
+        writer.writerow([f"{c} ({units.get(c) or '1'})" for c in columns])
         for k in range(len(table[columns[0]]) if columns else 0):
             writer.writerow([repr(float(table[c][k])) for c in columns])
     return path
@@ -132,6 +141,26 @@ def build_lab_figures(result):
     ax.legend()
     fig.tight_layout()
     figures["cracks"] = fig
+    if result.fragments is not None and "applied_energy" in curve:
+        from .measure import passing
+        table = result.fragments
+        fig, (left, middle, right) = plt.subplots(1, 3, figsize=(12, 4))
+        size, fraction = passing(table["size"], table["mass"])
+        left.step(size * 1e3, fraction, where="post")
+        left.set_xscale("log")
+        left.set_xlabel("fragment size (mm)")
+        left.set_ylabel("mass fraction passing")
+        edges = np.geomspace(size.min() * 0.99, size.max() * 1.01, 12)
+        middle.hist(table["size"] * 1e3, bins=edges * 1e3, weights=table["mass"]
+                    / table["mass"].sum())
+        middle.set_xscale("log")
+        middle.set_xlabel("fragment size (mm)")
+        middle.set_ylabel("mass fraction per size class")
+        right.plot(curve["applied_energy"] * 1e3, curve["fragments"])
+        right.set_xlabel("applied energy (mJ)")
+        right.set_ylabel("fragments of 2+ particles")
+        fig.tight_layout()
+        figures["fragments"] = fig
     if result.ae is not None and "ae_events" in curve:
         from .cracks import b_value
         fig, (left, right) = plt.subplots(1, 2, figsize=(9, 4))
@@ -152,17 +181,55 @@ def build_lab_figures(result):
         fig.tight_layout()
         figures["ae"] = fig
     if result.position is not None:
-        fig, ax = plt.subplots(figsize=(5, 5))
-        counts = np.zeros(result.position.shape[0])
-        broken = result.bonds[result.broken]
-        np.add.at(counts, broken.ravel(), 1.0)
-        order = np.argsort(result.position[:, 1])
-        points = ax.scatter(result.position[order, 0] * 1e3, result.position[order, 2] * 1e3,
-                            c=counts[order], s=8, cmap="viridis")
-        fig.colorbar(points, ax=ax, label="broken bonds of the particle")
-        ax.set_aspect("equal")
-        ax.set_xlabel("x (mm)")
-        ax.set_ylabel("z (mm)")
-        fig.tight_layout()
-        figures["specimen"] = fig
+        figures["specimen"] = _failure_picture(result, plt)
     return figures
+
+
+MODE_COLOURS = {0: "0.8", 1: "tab:blue", 2: "tab:orange", 3: "tab:red"}
+MODE_NAMES = {0: "intact", 1: "tension", 2: "compression", 3: "shear"}
+
+
+def particle_modes(n, bonds, break_mode):
+    """(N,) int: for each particle the mode (1 tension, 2 compression, 3 shear) in which
+    most of its broken bonds broke (the lower mode when tied), 0 when none broke."""
+    counts = np.zeros((n, 4))
+    broken = np.flatnonzero(np.asarray(break_mode) > 0)
+    for end in (0, 1):
+        np.add.at(counts, (bonds[broken, end], break_mode[broken]), 1.0)
+    counts[:, 0] = 0.0
+    mode = np.argmax(counts, axis=1)
+    mode[counts.sum(axis=1) == 0.0] = 0
+    return mode
+
+
+def _failure_picture(result, plt):
+    """The failure picture: the specimen in 3D and a middle slice, by crack mode."""
+    position = result.position * 1e3
+    mode = (particle_modes(position.shape[0], result.bonds, result.break_mode)
+            if result.break_mode is not None else np.zeros(position.shape[0], int))
+    colours = np.array([MODE_COLOURS[int(m)] for m in range(4)], dtype=object)[mode]
+    fig = plt.figure(figsize=(10, 5))
+    ax = fig.add_subplot(1, 2, 1, projection="3d")
+    ax.scatter(position[:, 0], position[:, 1], position[:, 2], c=list(colours), s=6,
+               depthshade=True)
+    ax.set_xlabel("x (mm)")
+    ax.set_ylabel("y (mm)")
+    ax.set_zlabel("z (mm)")
+    ax.set_box_aspect(np.ptp(position, axis=0) + 1e-12)
+    cut = fig.add_subplot(1, 2, 2)
+    middle = 0.5 * (position[:, 1].min() + position[:, 1].max())
+    diameter = 2e3 * float(np.mean(result.radius)) if result.radius is not None else \
+        0.05 * float(np.ptp(position[:, 1]) or 1.0)
+    near = np.abs(position[:, 1] - middle) <= diameter
+    for m in range(4):
+        pick = near & (mode == m)
+        if np.any(pick):
+            cut.scatter(position[pick, 0], position[pick, 2], c=MODE_COLOURS[m], s=12,
+                        label=MODE_NAMES[m])
+    cut.set_aspect("equal")
+    cut.set_xlabel("x (mm)")
+    cut.set_ylabel("z (mm)")
+    cut.set_title("slice through the middle")
+    cut.legend(loc="upper right", fontsize=8)
+    fig.tight_layout()
+    return fig

@@ -22,7 +22,7 @@ from ..physics.contact_linear import LINEAR_REFERENCE_OVERLAP
 from ..model import Material
 from ..physics.bond_elastic import COMPRESSION, SHEAR, TENSION
 from ..simulation import Simulation
-from ..walls import PlaneWall, Servo, VelocityProfile
+from ..walls import MeshWall, PlaneWall, Servo, VelocityProfile
 from . import cracks as cracks_mod
 from . import measure
 from .membrane import membrane_forces
@@ -45,6 +45,12 @@ class LabSettings:
     is not its breakage]; largest_fragment: the agglomerate's drop counts as its breakage
     only once its largest fragment holds at most this fraction of the mass [0.9];
     ae_radius: an acoustic-emission event's source radius in mean particle diameters [2];
+    jaws (Brazilian): the curved jaws' radius in disc diameters, 0 for flat platens [1.5,
+    ISRM]; flattened (Brazilian): the loading angle 2 alpha (degrees) of a disc with flat
+    ends between flat platens, 0 for none [0]; rate_check: "warn" (a kinetic-energy
+    ratio above 0.01 before the peak is warned of), "repeat" (also the test again at half
+    the rate, warning when the strength moves by more than 2 % or E by more than 0.5 %)
+    or "off" [warn];
     stress_path (triaxial): "constant_sigma3" or "constant_mean" (sigma_3 follows
     p0 - q / 3, so that the mean stress stays at the confinement's) [constant_sigma3];
     unload_at (triaxial): platen strains at which the platens turn back, unloading to
@@ -66,6 +72,9 @@ class LabSettings:
     failure_bonds: float | None = None
     largest_fragment: float = 0.9
     ae_radius: float = AE_RADIUS_DEFAULT
+    jaws: float = 1.5
+    flattened: float = 0.0
+    rate_check: str = "warn"
     stress_path: str = "constant_sigma3"
     unload_at: tuple = ()
     unload_to: float = 0.3
@@ -93,6 +102,15 @@ class LabSettings:
             if not (isinstance(value, (int, float)) and low < value < high
                     or (name == "safety_factor" and value == 1.0)):
                 raise ValueError(f"{name} = {value!r}; allowed range ({max(low, 0):g}, {high:g})")
+        if not (isinstance(self.jaws, (int, float)) and (self.jaws == 0.0 or self.jaws > 0.5)
+                and math.isfinite(self.jaws)):
+            raise ValueError(f"jaws = {self.jaws!r}; 0 (flat platens) or a radius > 0.5 "
+                             f"disc diameters")
+        if not (isinstance(self.flattened, (int, float)) and 0.0 <= self.flattened < 90.0):
+            raise ValueError(f"flattened = {self.flattened!r}; a loading angle in [0, 90) "
+                             f"degrees")
+        if self.rate_check not in ("warn", "repeat", "off"):
+            raise ValueError(f"rate_check = {self.rate_check!r}; allowed: warn, repeat, off")
         if self.stress_path not in STRESS_PATHS:
             raise ValueError(f"stress_path = {self.stress_path!r}; allowed: "
                              f"{', '.join(STRESS_PATHS)}")
@@ -125,7 +143,8 @@ class LabResult:
     notes, and the final state for the specimen picture: ``position`` (N,3) m, ``bonds``
     (B,2) and ``broken`` (B,) bool; ``cracks``: the crack log {column: (K,) array} (one
     row per broken bond, lab/cracks.py's COLUMNS) and ``ae`` the AE events grouped from it
-    ({column: (E,) array}). ``no_failure``: None when the specimen failed, else
+    ({column: (E,) array}); ``fragments`` (agglomerate): every fragment's particles, mass
+    (kg) and size (m), largest first. ``no_failure``: None when the specimen failed, else
     why it has no strength (its strength numbers are then NaN)."""
     test: str
     curve: dict
@@ -140,6 +159,8 @@ class LabResult:
     no_failure: str | None = None
     cracks: dict | None = None
     ae: dict | None = None
+    fragments: dict | None = None
+    radius: np.ndarray | None = None
 
     def write(self, out_dir, figures=True):
         """Write lab.csv (the curve), lab.json (numbers, units, settings, notes) and the
@@ -332,7 +353,7 @@ def _limits(settings, test, specimen):
     warns of a coarse specimen (``resolution_note``) before the test starts."""
     coarse = resolution_note(specimen)
     if coarse is not None:
-        warnings.warn(coarse, stacklevel=3)
+        warnings.warn(coarse, stacklevel=4)
     if settings.max_strain is None:
         settings = dataclasses.replace(settings, max_strain=MAX_STRAIN[test])
     if settings.failure_bonds is None:
@@ -404,7 +425,9 @@ UNITS = {"time": "s", "axial_stress": "Pa", "axial_strain": "1", "platen_strain"
          "confinement_lateral_strain": "1", "unloading_modulus": "Pa", "mean_stress": "Pa",
          "loading": "1",
          "mismatch": "1", "largest_stress": "Pa", "crack_damage_stress": "Pa",
-         "cracks": "1", "ae_events": "1", "b_value": "1", "diameter": "m", "thickness": "m",
+         "cracks": "1", "ae_events": "1", "b_value": "1", "breakage_energy": "J",
+         "applied_energy": "J", "fragment_size_d50": "m", "fragment_size_d10": "m",
+         "loose_particles": "1", "diameter": "m", "thickness": "m",
          "height": "m",
          "cross_section": "m^2", "n_particles": "1", "n_bonds": "1"}
 
@@ -452,6 +475,60 @@ def resolution_note(specimen):
             f"numbers depend on the packing's details")
 
 
+JAW_SEGMENTS = 96   # facets along a jaw's arc
+
+
+def _jaws(specimen, settings, speed, wave, material):
+    """ISRM's curved jaws for the Brazilian test: two cylindrical mesh surfaces of radius
+    ``settings.jaws`` disc diameters (1.5: ISRM), their axes along the disc's (y), their
+    apexes touching the disc's top and bottom, each spanning one diameter across and the
+    thickness with a margin, moving in along z as ``_platens`` do. Each wall's reference
+    point is its apex."""
+    low, high = specimen.bounds()
+    centre = 0.5 * (low + high)
+    diameter = float(high[2] - low[2])
+    r_jaw = settings.jaws * diameter
+    margin = 0.25 * float(high[1] - low[1]) + 2.0 * float(np.max(specimen.radius))
+    x = centre[0] + np.linspace(-0.5, 0.5, JAW_SEGMENTS + 1) * diameter
+    rise = r_jaw - np.sqrt(r_jaw ** 2 - (x - centre[0]) ** 2)
+    ramp = settings.ramp * wave
+    walls = []
+    for apex, sign in ((low[2], -1.0), (high[2], 1.0)):
+        vertices = []
+        for y in (low[1] - margin, high[1] + margin):
+            vertices.append(np.column_stack([x, np.full_like(x, y), apex + sign * rise]))
+        vertices = np.concatenate(vertices)
+        n = JAW_SEGMENTS + 1
+        k = np.arange(JAW_SEGMENTS)
+        triangles = np.concatenate([np.column_stack([k, k + 1, k + n]),
+                                    np.column_stack([k + 1, k + n + 1, k + n])])
+        v = np.array([0.0, 0.0, -sign * speed])   # into the disc
+        motion = (VelocityProfile([0.0, ramp], [np.zeros(3), v]) if ramp > 0.0 else
+                  VelocityProfile([0.0], [v]))
+        walls.append(MeshWall(vertices, triangles, material, motion=motion,
+                              rotation_center=(centre[0], centre[1], apex)))
+    return walls
+
+
+def flatten_disc(specimen, angle):
+    """The disc with flat ends for the flattened Brazilian test (Wang et al. 2004): the
+    particles whose centres lie beyond (D / 2) cos(alpha) of its centre along z removed,
+    2 alpha = ``angle`` (degrees) the loading angle, with their bonds."""
+    low, high = specimen.bounds()
+    middle = 0.5 * (low[2] + high[2])
+    half = 0.5 * float(high[2] - low[2]) * math.cos(math.radians(0.5 * angle))
+    keep = np.abs(specimen.position[:, 2] - middle) <= half - specimen.radius
+    new = np.cumsum(keep) - 1
+    bonded = keep[specimen.bonds[:, 0]] & keep[specimen.bonds[:, 1]]
+    return dataclasses.replace(
+        specimen, position=specimen.position[keep], radius=specimen.radius[keep],
+        bonds=new[specimen.bonds[bonded]], bond_diameter=specimen.bond_diameter[bonded],
+        material_index=specimen.material_index[keep],
+        bond_material_index=specimen.bond_material_index[bonded],
+        notes=[*specimen.notes, f"flattened to a loading angle of {angle:g} degrees "
+                                f"({int(np.count_nonzero(~keep))} particles cut off)"])
+
+
 def _finish(test, specimen, settings, sim, runner, numbers, stop, notes):
     curve, wall_time = runner.finish()
     state = sim.state
@@ -473,7 +550,8 @@ def _finish(test, specimen, settings, sim, runner, numbers, stop, notes):
     result = LabResult(test, curve, numbers, {k: UNITS.get(k, "") for k in (*curve, *numbers)},
                        _settings_dict(settings), notes, state.position.copy(),
                        sim.model.bond_pairs.copy(), ~state.bond_active.copy(),
-                       state.bond_break_mode.copy(), cracks=cracks, ae=ae)
+                       state.bond_break_mode.copy(), cracks=cracks, ae=ae,
+                       radius=sim.model.radius.copy())
     if runner.writer is not None:
         _write_cracks(runner.writer.path, cracks, ae)
     if not stop.startswith("post-peak"):
@@ -582,7 +660,9 @@ def _compression(test, specimen, settings, axis, out_dir, scene_text, confining=
     notes = []
     membrane, lateral_walls = None, []
     if confining is None:
-        walls = _platens(specimen, settings, axis, speed, wave, material)
+        jaws = test == "brazilian" and settings.jaws > 0.0 and settings.flattened == 0.0
+        walls = (_jaws(specimen, settings, speed, wave, material) if jaws else
+                 _platens(specimen, settings, axis, speed, wave, material))
         sim = _simulation(specimen, settings, walls)
     elif specimen.shape == "cylinder":
         sim, walls, membrane, confine_note = _membrane_confine(specimen, settings, axis,
@@ -665,6 +745,8 @@ def _compression(test, specimen, settings, axis, out_dir, scene_text, confining=
                 turns.pop(0)
             row["loading"] = -1.0 if walls[0].motion.held_speed < 0.0 else 1.0
         row["volumetric_strain"] = row["axial_strain"] - 2.0 * row["lateral_strain"]
+        if pieces is not None:
+            row["fragments"] = float(pieces()[0])
         tension, compression, shear = probe.broken()
         row.update({"broken_tension": tension, "broken_compression": compression,
                     "broken_shear": shear, "kinetic_ratio": probe.energy_ratio()})
@@ -765,6 +847,59 @@ def _confine(specimen, settings, axis, speed, material, wave):
                                        + ("" if reached else "; not settled") + ")")
 
 
+KINETIC_LIMIT = 0.01   # kinetic over elastic energy before the peak: above, not quasi-static
+RATE_STRENGTH_TOLERANCE = 0.02   # a strength that moves more at half the rate: warned of
+RATE_MODULUS_TOLERANCE = 0.005
+STRENGTH_OF = {"ucs": "ucs", "triaxial": "peak_deviator_stress",
+               "brazilian": "tensile_strength", "tension": "tensile_strength",
+               "agglomerate": "breakage_force"}
+
+
+def _rate_checked(run):
+    """The test ``run`` with its rate checked (``settings.rate_check``): "warn" notes and
+    warns when the kinetic-energy ratio before the peak exceeds KINETIC_LIMIT; "repeat"
+    also runs the test again at half the strain rate and reports how much the strength
+    and the secant modulus moved (rate_change_strength, rate_change_modulus), warning
+    above 2 % and 0.5 %; "off" does neither."""
+    import functools
+
+    @functools.wraps(run)
+    def checked(specimen, settings=None, **options):
+        result = run(specimen, settings, **options)
+        settings = settings or LabSettings()
+        if settings.rate_check == "off":
+            return result
+        test, n = result.test, result.numbers
+        problems = []
+        ratio = n.get("kinetic_energy_ratio", math.nan)
+        if ratio > KINETIC_LIMIT:
+            problems.append(f"the kinetic energy reached {ratio:.3g} of the elastic energy "
+                            f"before the peak (above {KINETIC_LIMIT:g}): not quasi-static")
+        if settings.rate_check == "repeat":
+            half = dataclasses.replace(settings, strain_rate=0.5 * n["strain_rate"],
+                                       rate_check="off")
+            slow = run(specimen, half).numbers
+            for key, name, tolerance in ((STRENGTH_OF[test], "strength",
+                                          RATE_STRENGTH_TOLERANCE),
+                                         ("young_modulus_secant", "modulus",
+                                          RATE_MODULUS_TOLERANCE)):
+                if not (math.isfinite(n.get(key, math.nan)) and n[key] != 0.0
+                        and math.isfinite(slow.get(key, math.nan))):
+                    continue   # no strength (or modulus) in one of the runs: nothing to say
+                change = slow[key] / n[key] - 1.0
+                n[f"rate_change_{name}"] = change
+                result.units[f"rate_change_{name}"] = "1"
+                if not abs(change) <= tolerance:
+                    problems.append(f"at half the strain rate its {key} moved by "
+                                    f"{100 * change:.3g} % (more than {100 * tolerance:g} %)")
+        for problem in problems:
+            warnings.warn(f"{test}: {problem}; lower test.strain_rate", stacklevel=2)
+            result.notes.insert(len(result.notes) - 1, f"warning: {problem}")
+        return result
+
+    return checked
+
+
 MEMBRANE_EVERY = 10   # steps between updates of the membrane's forces
 
 
@@ -855,6 +990,7 @@ def _membrane_confine(specimen, settings, axis, speed, material, wave):
         f"axial {membrane.axial_strain:.4g}, lateral {membrane.lateral_strain:.4g})")
 
 
+@_rate_checked
 def uniaxial(specimen, settings=None, *, out_dir=None, scene_text="", axis=2):
     """Unconfined compression (UCS) between frictionless platens along ``axis``.
 
@@ -891,6 +1027,7 @@ def _mismatch(curve, key, worst=False):
     return float(ratio.max() if worst else ratio.mean())
 
 
+@_rate_checked
 def triaxial(specimen, settings=None, *, out_dir=None, scene_text="", axis=2):
     """Confined compression. A cylinder: a flexible membrane (lab/membrane.py) and two
     servo platens press it to ``settings.confining_stress``; a box: six servo walls. Then
@@ -928,24 +1065,32 @@ def triaxial(specimen, settings=None, *, out_dir=None, scene_text="", axis=2):
     return _honest(result)
 
 
+@_rate_checked
 def brazilian(specimen, settings=None, *, out_dir=None, scene_text=""):
-    """Brazilian test: a disc (axis y) compressed across its diameter by platens along z.
-    Tensile strength 2 F_peak / (pi D t), D the diameter (extent along z), t the thickness
-    (extent along y); the curve's tensile_stress is 2F/(pi D t) of the mean platen force
-    and its strain the platen displacement over D."""
+    """Brazilian test: a disc (axis y) compressed across its diameter along z between
+    ISRM's curved jaws (``settings.jaws`` diameters in radius; 0: flat platens), or, with
+    ``settings.flattened`` (the loading angle 2 alpha, degrees), a disc with flat ends
+    between flat platens. Tensile strength 2 F_peak / (pi D t) (flattened: times
+    cos^3 alpha, Wang et al. 2004), D the diameter (extent along z), t the thickness
+    (extent along y); the curve's tensile_stress is that of the mean jaw force and its
+    strain the jaws' displacement over D."""
     settings = _limits(settings or LabSettings(), "brazilian", specimen)
     if specimen.shape not in ("disc", "cylinder", "box"):
         raise ValueError("a Brazilian test needs a disc specimen")
     axis = 2
     size = specimen.size()
     diameter, thickness = float(size[2]), float(size[1])
+    factor = 1.0
+    if settings.flattened > 0.0:
+        specimen = flatten_disc(specimen, settings.flattened)
+        factor = math.cos(math.radians(0.5 * settings.flattened)) ** 3
     sim, runner, rate, stop, notes = _compression("brazilian", specimen, settings, axis,
                                                   out_dir, scene_text)
     result = _finish("brazilian", specimen, settings, sim, runner, {}, stop, notes)
     curve = result.curve
     mean = 0.5 * (curve["force_top"] + curve["force_bottom"])
     curve["force"] = mean
-    curve["tensile_stress"] = 2.0 * mean / (math.pi * diameter * thickness)
+    curve["tensile_stress"] = factor * 2.0 * mean / (math.pi * diameter * thickness)
     curve["displacement"] = diameter * curve["platen_strain"]
     k = measure.peak(curve["tensile_stress"])
     broken = curve["broken_tension"] + curve["broken_compression"] + curve["broken_shear"]
@@ -962,6 +1107,7 @@ def brazilian(specimen, settings=None, *, out_dir=None, scene_text=""):
     return _honest(result)
 
 
+@_rate_checked
 def agglomerate(specimen, settings=None, *, out_dir=None, scene_text=""):
     """An agglomerate pressed between two plates along z (Kozhar et al. 2015): force
     against the decrease of the plate gap; breakage_force is the peak force before the
@@ -975,7 +1121,18 @@ def agglomerate(specimen, settings=None, *, out_dir=None, scene_text=""):
     curve["displacement"] = float(specimen.size()[2]) * curve["platen_strain"]
     k = measure.peak(curve["force"])
     broken = curve["broken_tension"] + curve["broken_compression"] + curve["broken_shear"]
+    # the plates' work: both plates move in, each by half the gap's decrease
+    work = 0.5 * (curve["force"][1:] + curve["force"][:-1]) * np.diff(curve["displacement"])
+    curve["applied_energy"] = np.r_[0.0, np.cumsum(work)]
+    table = measure.fragment_table(sim.model.bond_pairs, sim.state.bond_active,
+                                   sim.model.radius, sim.model.mass)
+    result.fragments = table
     result.numbers.update({
+        "breakage_energy": float(curve["applied_energy"][k]),
+        "applied_energy": float(curve["applied_energy"][-1]),
+        "fragment_size_d50": measure.size_at(table["size"], table["mass"], 0.5),
+        "fragment_size_d10": measure.size_at(table["size"], table["mass"], 0.1),
+        "loose_particles": int(np.count_nonzero(table["particles"] == 1)),
         "breakage_force": float(curve["force"][k]), "peak_stress": float(curve["force"][k]),
         "displacement_at_peak": float(curve["displacement"][k]),
         "strain_at_peak": float(curve["platen_strain"][k]),
@@ -986,6 +1143,7 @@ def agglomerate(specimen, settings=None, *, out_dir=None, scene_text=""):
     return _honest(result)
 
 
+@_rate_checked
 def direct_tension(specimen, settings=None, *, out_dir=None, scene_text="", axis=2):
     """Direct tension: the particles within ``settings.grip`` of the height at each end
     (at least the end layer) are gripped and pulled apart, each end at half the strain
