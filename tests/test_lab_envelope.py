@@ -1,8 +1,9 @@
 """The Mohr-Coulomb envelope: the fit against the criterion's closed form, and
-``bondem lab envelope`` on a parallel-bonded cylinder (its friction angle makes the bonds'
+``bondem lab envelope`` on a parallel-bonded cylinder (examples/lab_parallel.toml) (its friction angle makes the bonds'
 shear strength grow with confinement) as a Dask ensemble."""
 import json
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -11,28 +12,7 @@ from click.testing import CliRunner
 from bondem.cli import main
 from bondem.lab.envelope import mohr_coulomb
 
-SPEC = """
-[specimen]
-shape = "cylinder"
-size = [0.006, 0.012]
-particle_radius = 5e-4
-solids_fraction = 0.55
-seed = 1
-max_gap = 5e-5
-diameter_ratio = 0.6
-[specimen.material]
-density = 2500.0
-young_modulus = 1e9
-poisson_ratio = 0.3
-friction = 0.5
-[specimen.bond_material]
-model = "parallel"
-young_modulus = 1e9
-poisson_ratio = 0.3
-normal_strength = 3e6
-tangential_strength = 6e6
-friction_angle = 30.0
-"""
+EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "lab_parallel.toml"
 
 
 def test_the_fit_returns_the_criterions_cohesion_and_angle():
@@ -57,8 +37,7 @@ def test_the_fit_returns_the_criterions_cohesion_and_angle():
 
 
 def test_envelope_of_a_parallel_bonded_cylinder_is_a_straight_line(tmp_path):
-    spec = tmp_path / "rock.toml"
-    spec.write_text(SPEC)
+    spec = EXAMPLE   # the README's and docs/lab.md's example
     out = tmp_path / "env"
     result = CliRunner().invoke(main, ["lab", "envelope", str(spec), "--out", str(out),
                                        "--confining", "2e5", "--confining", "6e5",

@@ -125,8 +125,12 @@ def _envelope(spec, out_dir, changes, overwrite, pressures, scheduler, workers):
                  f"no failure ({t['no_failure']})")
         click.echo(f"  sigma_3 {t['confining_stress']:.4g} Pa: {state}")
     fit = summary["fit"]
-    click.echo(f"  cohesion: {fit['cohesion']:.4g} Pa")
-    click.echo(f"  friction angle: {fit['friction_angle']:.4g} degrees")
+    if fit["friction_angle"] == fit["friction_angle"]:
+        click.echo(f"  cohesion: {fit['cohesion']:.4g} Pa")
+        click.echo(f"  friction angle: {fit['friction_angle']:.4g} degrees")
+    else:
+        click.echo(f"  no Mohr-Coulomb line: the peaks' sigma_1 rises by {fit['slope']:.3g} "
+                   f"times sigma_3, less than 1 (no friction)")
     click.echo(f"  R^2 of the line through the peaks: {fit['r_squared']:.4f}")
     paths = write_envelope(summary, out_dir)
     click.echo(f"table:   {paths['csv']}  and {paths['json'].name}")
