@@ -12,7 +12,8 @@ SHOWN = ("n_particles", "n_bonds", "ucs", "tensile_strength", "peak_deviator_str
          "breakage_force", "young_modulus_secant", "young_modulus_tangent", "poisson_ratio",
          "strain_at_peak", "crack_initiation_stress", "confining_stress_error",
          "crack_damage_stress", "platen_force_mismatch", "kinetic_energy_ratio",
-         "broken_bonds_final", "fragments", "ae_events", "b_value", "steps", "wall_time")
+         "broken_bonds_final", "fragments", "breakage_energy", "applied_energy",
+         "fragment_size_d50", "loose_particles", "ae_events", "b_value", "steps", "wall_time")
 
 # Why a number can be missing (NaN) from a test's results, as the command line says it.
 NOT_FOUND = {

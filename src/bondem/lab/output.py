@@ -102,6 +102,7 @@ def build_lab_figures(result):
     import matplotlib
     matplotlib.use("Agg", force=False)
     import matplotlib.pyplot as plt
+    import matplotlib.ticker
     curve, test = result.curve, result.test
     stress_key, strain_key = STRESS[test], STRAIN[test]
     figures = {}
@@ -154,6 +155,9 @@ def build_lab_figures(result):
         middle.hist(table["size"] * 1e3, bins=edges * 1e3, weights=table["mass"]
                     / table["mass"].sum())
         middle.set_xscale("log")
+        for ax in (left, middle):   # plain numbers on the log axis, no crowded minor labels
+            ax.xaxis.set_major_formatter(matplotlib.ticker.ScalarFormatter())
+            ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
         middle.set_xlabel("fragment size (mm)")
         middle.set_ylabel("mass fraction per size class")
         right.plot(curve["applied_energy"] * 1e3, curve["fragments"])
