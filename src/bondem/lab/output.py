@@ -30,7 +30,8 @@ CAPTIONS = {
     "specimen": "The specimen at the end of the test in 3D and its slice through the middle "
                 "(one particle diameter either side of the x-z plane through its centre); "
                 "each particle coloured by the mode in which most of its broken bonds broke "
-                "(grey: none broke).",
+                "(grey: none broke); in the slice, the contact forces between its particles "
+                "as lines as wide as the force (force chains).",
 }
 
 
@@ -230,6 +231,20 @@ def _failure_picture(result, plt):
         if np.any(pick):
             cut.scatter(position[pick, 0], position[pick, 2], c=MODE_COLOURS[m], s=12,
                         label=MODE_NAMES[m])
+    contacts = result.contacts
+    if contacts is not None and contacts["i"].size:
+        # the force chains in the slice: particle pairs both in it, width by force
+        i, j = contacts["i"], contacts["j"]
+        pair = (j >= 0)
+        pair[pair] &= near[i[pair]] & near[j[pair]]
+        if np.any(pair):
+            magnitude = np.linalg.norm(contacts["force"][pair], axis=1)
+            width = 0.3 + 3.0 * magnitude / magnitude.max()
+            from matplotlib.collections import LineCollection
+            segments = np.stack([position[i[pair]][:, [0, 2]], position[j[pair]][:, [0, 2]]],
+                                axis=1)
+            cut.add_collection(LineCollection(segments, linewidths=width, colors="k",
+                                              alpha=0.6, label="contact forces"))
     cut.set_aspect("equal")
     cut.set_xlabel("x (mm)")
     cut.set_ylabel("z (mm)")

@@ -144,7 +144,8 @@ class LabResult:
     (B,2) and ``broken`` (B,) bool; ``cracks``: the crack log {column: (K,) array} (one
     row per broken bond, lab/cracks.py's COLUMNS) and ``ae`` the AE events grouped from it
     ({column: (E,) array}); ``fragments`` (agglomerate): every fragment's particles, mass
-    (kg) and size (m), largest first. ``no_failure``: None when the specimen failed, else
+    (kg) and size (m), largest first; ``contacts``: the contacts loaded in the last step
+    ({"i", "j", "force"} as ``Results.contacts``). ``no_failure``: None when the specimen failed, else
     why it has no strength (its strength numbers are then NaN)."""
     test: str
     curve: dict
@@ -161,6 +162,7 @@ class LabResult:
     ae: dict | None = None
     fragments: dict | None = None
     radius: np.ndarray | None = None
+    contacts: dict | None = None
 
     def write(self, out_dir, figures=True):
         """Write lab.csv (the curve), lab.json (numbers, units, settings, notes) and the
@@ -551,7 +553,7 @@ def _finish(test, specimen, settings, sim, runner, numbers, stop, notes):
                        _settings_dict(settings), notes, state.position.copy(),
                        sim.model.bond_pairs.copy(), ~state.bond_active.copy(),
                        state.bond_break_mode.copy(), cracks=cracks, ae=ae,
-                       radius=sim.model.radius.copy())
+                       radius=sim.model.radius.copy(), contacts=_contacts(sim))
     if runner.writer is not None:
         _write_cracks(runner.writer.path, cracks, ae)
     if not stop.startswith("post-peak"):
@@ -583,6 +585,13 @@ def _crack_log(runner, curve, specimen, settings):
                                     radius / runner.wave_speed)
     cracks["event"] = label.astype(np.float64)
     return cracks, cracks_mod.events(cracks["time"], position, cracks["energy"], label)
+
+
+def _contacts(sim):
+    """The contacts that carried a load in the last step (io.results.contact_rows)."""
+    from ..io.results import contact_rows
+    i, j, force = contact_rows(sim)
+    return {"i": i, "j": j, "force": force}
 
 
 def _write_cracks(path, cracks, ae):
