@@ -81,3 +81,47 @@ max_strain = 0.0005
     assert "did not fail" in result.output
     result = CliRunner().invoke(main, ["lab", "envelope", str(spec), "--confining", "1e4"])
     assert result.exit_code == 2 and "--confining" in result.output
+
+
+def test_series_statistics_are_the_sample_mean_and_deviation():
+    from bondem.lab.series import summarise
+    runs = [{"numbers": {"ucs": v, "n_particles": 10}} for v in (1.0, 2.0, 4.0)]
+    runs.append({"numbers": {"ucs": math.nan, "n_particles": 10}})   # did not fail
+    out = summarise(runs)
+    assert out["ucs"]["count"] == 3
+    assert out["ucs"]["mean"] == pytest.approx(7.0 / 3.0, rel=1e-15)
+    assert out["ucs"]["std"] == pytest.approx(math.sqrt(((1 - 7 / 3) ** 2 + (2 - 7 / 3) ** 2
+                                                         + (4 - 7 / 3) ** 2) / 2), rel=1e-12)
+    assert out["ucs"]["cv"] == pytest.approx(out["ucs"]["std"] / (7.0 / 3.0), rel=1e-15)
+    assert out["n_particles"]["std"] == 0.0
+
+
+def test_a_series_of_seeds_from_the_command_line(tmp_path):
+    """A lattice is the same for every seed: the series' runs agree, with no scatter, at
+    the lattice's closed-form strength sigma_b A_b / a^2."""
+    spec = tmp_path / "lattice.toml"
+    spec.write_text("""
+[specimen]
+lattice = [3, 3, 6]
+radius = 1e-3
+diameter_ratio = 0.5
+[specimen.material]
+density = 2500.0
+young_modulus = 1e8
+[specimen.bond_material]
+young_modulus = 1e8
+normal_strength = 1e6
+tangential_strength = 1e6
+""")
+    out = tmp_path / "series"
+    result = CliRunner().invoke(main, ["lab", "tension", str(spec), "--seed", "1", "--seed",
+                                       "2", "--scheduler", "serial", "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    saved = json.loads((out / "series.json").read_text())
+    assert [r["seed"] for r in saved["runs"]] == [1, 2]
+    strength = saved["summary"]["tensile_strength"]
+    assert strength["std"] == 0.0 and strength["count"] == 2
+    assert strength["mean"] == pytest.approx(1e6 * math.pi * 0.25e-6 / 4e-6, rel=0.02)
+    rows = (out / "series.csv").read_text().splitlines()
+    assert len(rows) == 3 and rows[0].startswith("seed,")
+    assert "tensile strength:" in result.output and "Pa" in result.output

@@ -43,9 +43,13 @@ NOT_FOUND = {
               help="envelope: Dask scheduler address (tcp://host:8786), or 'serial' for this "
                    "process (default: a local cluster).")
 @click.option("--workers", type=click.IntRange(min=1), default=None,
-              help="envelope: processes of the local cluster (default: one per test, at "
-                   "most the cores).")
-def command(test, spec, out_dir, overrides, overwrite, pressures, scheduler, workers):
+              help="envelope, --seed: processes of the local cluster (default: one per "
+                   "run, at most the cores).")
+@click.option("--seed", "seeds", multiple=True, type=click.IntRange(min=0), metavar="N",
+              help="Run the test on the specimen made with each seed (repeat): a series "
+                   "with the mean and scatter of its numbers, on Dask like the envelope.")
+def command(test, spec, out_dir, overrides, overwrite, pressures, scheduler, workers,
+            seeds):
     """Run laboratory TEST on the specimen of SPEC (TOML: [specimen] and [test]).
     ``envelope`` runs triaxial tests at each --confining stress and fits the
     Mohr-Coulomb envelope through their peaks."""
@@ -59,6 +63,8 @@ def command(test, spec, out_dir, overrides, overwrite, pressures, scheduler, wor
     out_dir = out_dir or spec.with_name(f"{spec.stem}_{test}")
     if test == "envelope":
         return _envelope(spec, out_dir, changes, overwrite, pressures, scheduler, workers)
+    if seeds:
+        return _series(test, spec, out_dir, changes, overwrite, seeds, scheduler, workers)
     if (out_dir / "lab.json").exists() and not overwrite:
         raise InputError("holds the files of an earlier test; give --overwrite to replace "
                          "them or --out for another folder", file=out_dir, key="--out")
@@ -136,3 +142,38 @@ def _envelope(spec, out_dir, changes, overwrite, pressures, scheduler, workers):
     paths = write_envelope(summary, out_dir)
     click.echo(f"table:   {paths['csv']}  and {paths['json'].name}")
     click.echo(f"figure:  {paths['figure'].name}")
+
+
+def _series(test, spec, out_dir, changes, overwrite, seeds, scheduler, workers):
+    """``bondem lab TEST SPEC --seed 1 --seed 2 ...``: the test on each seed's specimen."""
+    from ..errors import InputError
+    from ..lab.series import run_series, write_series
+    from ..lab.spec import load_spec
+    if len(set(seeds)) < 2:
+        raise InputError(f"value {list(seeds)!r}: give at least two different seeds",
+                         key="--seed")
+    out_dir = out_dir.with_name(out_dir.name + "_series") if out_dir == spec.with_name(
+        f"{spec.stem}_{test}") else out_dir
+    if (out_dir / "series.json").exists() and not overwrite:
+        raise InputError("holds an earlier series; give --overwrite to replace it or --out "
+                         "for another folder", file=out_dir, key="--out")
+    load_spec(spec, {**changes, "specimen.seed": seeds[0]})   # bad input: before the runs
+    click.echo(f"bondem lab {test}: {len(seeds)} specimens (seeds "
+               f"{', '.join(str(s) for s in seeds)})")
+    series = run_series(spec, test, seeds, overrides=changes or None, scheduler=scheduler,
+                        workers=workers)
+    for r in series["runs"]:
+        if r["no_failure"]:
+            click.echo(f"  seed {r['seed']}: no strength ({r['no_failure']})")
+    from ..lab.procedures import UNITS
+    for name, values in series["summary"].items():
+        unit = UNITS.get(name, "")
+        unit = "" if unit in ("", "1") else f" {unit}"
+        spread = (f" +- {values['std']:.3g}{unit} (cv {100 * values['cv']:.3g} %)"
+                  if values["std"] == values["std"] else "")
+        click.echo(f"  {name.replace('_', ' ')}: {values['mean']:.4g}{unit}{spread} "
+                   f"over {values['count']}")
+    paths = write_series(series, out_dir)
+    click.echo(f"table:   {paths['csv']}  and {paths['json'].name}")
+    if "figure" in paths:
+        click.echo(f"figure:  {paths['figure'].name}")

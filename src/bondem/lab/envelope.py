@@ -12,7 +12,6 @@ from __future__ import annotations
 import csv
 import json
 import math
-import os
 from pathlib import Path
 
 import numpy as np
@@ -63,29 +62,10 @@ def run_envelope(spec, pressures, *, overrides=None, scheduler="serial", workers
     of ``workers`` processes) or a Dask scheduler address. Returns {"tests": [numbers per
     pressure], "fit": mohr_coulomb(...) of the tests that failed, "failed": the
     pressures whose specimen did not fail (no peak) and why}."""
+    from .series import ensemble
     pressures = [float(p) for p in pressures]
-    if scheduler == "serial":
-        tests = [_one(spec, overrides, p) for p in pressures]
-    else:
-        from distributed import Client, LocalCluster
-        cluster = None
-        if scheduler is None:
-            cluster = LocalCluster(n_workers=workers or min(len(pressures),
-                                                            os.cpu_count() or 1),
-                                   threads_per_worker=1, processes=True,
-                                   dashboard_address=None,
-                                   env={"NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"})
-            client = Client(cluster)
-        else:
-            client = Client(scheduler, timeout="30s")
-        try:
-            futures = [client.submit(_one, str(spec), overrides, p, pure=False)
-                       for p in pressures]
-            tests = [f.result() for f in futures]
-        finally:
-            client.close()
-            if cluster is not None:
-                cluster.close()
+    tests = ensemble(_one, [(str(spec), overrides, p) for p in pressures],
+                     scheduler=scheduler, workers=workers)
     failed = {p: t["no_failure"] for p, t in zip(pressures, tests) if t["no_failure"]}
     good = [t for t in tests if not t["no_failure"]]
     if len(good) < 2:
