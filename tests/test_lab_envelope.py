@@ -12,6 +12,20 @@ from click.testing import CliRunner
 from bondem.cli import main
 from bondem.lab.envelope import mohr_coulomb
 
+# a simple cubic lattice of touching spheres (docs/lab.md's closed forms)
+LATTICE = """
+[specimen]
+lattice = [3, 3, 6]
+radius = 1e-3
+diameter_ratio = 0.5
+[specimen.material]
+density = 2500.0
+young_modulus = 1e8
+[specimen.bond_material]
+young_modulus = 1e8
+normal_strength = 1e6
+tangential_strength = 1e6
+"""
 EXAMPLE = Path(__file__).resolve().parents[1] / "examples" / "lab_parallel.toml"
 
 
@@ -58,22 +72,8 @@ def test_envelope_of_a_parallel_bonded_cylinder_is_a_straight_line(tmp_path):
 
 def test_an_envelope_without_failures_is_refused(tmp_path):
     spec = tmp_path / "lattice.toml"
-    spec.write_text("""
-[specimen]
-lattice = [6, 6, 12]
-shape = "cylinder"
-radius = 1e-3
-diameter_ratio = 0.5
-[specimen.material]
-density = 2500.0
-young_modulus = 1e8
-[specimen.bond_material]
-young_modulus = 1e8
-normal_strength = 1e6
-tangential_strength = 1e6
-[test]
-max_strain = 0.0005
-""")
+    spec.write_text(LATTICE.replace("[3, 3, 6]", '[6, 6, 12]\nshape = "cylinder"')
+                    + "[test]\nmax_strain = 0.0005\n")
     result = CliRunner().invoke(main, ["lab", "envelope", str(spec), "--scheduler", "serial",
                                        "--confining", "1e4", "--confining", "2e4"])
     assert result.exit_code == 2
@@ -100,19 +100,7 @@ def test_a_series_of_seeds_from_the_command_line(tmp_path):
     """A lattice is the same for every seed: the series' runs agree, with no scatter, at
     the lattice's closed-form strength sigma_b A_b / a^2."""
     spec = tmp_path / "lattice.toml"
-    spec.write_text("""
-[specimen]
-lattice = [3, 3, 6]
-radius = 1e-3
-diameter_ratio = 0.5
-[specimen.material]
-density = 2500.0
-young_modulus = 1e8
-[specimen.bond_material]
-young_modulus = 1e8
-normal_strength = 1e6
-tangential_strength = 1e6
-""")
+    spec.write_text(LATTICE)
     out = tmp_path / "series"
     result = CliRunner().invoke(main, ["lab", "tension", str(spec), "--seed", "1", "--seed",
                                        "2", "--scheduler", "serial", "--out", str(out)])

@@ -807,6 +807,46 @@ def wall_stiffness(sim, specimen, material):
     return stiffness
 
 
+def _servo_plane(point, k, sign, material, sigma):
+    """A plane through ``point`` facing ``sign`` along axis k, servo-controlled to the
+    stress sigma (Pa); ``_tune_servos`` sets its area, gain and speed cap."""
+    normal = np.zeros(3)
+    normal[k] = sign
+    return PlaneWall(point, normal, material, motion=Servo(
+        target_stress=sigma, area=1.0, stiffness=lambda: 0.0, max_velocity=1.0,
+        tolerance=0.005, fraction=SERVO_GAIN))
+
+
+def _tune_servos(sim, specimen, material, walls, areas, speed):
+    """Each servo wall's area (a function, m^2), its gain tuned to its contacts' Hertz
+    stiffness (``wall_stiffness``), its speed cap (4 times the platen speed, at least
+    1e-3 r per step) and its integral time."""
+    dt = sim.time_step
+    stiffness = wall_stiffness(sim, specimen, material)
+    cap = max(4.0 * speed, 1e-3 * float(np.mean(specimen.radius)) / dt)
+    for index, (w, area) in enumerate(zip(walls, areas)):
+        w.motion.area = area
+        w.motion.stiffness = (lambda i=index: stiffness(i))
+        w.motion.max_velocity = cap
+        w.motion.integral_time = SERVO_INTEGRAL * dt
+
+
+def _settle(sim, walls, advance, wave, least, max_steps):
+    """Advance (``advance(steps)``) in blocks of half a wave-crossing time (at least
+    ``least`` steps) until every servo of ``walls`` holds its target after at least 20
+    wave-crossing times (the specimen settles), at most 500; returns (steps, reached)."""
+    probe_time, limit = 20.0 * wave, 500.0 * wave
+    block = max(least, int(0.5 * wave / sim.time_step))
+    steps, reached = 0, False
+    while steps < max_steps and sim.state.time < limit:
+        advance(block)
+        steps += block
+        reached = all(w.motion.reached for w in walls)
+        if sim.state.time > probe_time and reached:
+            break
+    return steps, reached
+
+
 def _confine(specimen, settings, axis, speed, material, wave):
     """Six servo walls (two platens, four lateral) press a box specimen to the confining
     stress; returns (simulation, platens, lateral walls, note) once every wall holds it."""
@@ -817,39 +857,18 @@ def _confine(specimen, settings, axis, speed, material, wave):
     if sigma is None:
         raise ValueError("a triaxial test needs confining_stress (Pa)")
     low, high = specimen.bounds()
-    r = float(np.mean(specimen.radius))
-    walls = []
-    order = [axis] + [k for k in range(3) if k != axis]
-    for k in order:
-        for point, sign in ((low, 1.0), (high, -1.0)):
-            normal = np.zeros(3)
-            normal[k] = sign
-            walls.append(PlaneWall(point, normal, material, motion=Servo(
-                target_stress=sigma, area=1.0, stiffness=lambda: 0.0, max_velocity=1.0,
-                tolerance=0.005, fraction=SERVO_GAIN)))
+    walls = [_servo_plane(point, k, sign, material, sigma)
+             for k in [axis] + [k for k in range(3) if k != axis]
+             for point, sign in ((low, 1.0), (high, -1.0))]
     sim = _simulation(specimen, settings, walls)
-    dt = sim.time_step
     width = box_widths(sim, walls)
-    stiffness = wall_stiffness(sim, specimen, material)
-    cap = max(4.0 * speed, 1e-3 * r / dt)
-    for index, w in enumerate(walls):
+    areas = []
+    for w in walls:
         k = int(np.argmax(np.abs(w.normal)))
         others = [j for j in range(3) if j != k]
-        w.motion.area = (lambda o=others: width(o[0]) * width(o[1]))
-        w.motion.stiffness = (lambda i=index: stiffness(i))
-        w.motion.max_velocity = cap
-        w.motion.integral_time = SERVO_INTEGRAL * dt
-    # at least 20 wave-crossing times (the specimen settles), at most 500
-    probe_time, limit = 20.0 * wave, 500.0 * wave
-    steps = 0
-    block = max(10, int(0.5 * wave / dt))
-    reached = False
-    while steps < settings.max_steps and sim.state.time < limit:
-        sim.step(block)
-        steps += block
-        reached = all(w.motion.reached for w in walls)
-        if sim.state.time > probe_time and reached:
-            break
+        areas.append(lambda o=others: width(o[0]) * width(o[1]))
+    _tune_servos(sim, specimen, material, walls, areas, speed)
+    steps, reached = _settle(sim, walls, sim.step, wave, 10, settings.max_steps)
     worst = max(abs(w.motion.error) for w in walls)
     return sim, walls[:2], walls[2:], (f"confined to {sigma:.4g} Pa in {steps} steps "
                                        f"(worst wall {100 * worst:.2g} % off"
@@ -962,34 +981,15 @@ def _membrane_confine(specimen, settings, axis, speed, material, wave):
         raise ValueError("the membrane triaxial test runs on the CPU backend (the "
                          "membrane's forces are renewed on the host)")
     sigma = settings.confining_stress
-    r = float(np.mean(specimen.radius))
     low, high = specimen.bounds()
-    platens = []
-    for point, sign in ((low, 1.0), (high, -1.0)):
-        normal = np.zeros(3)
-        normal[axis] = sign
-        platens.append(PlaneWall(point, normal, material, motion=Servo(
-            target_stress=sigma, area=1.0, stiffness=lambda: 0.0, max_velocity=1.0,
-            tolerance=0.005, fraction=SERVO_GAIN)))
+    platens = [_servo_plane(point, axis, sign, material, sigma)
+               for point, sign in ((low, 1.0), (high, -1.0))]
     sim = _simulation(specimen, settings, platens)
-    membrane = _Membrane(sim, axis, sigma, 2.0 * r, platens)
-    dt = sim.time_step
-    stiffness = wall_stiffness(sim, specimen, material)
-    for index, w in enumerate(platens):
-        w.motion.area = membrane.cross_section
-        w.motion.stiffness = (lambda i=index: stiffness(i))
-        w.motion.max_velocity = max(4.0 * speed, 1e-3 * r / dt)
-        w.motion.integral_time = SERVO_INTEGRAL * dt
+    membrane = _Membrane(sim, axis, sigma, 2.0 * float(np.mean(specimen.radius)), platens)
+    _tune_servos(sim, specimen, material, platens, [membrane.cross_section] * 2, speed)
     probe = _Probe(sim, axis, settings)
-    probe_time, limit = 20.0 * wave, 500.0 * wave
-    block = max(MEMBRANE_EVERY, int(0.5 * wave / dt))
-    steps, reached = 0, False
-    while steps < settings.max_steps and sim.state.time < limit:
-        membrane.advance(block)
-        steps += block
-        reached = all(w.motion.reached for w in platens)
-        if sim.state.time > probe_time and reached:
-            break
+    steps, reached = _settle(sim, platens, membrane.advance, wave, MEMBRANE_EVERY,
+                             settings.max_steps)
     membrane.axial_strain = -probe.gauge_strain()
     membrane.lateral_strain = -probe.lateral()
     worst = max(abs(w.motion.error) for w in platens)
