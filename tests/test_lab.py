@@ -387,6 +387,12 @@ def test_the_docs_worked_example_runs_and_reports(tmp_path):
     ("specimen.material.density=-1", "specimen.material.density"),
     ("specimen.colour=1", "specimen.colour"),
     ("test.gauge=[0.3, 0.2]", "test.gauge"),
+    ("test.stress_path=foo", "test.stress_path"),
+    ("test.unload_at='a'", "test.unload_at"),
+    ("test.unload_at=[0.001, 2]", "test.unload_at"),
+    ("test.jaws=0.3", "test.jaws"),
+    ("test.rate_check=maybe", "test.rate_check"),
+    ("test.flattened=95", "test.flattened"),
 ])
 def test_bad_spec_names_the_key(tmp_path, change, key):
     spec = tmp_path / "s.toml"
@@ -425,3 +431,16 @@ def test_a_scene_body_is_a_specimen(tmp_path):
     assert numbers["n_bonds"] == scene.model.n_bonds
     # pressed to 1 % only, it did not break: no breakage force, the largest force reached
     assert numbers["breakage_force"] is None and numbers["largest_stress"] > 0.0
+
+
+def test_one_unloading_strain_may_be_given_as_a_number(tmp_path):
+    from bondem.lab.spec import load_spec
+    spec = tmp_path / "s.toml"
+    spec.write_text("[specimen]\nlattice = [2, 2, 2]\nradius = 1e-3\n"
+                    "[specimen.material]\ndensity = 2500.0\nyoung_modulus = 1e8\n"
+                    "[specimen.bond_material]\nyoung_modulus = 1e8\n"
+                    "[test]\nunload_at = 0.002\nstress_path = \"constant_mean\"\n")
+    _, settings, _ = load_spec(spec)
+    assert settings.unload_at == (0.002,) and settings.stress_path == "constant_mean"
+    _, settings, _ = load_spec(spec, {"test.unload_at": [0.001, 0.003]})
+    assert settings.unload_at == (0.001, 0.003)

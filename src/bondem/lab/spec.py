@@ -197,10 +197,15 @@ def _settings(test, path):
     values = {k: v for k, v in test.items() if k not in ("gauge", "platen_material",
                                                           "unload_at")}
     values["gauge"] = tuple(float(v) for v in gauge)
-    if test["unload_at"]:
+    turns = test["unload_at"]
+    if isinstance(turns, (int, float)) and not isinstance(turns, bool):
+        turns = [turns]   # one platen strain
+    if not isinstance(turns, list):
+        raise InputError(f"value {turns!r}: expected a list of platen strains in (0, 1)",
+                         file=path, key="test.unload_at")
+    if turns:
         values["unload_at"] = tuple(float(v) for v in _numbers(
-            test["unload_at"], len(test["unload_at"]) if isinstance(test["unload_at"], list)
-            else 1, "test.unload_at", path))
+            turns, len(turns), "test.unload_at", path))
     if test["platen_material"] is not None:
         values["platen_material"] = _material(test["platen_material"],
                                               "test.platen_material", path)
