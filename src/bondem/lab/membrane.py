@@ -48,20 +48,16 @@ def membrane_forces(position, radius, axis, low, high, pressure, cell):
     outer = order[last]                      # the farthest-reaching particle of each cell
     # an empty cell (a gap in a staircase of particles, a crack) gives its area to the
     # nearest filled cell of its row: the membrane spans it
-    cells = np.zeros(n_z * n_theta, np.int64)
     filled = key[outer]
-    np.add.at(cells, filled, 1)
     share = np.ones(outer.size)
-    if np.any(cells == 0):
-        where = {int(c): k for k, c in enumerate(filled)}
-        for c in np.flatnonzero(cells == 0):
-            row, column = divmod(int(c), n_theta)
-            for step in range(1, n_theta // 2 + 1):
-                near = [row * n_theta + (column + s) % n_theta for s in (-step, step)]
-                near = [k for k in near if k in where]
-                if near:
-                    share[where[near[0]]] += 1.0
-                    break
+    grid = np.zeros(n_z * n_theta, bool)
+    grid[filled] = True
+    if not grid.all():
+        slot = np.full(n_z * n_theta, -1, np.int64)
+        slot[filled] = np.arange(outer.size)
+        target = nearest_filled(grid.reshape(n_z, n_theta))
+        empty = np.flatnonzero(~grid & (target >= 0))
+        np.add.at(share, slot[target[empty]], 1.0)
     r_cell = reach[outer]
     area = r_cell * d_theta * d_z * share
     unit = np.zeros((outer.size, 3))
@@ -70,3 +66,20 @@ def membrane_forces(position, radius, axis, low, high, pressure, cell):
     unit[:, lateral[1]] = xy[outer, 1] / safe
     np.add.at(force, inside[outer], -pressure * area[:, None] * unit)
     return force, float(area.sum()), float(np.sum(r_cell * share) / np.sum(share))
+
+
+def nearest_filled(grid):
+    """For each cell of ``grid`` (rows of cells around the circumference, True where
+    filled): the flat index of the nearest filled cell of its row going round (the one
+    before it when two are as near; itself when filled), -1 in a row with none."""
+    n_rows, n = grid.shape
+    column = np.arange(3 * n) - n                  # three turns: the row's neighbours wrap
+    tiled = np.tile(grid, 3)
+    before = np.maximum.accumulate(np.where(tiled, column, -4 * n), axis=1)[:, n:2 * n]
+    after = np.minimum.accumulate(np.where(tiled, column, 4 * n)[:, ::-1],
+                                  axis=1)[:, ::-1][:, n:2 * n]
+    here = np.arange(n)
+    pick = np.where(here - before <= after - here, before, after) % n
+    out = np.arange(n_rows)[:, None] * n + pick
+    out[~grid.any(axis=1)] = -1
+    return out.ravel()

@@ -10,6 +10,7 @@ of the peak after the peak or at a strain limit, and returns a ``LabResult``: th
 from __future__ import annotations
 
 import dataclasses
+import functools
 import math
 import time as clock
 import warnings
@@ -26,6 +27,7 @@ from ..walls import MeshWall, PlaneWall, Servo, VelocityProfile
 from . import cracks as cracks_mod
 from . import measure
 from .membrane import membrane_forces
+from .output import STRESS
 from .specimen import box_widths
 
 TESTS = ("ucs", "triaxial", "brazilian", "tension", "agglomerate")
@@ -369,8 +371,8 @@ UNBONDED_MIN_STRAIN = 0.05
 def _stop(stress, broken, n_bonds, strain, settings, top, pieces=None):
     """Stop rule: past the peak, with at least failure_bonds of the bonds broken (without
     bonds: past a platen strain of UNBONDED_MIN_STRAIN), below post_peak of it, and (an
-    agglomerate: ``pieces()`` given) its largest fragment at most largest_fragment of the
-    mass; or at the strain limit."""
+    agglomerate: ``pieces`` = (fragments, largest fragment's mass fraction) given) its
+    largest fragment at most largest_fragment of the mass; or at the strain limit."""
     if strain >= settings.max_strain:
         return "strain limit"
     # without bonds (an adhesive agglomerate) the fall past the peak, once the platens
@@ -380,7 +382,7 @@ def _stop(stress, broken, n_bonds, strain, settings, top, pieces=None):
     if failing and top > 0.0 and stress <= settings.post_peak * top:
         if pieces is None or n_bonds == 0:
             return "post-peak"
-        count, largest = pieces()
+        count, largest = pieces
         if largest <= settings.largest_fragment:
             return (f"post-peak (breakage: {100.0 * broken / n_bonds:.3g} % of the bonds "
                     f"broken, {count} fragments of 2+ particles, the largest "
@@ -618,9 +620,7 @@ def _honest(result):
     lab.json, missing in calibration) and ``no_failure`` says why; largest_stress keeps
     the largest stress (or force) the curve reached."""
     result.numbers["largest_stress"] = result.numbers.get("peak_stress", math.nan)
-    key = {"ucs": "axial_stress", "triaxial": "deviator_stress", "brazilian":
-           "tensile_stress", "tension": "tensile_stress", "agglomerate": "force"}[result.test]
-    stress = result.curve.get(key)
+    stress = result.curve.get(STRESS[result.test])
     n_bonds = result.numbers.get("n_bonds", 0)
     if result.no_failure is not None and stress is not None and stress.size and n_bonds:
         # a confined specimen may keep a residual strength above post_peak: past a peak
@@ -695,9 +695,6 @@ def _compression(test, specimen, settings, axis, out_dir, scene_text, confining=
     runner.membrane = membrane
     force = np.zeros((len(sim.walls), 3))
     top_stress, stop = 0.0, None
-    # an agglomerate's breakage asks how many pieces it is in (only past a drop)
-    pieces = None if test != "agglomerate" else (lambda: measure.fragments(
-        sim.model.bond_pairs, sim.state.bond_active, sim.model.mass))
     sigma3 = confining            # the confining stress applied now (its path may move it)
     turns = sorted(settings.unload_at) if confining is not None else []
     cycle = None                  # while a cycle runs: the deviator stress at its turn
@@ -754,8 +751,11 @@ def _compression(test, specimen, settings, axis, out_dir, scene_text, confining=
                 turns.pop(0)
             row["loading"] = -1.0 if walls[0].motion.held_speed < 0.0 else 1.0
         row["volumetric_strain"] = row["axial_strain"] - 2.0 * row["lateral_strain"]
-        if pieces is not None:
-            row["fragments"] = float(pieces()[0])
+        pieces = None   # an agglomerate's: (fragments, largest one's mass fraction)
+        if test == "agglomerate":
+            pieces = measure.fragments(sim.model.bond_pairs, sim.state.bond_active,
+                                       sim.model.mass)
+            row["fragments"] = float(pieces[0])
         tension, compression, shear = probe.broken()
         row.update({"broken_tension": tension, "broken_compression": compression,
                     "broken_shear": shear, "kinetic_ratio": probe.energy_ratio()})
@@ -889,8 +889,6 @@ def _rate_checked(run):
     also runs the test again at half the strain rate and reports how much the strength
     and the secant modulus moved (rate_change_strength, rate_change_modulus), warning
     above 2 % and 0.5 %; "off" does neither."""
-    import functools
-
     @functools.wraps(run)
     def checked(specimen, settings=None, **options):
         result = run(specimen, settings, **options)
