@@ -233,6 +233,9 @@ def test_brazilian_strength_is_2f_over_pi_d_t():
     middle = 0.5 * (disc.bounds()[0][2] + disc.bounds()[1][2])
     reach = np.abs(cut.position[:, 2] - middle) + cut.radius
     assert reach.max() <= 0.5 * size[2] * math.cos(alpha) + 1e-12
+    # and no deeper: every particle within the flat ends is kept
+    inside = np.abs(disc.position[:, 2] - middle) + disc.radius <= 0.5 * size[2] * math.cos(alpha)
+    assert cut.n_particles == int(np.count_nonzero(inside))
     assert cut.n_particles < disc.n_particles and cut.n_bonds < disc.n_bonds
     flattened = brazilian(disc, LabSettings(flattened=24.0))
     m = flattened.numbers

@@ -141,3 +141,32 @@ def test_the_rate_is_checked_by_a_run_at_half_the_rate():
         hasty = direct_tension(specimen, LabSettings(strain_rate=fast, samples=200))
     assert hasty.numbers["kinetic_energy_ratio"] > 0.01
     assert any("not quasi-static" in note for note in hasty.notes)
+
+
+def test_the_rate_check_reruns_at_half_the_rate_and_warns_above_its_limits():
+    """The check around a test (a stand-in lab test here): the second run is at half the
+    first's strain rate; a 3 % strength change, a 1 % modulus change and a kinetic-energy
+    ratio of 0.02 are each above their limits (2 %, 0.5 %, 0.01) and each warned of."""
+    from bondem.lab.procedures import LabResult, _rate_checked
+    rates = []
+
+    def stand_in(specimen, settings=None):
+        rate = settings.strain_rate or 10.0
+        rates.append(rate)
+        slow = rate < 10.0
+        numbers = {"strain_rate": rate, "ucs": 1.03e6 if slow else 1e6,
+                   "young_modulus_secant": 1.01e9 if slow else 1e9,
+                   "kinetic_energy_ratio": 0.02}
+        return LabResult("ucs", {}, numbers, {}, {}, notes=["stopped: post-peak"])
+
+    with pytest.warns(UserWarning) as caught:
+        result = _rate_checked(stand_in)(None, LabSettings(rate_check="repeat"))
+    assert rates == [10.0, 5.0]
+    assert result.numbers["rate_change_strength"] == pytest.approx(0.03)
+    assert result.numbers["rate_change_modulus"] == pytest.approx(0.01)
+    messages = " ".join(str(w.message) for w in caught)
+    assert "0.02 of the elastic energy" in messages and "ucs moved by 3 %" in messages
+    assert "young_modulus_secant moved by 1 %" in messages
+    assert result.notes[-1] == "stopped: post-peak" and len(result.notes) == 4
+    quiet = _rate_checked(stand_in)(None, LabSettings(rate_check="off"))
+    assert quiet.notes == ["stopped: post-peak"]

@@ -101,3 +101,16 @@ def test_a_random_cylinder_fails_in_its_membrane_at_a_held_sigma3():
     assert low.numbers["confining_stress_error_final"] < 0.01
     assert low.numbers["peak_deviator_stress"] > 0.0
     assert low.numbers["cracks"] == low.numbers["broken_bonds_final"] > 0
+
+
+def test_an_empty_cell_is_pressed_through_its_nearest_filled_neighbour():
+    """Going round a row: the nearest filled cell, the one before when two are as near
+    (also across the row's ends); a row without a particle is not pressed."""
+    from bondem.lab.membrane import nearest_filled
+    grid = np.array([[1, 0, 0, 1, 0, 0, 0, 0],     # cell 2: 1 after 3, 2 before 0: 3
+                     [0, 0, 0, 0, 0, 0, 0, 0],
+                     [0, 1, 0, 0, 0, 1, 0, 0]], bool)  # cells 3 and 7: ties, the one before
+    out = nearest_filled(grid).reshape(3, 8)
+    assert out[0].tolist() == [0, 0, 3, 3, 3, 3, 0, 0]
+    assert out[1].tolist() == [-1] * 8
+    assert (out[2] - 16).tolist() == [1, 1, 1, 1, 5, 5, 5, 5]
