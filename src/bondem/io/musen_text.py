@@ -515,16 +515,9 @@ def to_bondem(scene: MusenScene, script: dict | None, out_dir, *, end_time=None,
     # walls: each geometry's triangles (or the loose ones per compound) as an STL mesh
     if walls:
         import trimesh
-        groups = [(g[0] or g[1], g[3], g[2]) for g in scene.geometries]
-        grouped = {i for _, ids, _ in groups for i in ids}
-        loose = [o.id for o in walls if o.id not in grouped]
-        if loose:
-            groups.append(("walls", loose, ""))
         data["walls"] = []
-        for k, (name, ids, motion) in enumerate(groups):
-            triangles = [scene.objects[i] for i in ids if i in scene.objects]
-            if not triangles:
-                continue
+        for k, (name, ids, motion) in enumerate(wall_groups(scene)):
+            triangles = [scene.objects[i] for i in ids]
             keys, note = wall_motion(motion, simulation.get("end_time", math.inf))
             if note:
                 notes.append(f"geometry {name}: {note}")
@@ -539,6 +532,20 @@ def to_bondem(scene: MusenScene, script: dict | None, out_dir, *, end_time=None,
                                   **keys})
     (out / "scene.toml").write_bytes(tomli_w.dumps(data).encode())
     return notes
+
+
+def wall_groups(scene):
+    """The scene's walls as bondem walls: [(name, triangle ids, motion text)], one per
+    geometry that has triangles, then the triangles of no geometry as one ("walls")."""
+    walls = [o.id for o in sorted(scene.objects.values(), key=lambda o: o.id)
+             if o.type == TRIANGULAR_WALL]
+    groups = [(g[0] or g[1], [i for i in g[3] if i in scene.objects], g[2])
+              for g in scene.geometries]
+    grouped = {i for _, ids, _ in groups for i in ids}
+    loose = [i for i in walls if i not in grouped]
+    if loose:
+        groups.append(("walls", loose, ""))
+    return [g for g in groups if g[1]]
 
 
 def _is_number(text):

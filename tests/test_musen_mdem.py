@@ -1,0 +1,228 @@
+""".mdem files of the real MUSEN: ``bondem import musen FILE.mdem [--results]``.
+
+tests/data/musen_mdem holds one run made twice by the real cmusen, 1.70.0 (commit 1547403)
+and 1.74.2, both built with shared/tools/musen/build_musen.sh: scene.txt (nine spheres,
+four breakable solid bonds, a plane of two triangles rising at 0.2 m/s, Hertz-Mindlin
+contacts) imported from text, simulated for 8e-4 s with a save every 1e-4 s, and exported
+to text at 17 digits (script_170.txt, script_174.txt: IMPORT_FROM_TEXT, SIMULATOR,
+EXPORT_TO_TEXT). scene_174.mdem is the scene as IMPORT_FROM_TEXT wrote it.
+"""
+import gzip
+import json
+import random
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from bondem.cli import main
+from bondem.errors import InputError
+from bondem.io.musen_mdem import (MdemFile, block_size, break_modes, import_mdem,
+                                  import_mdem_results, musen_release)
+from bondem.io.musen_text import import_musen
+
+DATA = Path(__file__).parent / "data" / "musen_mdem"
+RUNS = {"170": "1.70.0", "174": "1.74.2"}
+SCENE_FILES = ("scene.toml", "particles.csv", "bonds.csv", "walls_0.stl")
+
+
+def export_series(path):
+    """MUSEN's text export as {object id: (type, geometry, activity, [(time, {command:
+    values})])}; every number as MUSEN wrote it (17 digits)."""
+    widths = {12: 3, 15: 3, 16: 3, 20: 3, 18: 1, 31: 4, 36: 9, 37: 1, 42: 3, 43: 1,
+              44: 9, 45: 3}
+    objects = {}
+    for line in gzip.open(path, "rt"):
+        words = line.split()
+        if not words or words[0] != "0":
+            continue
+        ident, kind = int(words[1]), int(words[3])
+        k = 4
+        geometry = {1: 2, 9: 4, 14: 0}[kind]
+        assert words[k] == "5"
+        geometry_values = [float(w) for w in words[k + 1:k + 1 + geometry]]
+        k += 1 + geometry
+        assert words[k] == "23"
+        k += 2
+        assert words[k] == "24"
+        activity = (float(words[k + 1]), float(words[k + 2]))
+        k += 3
+        points = []
+        while k < len(words):
+            command = int(words[k])
+            if command == 2:
+                points.append((float(words[k + 1]), {}))
+                k += 2
+                continue
+            n = widths[command]
+            points[-1][1][command] = [float(w) for w in words[k + 1:k + 1 + n]]
+            k += 1 + n
+        objects[ident] = (kind, geometry_values, activity, points)
+    return objects
+
+
+def test_block_sizes_follow_musens_table():
+    # MDEMFile.cpp's table: 4, 4, 8, 12, 16, 24, 32, 48, 64, 96, 128 KB
+    assert [block_size(k, 4096) // 1024 for k in range(11)] == [4, 4, 8, 12, 16, 24, 32,
+                                                                48, 64, 96, 128]
+
+
+@pytest.mark.parametrize("version", sorted(RUNS))
+def test_mdem_scene_equals_the_text_import_of_the_same_scene(tmp_path, version):
+    """The scene, models and settings of MUSEN's result file import to the same bytes
+    as the text scene with its cmusen script."""
+    mdem = MdemFile(DATA / f"result_{version}.mdem")
+    assert mdem.version == 2
+    assert musen_release(mdem) == RUNS[version]
+    path, notes = import_mdem(DATA / f"result_{version}.mdem", tmp_path / "mdem")
+    text, text_notes = import_musen(DATA / "scene.txt", tmp_path / "text",
+                                    DATA / f"script_{version}.txt",
+                                    musen_version=RUNS[version])
+    for name in SCENE_FILES:
+        assert (path.parent / name).read_bytes() == (text.parent / name).read_bytes(), name
+    assert notes == text_notes
+    assert f'musen_version = "{RUNS[version]}"' in path.read_text()
+
+
+def test_a_scene_file_without_models_imports_with_musens_defaults(tmp_path):
+    """IMPORT_FROM_TEXT's own file: no models or time step yet; the elastic bond and no
+    contacts, as the text file without a script."""
+    path, _ = import_mdem(DATA / "scene_174.mdem", tmp_path / "mdem")
+    text, _ = import_musen(DATA / "scene.txt", tmp_path / "text")
+    for name in ("particles.csv", "bonds.csv", "walls_0.stl"):
+        assert (path.parent / name).read_bytes() == (text.parent / name).read_bytes(), name
+
+
+@pytest.mark.parametrize("version", sorted(RUNS))
+def test_mdem_results_equal_musens_text_export_at_every_time_point(tmp_path, version):
+    results, notes = import_mdem_results(DATA / f"result_{version}.mdem", tmp_path)
+    export = export_series(DATA / f"export_{version}.txt.gz")
+    spheres = sorted(i for i, o in export.items() if o[0] == 1)
+    bonds = sorted(i for i, o in export.items() if o[0] == 9)
+    walls = sorted(i for i, o in export.items() if o[0] == 14)
+    with h5py.File(results, "r") as f:
+        time = f["time"][:]
+        expected_time = [t for t, _ in export[spheres[0]][3]]
+        assert time.tolist() == expected_time and len(time) == 9
+        for row, ident in enumerate(spheres):
+            points = export[ident][3]
+            for frame, (_, values) in enumerate(points):
+                for command, name in ((12, "position"), (15, "velocity"),
+                                      (16, "angular_velocity"), (20, "force")):
+                    assert f[f"particles/{name}"][frame, row].tolist() == values[command], \
+                        (ident, frame, name)
+        # bonds: MUSEN's own forces, its tangential overlaps (1.74: code 45, 1.70: the
+        # angular velocity it is stored in) and total torques, and the break times
+        overlap = 45 if version == "174" else 16
+        broken = 0
+        for row, ident in enumerate(bonds):
+            _, _, (begin, end), points = export[ident]
+            for frame, (t, values) in enumerate(points):
+                intact = begin <= t <= end
+                assert bool(f["bonds/active"][frame, row]) == intact
+                if intact:
+                    assert f["bonds/force"][frame, row].tolist() == values[20]
+                    assert f["musen/bond_tangential_overlap"][frame, row].tolist() \
+                        == values[overlap]
+                else:
+                    assert not f["bonds/force"][frame, row].any()
+                if version == "174":
+                    assert f["musen/bond_total_torque"][frame, row] == values[43][0]
+            if end < time[-1]:
+                broken += 1
+                # MUSEN exports activity intervals with 6 digits
+                assert f["bonds/break_time"][row] == pytest.approx(end, rel=5e-6, abs=0)
+                assert f["bonds/break_mode"][row] in (1, 2, 3)
+            else:
+                assert np.isnan(f["bonds/break_time"][row])
+                assert f["bonds/break_mode"][row] == 0
+        assert broken >= 2   # the run breaks bonds: the test sees both branches
+        # the plane: the sum of its two triangles' forces (on the wall), its travel
+        for frame in range(len(time)):
+            total = np.sum([export[w][3][frame][1][20] for w in walls], axis=0)
+            assert np.array_equal(f["walls/force"][frame, 0], total)
+        rise = f["walls/position"][:, 0, 2] - f["walls/position"][0, 0, 2]
+        corners = [[values[44] if version == "174" else values[12] + values[31][:3]
+                    + values[16] for _, values in export[w][3]] for w in walls]
+        centroid_z = np.mean(np.array(corners)[:, :, 2::3], axis=(0, 2))
+        np.testing.assert_allclose(rise, centroid_z - centroid_z[0], rtol=1e-12, atol=0)
+        # 0.2 m/s from frame to frame (MUSEN saves the plane one step of 1e-7 s ahead)
+        np.testing.assert_allclose(np.diff(rise[1:]), 0.2 * np.diff(time[1:]), rtol=1e-8)
+        assert abs(rise[1] - 0.2 * time[1]) <= 0.2 * 1e-7 * 1.000001
+        assert f.attrs["musen_version"] == RUNS[version]
+    assert any("break modes inferred" in n for n in notes)
+
+
+def test_break_modes_follow_the_larger_stress_fraction():
+    axis = np.array([[0.6, 0.8, 0.0]] * 4)
+    side = np.array([0.8, -0.6, 0.0])
+    area = np.full(4, 2e-7)
+    sigma, tau = np.full(4, 2e6), np.full(4, 3e6)
+    force = np.array([0.3 * axis[0],                   # pulls i toward j: 1.5 MPa
+                      -0.3 * axis[0],                  # pushes: compression
+                      0.3 * axis[0] + 0.5 * side,      # 2.5 MPa of 3 > 1.5 of 2 in tension
+                      0.3 * axis[0] + 0.4 * side])     # 2.0 of 3 < 1.5 of 2: tension
+    assert break_modes(force, axis, area, sigma, tau).tolist() == [1, 2, 3, 1]
+
+
+def test_results_import_feeds_analyze_report_and_vtk(tmp_path):
+    runner = CliRunner()
+    out = tmp_path / "run"
+    result = runner.invoke(main, ["import", "musen", str(DATA / "result_174.mdem"),
+                                  "--out", str(out), "--results"])
+    assert result.exit_code == 0, result.output
+    export = export_series(DATA / "export_174.txt.gz")
+    ends = [o[2][1] for o in export.values() if o[0] == 9]
+    result = runner.invoke(main, ["analyze", str(out / "results.h5")])
+    assert result.exit_code == 0, result.output
+    summary = json.loads((out / "results_analysis" / "summary.json").read_text())
+    broken = summary["broken_tension"] + summary["broken_compression"] \
+        + summary["broken_shear"]
+    assert broken == sum(1 for e in ends if e < 8e-4) == 3
+    assert summary["intact_bond_fraction"] == 0.25
+    assert summary["peak_wall_force"] > 0.0
+    for command in (["report", str(out / "results.h5")],
+                    ["export", "vtk", str(out / "results.h5"), "--out", str(tmp_path / "vtk")]):
+        result = runner.invoke(main, command)
+        assert result.exit_code == 0, (command, result.output)
+    # a second import into the same folder would replace the results: refused
+    result = runner.invoke(main, ["import", "musen", str(DATA / "result_174.mdem"),
+                                  "--out", str(out), "--results"])
+    assert result.exit_code == 2 and "results.h5" in result.output
+
+
+def test_damaged_truncated_and_foreign_files_end_in_one_line_errors(tmp_path):
+    """Three hundred damaged variants of a real file: each imports or raises InputError
+    naming the file, never anything else. Every truncated file is refused (each block's
+    zlib checksum is read); changed bytes pass only where the file holds no data (its
+    headers' unused room, the free end of a block)."""
+    raw = (DATA / "result_174.mdem").read_bytes()
+    rng = random.Random(7)
+    foreign = [b"", b"MUSEN", raw[:64], raw[:2000], (DATA / "scene.txt").read_bytes(),
+               bytes(4096)]
+    truncated = [raw[:rng.randrange(len(raw))] for _ in range(80)]
+    changed = []
+    for _ in range(220):
+        data = bytearray(raw)
+        for _ in range(rng.choice((1, 4, 30))):
+            data[rng.randrange(len(data))] = rng.randrange(256)
+        changed.append(bytes(data))
+
+    def refused(data, k):
+        path = tmp_path / f"case{k}.mdem"
+        path.write_bytes(data)
+        try:
+            import_mdem(path, tmp_path / f"out{k}")
+        except InputError as error:
+            assert str(path) in str(error) and "\n" not in str(error)
+            return True
+        return False
+
+    assert all(refused(data, k) for k, data in enumerate(foreign + truncated))
+    assert sum(refused(data, 1000 + k) for k, data in enumerate(changed)) >= 180
+    result = CliRunner().invoke(main, ["import", "musen", str(tmp_path / "case0.mdem"),
+                                       "--out", str(tmp_path / "o")])
+    assert result.exit_code == 2 and "Traceback" not in result.output
+    assert len(result.output.strip().splitlines()) == 1
