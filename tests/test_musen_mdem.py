@@ -226,3 +226,90 @@ def test_damaged_truncated_and_foreign_files_end_in_one_line_errors(tmp_path):
                                        "--out", str(tmp_path / "o")])
     assert result.exit_code == 2 and "Traceback" not in result.output
     assert len(result.output.strip().splitlines()) == 1
+
+
+JOBS = DATA / "jobs"   # script.txt, run by the real cmusen 1.74.2: musen_*.mdem
+
+
+def mdem_frames(path, n):
+    """(time (F,), positions (F,n,3), velocities (F,n,3)) of a MUSEN result file's first
+    n objects."""
+    points = list(MdemFile(path).time_points())
+    time = np.array([t for t, _ in points])
+    get = [[[[p.get(name, {}).get(a, 0.0) for a in "xyz"] for p in values[:n]]
+            for _, values in points] for name in ("coord", "vel")]
+    return time, np.array(get[0]), np.array(get[1])
+
+
+def copy_jobs(folder):
+    folder.mkdir()
+    for name in ("scene.txt", "script.txt"):
+        (folder / name).write_bytes((JOBS / name).read_bytes())
+    return folder / "script.txt"
+
+
+def test_a_cmusen_script_runs_to_the_real_cmusen_runs_of_it(tmp_path):
+    """Two simulations of one imported scene (Hertz-Mindlin with breaking bonds and
+    STOP_CRITERION BROKEN_BONDS 1; JKR without breakage) and a text export: bondem's runs
+    follow cmusen's to round-off, and stop at the saved frame where MUSEN stopped."""
+    from bondem.musen_jobs import run_script
+    script = copy_jobs(tmp_path / "jobs")
+    written = run_script(script, echo=lambda line: None)
+    assert sorted(written) == [1, 2, 3, 4]
+    for name in ("breaking", "adhesive"):
+        time, position, velocity = mdem_frames(JOBS / f"musen_{name}.mdem", 9)
+        with h5py.File(tmp_path / "jobs" / "work" / name / "results.h5", "r") as f:
+            ours = f["time"][:]
+            if name == "breaking":
+                # MUSEN saves once more a step after its stop: the frames before agree
+                assert time[-1] - time[-2] == pytest.approx(1e-7, rel=1e-6)
+                time, position, velocity = time[:-1], position[:-1], velocity[:-1]
+                broken = (~f["bonds/active"][:]).sum(axis=1)
+                assert broken[-1] > 1 >= broken[-2] and ours[-1] < 5e-4 - 1e-5
+            np.testing.assert_allclose(ours, time, rtol=1e-12, atol=0)
+            scale = np.abs(velocity).max()
+            assert np.abs(f["particles/position"][:] - position).max() < 1e-16
+            assert np.abs(f["particles/velocity"][:] - velocity).max() < 1e-11 * scale
+    export = (tmp_path / "jobs" / "work" / "adhesive.txt").read_text()
+    assert export.startswith("0 0 1 1 5 0.0005")
+
+
+def test_a_script_on_dask_equals_its_jobs_run_one_by_one(tmp_path):
+    """The two simulations read only the imported scene: with two workers they run side
+    by side (Dask); each equals, bit for bit, the same job run alone (bondem import musen
+    with the job's keys as its script, then bondem run)."""
+    from bondem.musen_jobs import read_jobs, run_script
+    script = copy_jobs(tmp_path / "jobs")
+    run_script(script, workers=2, echo=lambda line: None)
+    runner = CliRunner()
+    for job in read_jobs(script)[1:3]:
+        alone = tmp_path / f"alone{job.number}"
+        alone.mkdir()
+        (alone / "script.txt").write_text("".join(f"{k} {v}\n" for k, v in job.keys.items()))
+        result = runner.invoke(main, ["import", "musen", str(JOBS / "scene.txt"), "--script",
+                                      str(alone / "script.txt"), "--out", str(alone)])
+        assert result.exit_code == 0, result.output
+        result = runner.invoke(main, ["run", str(alone / "scene.toml"), "--out",
+                                      str(alone), "--no-progress"])
+        assert result.exit_code == 0, result.output
+        with h5py.File(alone / "results.h5", "r") as a, \
+                h5py.File(job.result.with_suffix("") / "results.h5", "r") as b:
+            for name in ("time", "particles/position", "particles/velocity",
+                         "bonds/active", "bonds/force", "walls/force"):
+                assert np.array_equal(a[name][:], b[name][:]), (job.number, name)
+
+
+@pytest.mark.parametrize("change, message", [
+    (("COMPONENT SIMULATOR", "COMPONENT SIMULATE", 1), "component 'SIMULATE'"),
+    (("SOURCE_FILE scene.txt", "SOURCE_FILE missing.txt", 1), "does not exist"),
+    (("COMPONENT EXPORT_TO_TEXT", "COMPONENT BONDS_GENERATOR", 1), "BONDS_GENERATOR"),
+    (("SOURCE_FILE work/adhesive.mdem", "SOURCE_FILE work/scene_t0.mdem", 1),
+     "EXPORT_TO_TEXT exports a run"),
+])
+def test_bad_scripts_stop_before_anything_runs(tmp_path, change, message):
+    script = copy_jobs(tmp_path / "jobs")
+    script.write_text(script.read_text().replace(*change))
+    result = CliRunner().invoke(main, ["run", str(script)])
+    assert result.exit_code == 2, result.output
+    assert message in result.output and str(script) in result.output
+    assert not (tmp_path / "jobs" / "work").exists()

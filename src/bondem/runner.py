@@ -359,6 +359,13 @@ def _run_locked(scene, out_dir, progress, resume, checkpoint_minutes, stop_after
                                     f"frame up to t = {good.time:.6g} s"
                                     f"{_kept_previous(out_dir)}") from None
                 last_checkpoint = now
+            if (scene.stop_broken_bonds is not None and steps == to_frame
+                    and sim.state.step < total
+                    and int((~sim.state.bond_active).sum()) > scene.stop_broken_bonds):
+                # MUSEN's STOP_CRITERION BROKEN_BONDS: checked at each saved frame
+                write_checkpoint(checkpoint_path, sim.state, frames=writer.n_frames,
+                                 scene_text=scene.text)
+                break
             if stop.requested is not None and sim.state.step < total:
                 _interrupted(stop.requested, sim, writer, good, total, checkpoint_path,
                              scene.text, out_dir)

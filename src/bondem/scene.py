@@ -52,6 +52,7 @@ SIMULATION_KEYS = {
     "rolling_resistance": ("bool", True, None, None, None, None),
     "checkpoint_minutes": ("number", 10.0, 0.0, INF, True, False),
     "max_steps": ("number", 1e9, 0.0, INF, False, True),
+    "stop_broken_bonds": ("int", None, 0, INF, True, False),
 }
 # declared by model.py and the contact models (physics/contact_models.py)
 MATERIAL_KEYS = {key: ("number", REQUIRED if entry[1] is None else entry[1], *entry[2:])
@@ -110,7 +111,9 @@ class Scene:
     model, state: the system at t = 0; end_time, save_every: s; text: the scene TOML after
     overrides; path: the scene file; backend: "cpu" | "gpu"; simulation_options: keyword
     arguments of ``Simulation`` (time_step, safety_factor, contact, walls, ...);
-    checkpoint_minutes: wall-clock minutes between checkpoints; data: the parsed table
+    checkpoint_minutes: wall-clock minutes between checkpoints; stop_broken_bonds: the
+    run ends at the first frame with more broken bonds than this (MUSEN's STOP_CRITERION
+    BROKEN_BONDS), None: at end_time; data: the parsed table
     with defaults filled in; warnings: messages about input that is legal but likely
     wrong (the command line prints them).
     """
@@ -123,6 +126,7 @@ class Scene:
     backend: str
     simulation_options: dict
     checkpoint_minutes: float = 10.0
+    stop_broken_bonds: int | None = None
     data: dict = field(default_factory=dict)
     warnings: list = field(default_factory=list)   # str: legal but suspicious input
 
@@ -421,6 +425,7 @@ def _build(data, text, path):
     scene = Scene(model=model, state=state, end_time=sim["end_time"],
                   save_every=sim["save_every"], text=text, path=path, backend=sim["backend"],
                   simulation_options=options, checkpoint_minutes=sim["checkpoint_minutes"],
+                  stop_broken_bonds=sim["stop_broken_bonds"],
                   data={"simulation": sim, "materials": materials,
                         "bond_materials": bond_materials, "particles": particles,
                         "walls": walls}, warnings=warnings)

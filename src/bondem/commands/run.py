@@ -1,4 +1,5 @@
-"""``bondem run SCENE.toml``: run a scene with a progress bar and write DIR/results.h5."""
+"""``bondem run SCENE.toml``: run a scene with a progress bar and write DIR/results.h5;
+``bondem run script.txt``: run the jobs of a cmusen script (musen_jobs.py)."""
 import sys
 from pathlib import Path
 
@@ -31,15 +32,34 @@ def _folder(ctx, param, value):
 @click.option("--set", "overrides", multiple=True, metavar="KEY=VALUE",
               help="Override a scene value, e.g. --set simulation.end_time=1e-3 (repeatable).")
 @click.option("--no-progress", is_flag=True, help="No progress bar.")
+@click.option("--workers", type=click.IntRange(min=1), default=1, show_default=True,
+              help="A cmusen script: Dask processes for its independent simulations.")
 def command(scene, out_dir, backend, resume, overwrite, checkpoint_minutes, overrides,
-            no_progress):
+            no_progress, workers):
     """Run SCENE (a TOML scene file, docs/scene.md) and write OUT/results.h5 with a
     checkpoint beside it. An output folder that holds results is refused unless
-    --overwrite or --resume is given."""
+    --overwrite or --resume is given. SCENE may also be a cmusen job script (JOB,
+    COMPONENT IMPORT_FROM_TEXT / SIMULATOR / EXPORT_TO_TEXT ...): its jobs run in order,
+    each simulation in the folder named after its RESULT_FILE (docs/musen_migration.md)."""
     from ..runner import RunFailed, RunInterrupted, default_out_dir, run_scene
     from ..scene import load_scene, parse_override
 
     from ..errors import InputError
+    from ..musen_jobs import is_script, run_script
+    if is_script(scene):
+        given = [name for name, value in (("--out", out_dir), ("--backend", backend),
+                                          ("--resume", resume), ("--set", overrides),
+                                          ("--checkpoint-minutes", checkpoint_minutes))
+                 if value]
+        if given:
+            raise InputError(f"{given[0]} does not apply to a cmusen script (its jobs name "
+                             "their files)", file=scene, key=given[0])
+        try:
+            run_script(scene, workers=workers, echo=click.echo)
+        except RunFailed as error:
+            click.echo(f"bondem: run failed: {error}", err=True)
+            sys.exit(1)
+        return
     if checkpoint_minutes is not None and checkpoint_minutes != checkpoint_minutes:
         raise InputError("nan is not a number of minutes; allowed [0, 1e9]",
                          key="--checkpoint-minutes")

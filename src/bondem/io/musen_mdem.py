@@ -383,9 +383,8 @@ def script_of(mdem):
     if "MODEL_PP" in script:
         script["CONNECTED_PP_CONTACT"] = "1" if manager.get("connected_pp_contact") else "0"
     stop = mdem.info.get("stop_criteria", {})
-    if stop.get("types"):
-        script["STOP_CRITERION"] = " ".join(str(t) for t in stop["types"])
-        script["MAX_BROKEN_BONDS"] = str(stop.get("max_broken_bonds", 0))
+    if 1 in stop.get("types", []):     # MUSEN's EStopCriteria::BROKEN_BONDS
+        script["STOP_CRITERION"] = f"BROKEN_BONDS {stop.get('max_broken_bonds', 0)}"
     return script
 
 

@@ -492,6 +492,8 @@ def to_bondem(scene: MusenScene, script: dict | None, out_dir, *, end_time=None,
         values.update(bondem_adhesion(contact, scene.compounds.get(key, {})))
     if "CONNECTED_PP_CONTACT" in script:
         simulation["bonded_contacts"] = bool(int(float(script["CONNECTED_PP_CONTACT"])))
+    elif contact != "none":
+        simulation["bonded_contacts"] = True   # MUSEN's default (its ModelManager's)
     if scene.periodic and scene.periodic[0]:
         simulation["periodic"] = list(scene.periodic[1:4])
         simulation["box_low"], simulation["box_high"] = list(scene.periodic[4]), \
@@ -499,6 +501,17 @@ def to_bondem(scene: MusenScene, script: dict | None, out_dir, *, end_time=None,
     elif scene.domain is not None:
         simulation["box_low"], simulation["box_high"] = list(scene.domain[:3]), \
             list(scene.domain[3:])
+    criterion = script.get("STOP_CRITERION", "").split()
+    if criterion and criterion[0].upper() == "BROKEN_BONDS":
+        try:
+            simulation["stop_broken_bonds"] = int(float(criterion[1]))
+        except (IndexError, ValueError):
+            raise InputError(f"expected BROKEN_BONDS and a number of bonds, got "
+                             f"{script['STOP_CRITERION']!r}", file=None,
+                             key="STOP_CRITERION") from None
+    elif criterion and criterion[0].upper() != "NONE":
+        notes.append(f"STOP_CRITERION {script['STOP_CRITERION']}: unknown (MUSEN has NONE "
+                     "and BROKEN_BONDS N); the run ends at END_TIME")
     if float(script.get("VARIABLE_TIME_STEP", "0") or 0) != 0.0:
         notes.append("VARIABLE_TIME_STEP: bondem's step is fixed (SIMULATION_STEP)")
     for key in ("VERLET_AUTO", "VERLET_COEF"):
