@@ -8,6 +8,7 @@ to text at 17 digits (script_170.txt, script_174.txt: IMPORT_FROM_TEXT, SIMULATO
 EXPORT_TO_TEXT). scene_174.mdem is the scene as IMPORT_FROM_TEXT wrote it.
 """
 import gzip
+import os
 import json
 import random
 from pathlib import Path
@@ -313,3 +314,74 @@ def test_bad_scripts_stop_before_anything_runs(tmp_path, change, message):
     assert result.exit_code == 2, result.output
     assert message in result.output and str(script) in result.output
     assert not (tmp_path / "jobs" / "work").exists()
+
+
+EXPORTED = DATA / "exported"   # exported.mdem: read by cmusen 1.70.0 and 1.74.2
+
+
+def mdem_content(path):
+    """A .mdem file's decoded content: its storage (blocks' placement left out) and
+    time points."""
+    mdem = MdemFile(path)
+    storage = {k: v for k, v in mdem.storage.items() if k != "data_blocks"}
+    return storage, list(mdem.time_points())
+
+
+def test_exported_mdem_round_trips_and_the_real_musen_reads_it(tmp_path):
+    """MUSEN's run imported (results.h5), exported again as .mdem: the export holds what
+    the file cmusen read holds (tests/data/musen_mdem/exported/exported.mdem, whose text
+    export by cmusen 1.70.0 and 1.74.2 is stored beside it), and those texts give back
+    every frame of the results to 17 digits; the export imports back to the same
+    results."""
+    run = tmp_path / "run"
+    import_mdem_results(DATA / "result_174.mdem", run)
+    result = CliRunner().invoke(main, ["export", "musen", str(run / "results.h5"), "--out",
+                                       str(tmp_path / "exported.mdem")])
+    assert result.exit_code == 0, result.output
+    assert mdem_content(tmp_path / "exported.mdem") == mdem_content(EXPORTED / "exported.mdem")
+    script = (tmp_path / "exported_script.txt").read_text()
+    assert "SOURCE_FILE ./exported.mdem" in script and "MODEL_SB ModelSBElastic" in script
+    back = tmp_path / "back"
+    import_mdem_results(tmp_path / "exported.mdem", back)
+    with h5py.File(run / "results.h5", "r") as a, h5py.File(back / "results.h5", "r") as b:
+        for name in ("time", "particles/position", "particles/velocity",
+                     "particles/angular_velocity", "bonds/active", "bonds/break_time",
+                     "bonds/pairs", "bonds/diameter", "particles/radius"):
+            assert np.array_equal(a[name][:], b[name][:], equal_nan=True), name
+        for version in RUNS:
+            export = export_series(EXPORTED / f"cmusen_text_{version}.txt.gz")
+            spheres = sorted(i for i, o in export.items() if o[0] == 1)
+            assert len(spheres) == a["particles/radius"].shape[0]
+            for row, ident in enumerate(spheres):
+                assert export[ident][1][0] == a["particles/radius"][row]
+                for frame, (t, values) in enumerate(export[ident][3]):
+                    assert t == a["time"][frame]
+                    assert values[12] == a["particles/position"][frame, row].tolist()
+                    assert values[15] == a["particles/velocity"][frame, row].tolist()
+            bonds = sorted(i for i, o in export.items() if o[0] == 9)
+            for row, ident in enumerate(bonds):
+                end = export[ident][2][1]
+                expected = a["bonds/break_time"][row]
+                assert (end == 1e300) if np.isnan(expected) else \
+                    end == pytest.approx(expected, rel=5e-6, abs=0)
+
+
+@pytest.mark.skipif(not os.environ.get("BONDEM_CMUSEN"),
+                    reason="needs a cmusen (BONDEM_CMUSEN=path; shared/tools/musen)")
+def test_the_real_musen_simulates_an_exported_run_as_bondem_does(tmp_path):
+    """cmusen (1.74.2) runs the exported .mdem with its script; it follows bondem's own
+    run of the same scene in MUSEN-compatible mode."""
+    import subprocess
+    script = copy_jobs(tmp_path / "jobs")
+    from bondem.musen_jobs import run_script
+    run_script(script, echo=lambda line: None)
+    results = tmp_path / "jobs" / "work" / "adhesive" / "results.h5"
+    result = CliRunner().invoke(main, ["export", "musen", str(results), "--out",
+                                       str(tmp_path / "x" / "adhesive.mdem")])
+    assert result.exit_code == 0, result.output
+    subprocess.run([os.environ["BONDEM_CMUSEN"], "-t=1", "-s=adhesive_script.txt"],
+                   cwd=tmp_path / "x", check=True, capture_output=True)
+    time, position, _ = mdem_frames(tmp_path / "x" / "adhesive_result.mdem", 9)
+    with h5py.File(results, "r") as f:
+        np.testing.assert_allclose(time, f["time"][:], rtol=1e-12)
+        assert np.abs(position - f["particles/position"][:]).max() < 1e-16

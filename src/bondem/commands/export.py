@@ -49,11 +49,12 @@ def vtk_command(results, out_dir, every):
 @command.command(name="musen")
 @click.argument("results", type=click.Path(path_type=Path), callback=results_file)
 @click.option("--out", "out_file", type=click.Path(dir_okay=False, path_type=Path),
-              help="Output file (default: musen.txt next to the results file).")
+              help="Output file: MUSEN text, or a .mdem file when it ends in .mdem "
+                   "(default: musen.txt next to the results file).")
 @click.option("--every", type=click.IntRange(min=1), default=1, show_default=True,
               help="Write every N-th frame only.")
 def musen_command(results, out_file, every):
-    """A MUSEN text file of the scene and its frames (compounds, interactions, domain,
+    """A MUSEN text or .mdem file of the scene and its frames (compounds, interactions, domain,
     spheres with every frame's coordinates, velocities and angular velocities, solid bonds
     with their activity intervals, walls as triangles at t = 0), which MUSEN's GUI and
     cmusen's IMPORT_FROM_TEXT read (docs/musen_migration.md)."""
@@ -61,8 +62,13 @@ def musen_command(results, out_file, every):
 
     _check_results(results)
     out_file = out_file or results.with_name("musen.txt")
-    path, script, notes = export_musen(results, out_file, every=every)
-    click.echo(f"MUSEN text: {path}")
+    if out_file.suffix.lower() == ".mdem":
+        from ..io.musen_mdem import export_mdem
+        path, script, notes = export_mdem(results, out_file, every=every)
+        click.echo(f"MUSEN .mdem: {path}")
+    else:
+        path, script, notes = export_musen(results, out_file, every=every)
+        click.echo(f"MUSEN text: {path}")
     click.echo(f"cmusen script: {script}   (cmusen -s={script.name}, run in its folder)")
     for note in notes:
         click.echo(f"note: {note}")

@@ -631,3 +631,255 @@ def import_mdem_results(path, out_dir, *, musen_version=None):
         notes.append("bond moments are not in a .mdem file (NaN); break modes inferred "
                      "from each bond's last saved force")
     return results, notes
+
+
+# MUSEN's defaults for what a bondem scene does not set (a compound and an interaction as
+# MUSEN's text import makes them: property id -> value at 273.15 K, 101325 Pa)
+COMPOUND_DEFAULTS = {0: 1000.0, 1: 1000.0, 2: 0.1, 3: 0.5, 4: 0.0, 5: 1000.0,
+                     6: 2260000.0, 7: 1e9, 8: 1e7, 9: 1e7, 10: 0.2, 11: 1.0, 12: 2e-05,
+                     13: 0.7, 14: 1.7e-05, 15: 2e10}
+INTERACTION_DEFAULTS = {200: 0.6, 201: 0.45, 202: 0.05, 203: 45.0, 204: 2e-09}
+BLOCK_LIMIT = 64 << 20     # uncompressed bytes of time points per block
+CLUSTER = 4096
+
+
+def _vec(values):
+    return {"x": float(values[0]), "y": float(values[1]), "z": float(values[2])}
+
+
+def _property(kind, value):
+    """A constant MUSEN property valid from 0 to 500 K and 0 to 1 MPa."""
+    return {"propertyType": kind, "correlation": [{"t2": 500.0, "p2": 1e6,
+                                                   "parameter": [float(value)]}]}
+
+
+def _text_objects(lines):
+    """Objects ({id: (type, geometry, compound, activity, [(time, {command: values})])})
+    and scene lines of MUSEN text written by ``musen_text.export_lines``."""
+    width = {12: 3, 15: 3, 16: 3, 31: 4}
+    objects, scene = {}, []
+    for line in lines:
+        words = line.split()
+        if words[0] != "0":
+            scene.append(words)
+            continue
+        ident, kind = int(words[1]), int(words[3])
+        count = {SPHERE: 2, SOLID_BOND: 4, TRIANGULAR_WALL: 0}[kind]
+        geometry = [float(w) for w in words[5:5 + count]]
+        k = 5 + count
+        compound = words[k + 1]
+        activity = (float(words[k + 3]), float(words[k + 4]))
+        k += 5
+        points = []
+        while k < len(words):
+            command = int(words[k])
+            if command == 2:
+                points.append((float(words[k + 1]), {}))
+                k += 2
+                continue
+            points[-1][1][command] = [float(w) for w in words[k + 1:k + 1 + width[command]]]
+            k += 1 + width[command]
+        objects[ident] = (kind, geometry, compound, activity, points)
+    return objects, scene
+
+
+def _properties(words):
+    return {int(float(words[k])): float(words[k + 1]) for k in range(3, len(words) - 1, 2)}
+
+
+def mdem_storage(lines, keys):
+    """(ProtoSimulationStorage dict without its blocks, [(time, [per-object dicts])]) of
+    MUSEN text lines and cmusen SIMULATOR keys ({KEY: text})."""
+    objects, scene = _text_objects(lines)
+    count = max(objects) + 1 if objects else 0
+    times = sorted({t for o in objects.values() for t, _ in o[4]})
+    frames = [[{} for _ in range(count)] for _ in times]
+    particles = []
+    for ident in range(count):
+        kind, geometry, compound, activity, points = objects[ident]
+        if kind == SPHERE:
+            encoded = struct.pack("<2d", *geometry)
+        elif kind == SOLID_BOND:
+            encoded = struct.pack("<2I2d", int(geometry[0]), int(geometry[1]), *geometry[2:])
+        else:
+            encoded = b""
+        particles.append({"id": ident, "type": kind, "compound": compound,
+                          "encoded_properties": encoded, "activity_start": activity[0],
+                          "activity_end": activity[1]})
+        by_time = dict(points)
+        last = points[0][1] if points else {}
+        for frame, t in zip(frames, times):
+            values = by_time.get(t, last if kind == TRIANGULAR_WALL else {})
+            record = {}
+            if 12 in values:
+                record["coord"] = _vec(values[12])
+            if 15 in values:
+                record["vel"] = _vec(values[15])
+            if 16 in values:
+                record["angle_vel"] = _vec(values[16])
+            if kind == SPHERE:
+                record["quaternion"] = {"q1": 1.0}   # MUSEN's orientation of a new sphere
+            elif 31 in values:
+                record["quaternion"] = dict(zip(("q0", "q1", "q2", "q3"), values[31]))
+            frame[ident] = record
+    info = {"version": 1, "particles": particles, "savedTimePoints": times,
+            "end_time": times[-1] if times else 0.0}
+    compounds, interactions, geometries = [], [], []
+    for words in scene:
+        command = int(words[0])
+        if command == 22:
+            box = [float(w) for w in words[1:7]]
+            info["simulation_volume_min"], info["simulation_volume_max"] = \
+                _vec(box[:3]), _vec(box[3:])
+        elif command == 28:
+            values = [float(w) for w in words[1:11]]
+            info.update(periodic_conditions_enabled=bool(values[0]),
+                        periodic_conditions_x=bool(values[1]),
+                        periodic_conditions_y=bool(values[2]),
+                        periodic_conditions_z=bool(values[3]),
+                        periodic_conditions_min=_vec(values[4:7]),
+                        periodic_conditions_max=_vec(values[7:10]))
+        elif command == 32:
+            props = {**COMPOUND_DEFAULTS, **_properties(words)}
+            compounds.append({"compoundName": words[2], "uniqueKey": words[1],
+                              "authorName": "bondem", "phase": 2,
+                              "property": [_property(k, v) for k, v in sorted(props.items())]})
+        elif command == 33:
+            props = {**INTERACTION_DEFAULTS, **_properties(words)}
+            interactions.append({"compoundKey1": words[1], "compoundKey2": words[2],
+                                 "property": [_property(k, v)
+                                              for k, v in sorted(props.items())]})
+        elif command == 25:
+            geometries.append({"version": 1, "base_geometry": {
+                "version": 1, "name": words[1], "key": words[2], "scaling": 1.0,
+                "rotation": {"v1": {"x": 1.0}, "v2": {"y": 1.0}, "v3": {"z": 1.0}},
+                "motion": {"type": 0}}})
+        elif command == 26 and geometries:
+            values = [float(w) for w in words[1:]]
+            geometries[-1]["base_geometry"]["motion"] = {"type": int(values[0]), "intervals": [
+                {"limit1": values[2 + 11 * k], "limit2": values[3 + 11 * k],
+                 "velocity": _vec(values[4 + 11 * k:7 + 11 * k]),
+                 "rot_center": _vec(values[7 + 11 * k:10 + 11 * k]),
+                 "rot_velocity": _vec(values[10 + 11 * k:13 + 11 * k])}
+                for k in range(int(values[1]))]}
+        elif command == 27 and geometries:
+            geometries[-1]["planes"] = [int(w) for w in words[2:2 + int(words[1])]]
+    # MUSEN needs an interaction for every pair of compounds (its text import adds the
+    # missing ones with its defaults; a simulation of a .mdem file without them crashes)
+    keys_given = [c["uniqueKey"] for c in compounds]
+    have = {tuple(sorted((i["compoundKey1"], i["compoundKey2"]))) for i in interactions}
+    for a in range(len(keys_given)):
+        for b in range(a, len(keys_given)):
+            pair = tuple(sorted((keys_given[a], keys_given[b])))
+            if pair not in have:
+                interactions.append({"compoundKey1": pair[0], "compoundKey2": pair[1],
+                                     "property": [_property(k, v) for k, v in
+                                                  sorted(INTERACTION_DEFAULTS.items())]})
+    info["real_geometry"] = geometries
+    accel = [float(w) for w in keys.get("EXT_ACCEL", "0 0 0").split()]
+    simulator = {"end_time": float(keys.get("END_TIME", info["end_time"])),
+                 "simulation_step": float(keys.get("SIMULATION_STEP", 1e-7)),
+                 "saving_step": float(keys.get("SAVING_STEP", keys.get("END_TIME", 1e-3))),
+                 "external_acceleration": _vec(accel), "simulator_type": 1,
+                 "max_cells_number": 50, "verlet_dist_coeff": 2.0,
+                 "verlet_auto_adjust": True, "part_move_limit": 1e-8,
+                 "time_step_factor": 1.01}
+    models = []
+    for kind in ("MODEL_SB", "MODEL_PP", "MODEL_PW"):
+        if kind in keys:
+            models.append({"key": keys[kind], "path": keys[kind],
+                           "params": keys.get(kind + "_PARAMS", "")})
+    old = {"MODEL_SB": "sb_model", "MODEL_PP": "pp_model", "MODEL_PW": "pw_model"}
+    manager = {"version": 1, "models": models,
+               "connected_pp_contact": keys.get("CONNECTED_PP_CONTACT", "1") != "0",
+               **{old[k]: {"key": keys[k], "path": keys[k],
+                           "params": keys.get(k + "_PARAMS", "")} for k in old if k in keys}}
+    storage = {"info": info, "modules_data": {
+        "simulator": simulator, "model_manager": manager,
+        "materials_database": {"compound": compounds, "interaction": interactions}}}
+    return storage, list(zip(times, frames))
+
+
+def write_mdem(path, storage, time_points):
+    """Write a .mdem file (format 2) of ``storage`` (a ProtoSimulationStorage dict without
+    its data blocks) and ``time_points`` [(time, [per-object dicts])]: the time points
+    zlib-compressed in blocks of at most BLOCK_LIMIT bytes, the blocks of each thread laid
+    out in MUSEN's sizes (``block_size``)."""
+    blocks, data, descriptors = [], [], []
+    current, size = [], 0
+    for t, objects in time_points:
+        point = encode({"time": t, "particles": objects}, "ProtoTimePoint", TABLES)
+        if current and size + len(point) > BLOCK_LIMIT:
+            blocks.append(current)
+            current, size = [], 0
+        current.append((t, point))
+        size += len(point)
+    if current or not blocks:
+        blocks.append(current)
+    offset = 0
+    for block in blocks:
+        body = b"".join(b"\x12" + _length(p) + p for _, p in block)
+        packed = zlib.compress(body, 1)
+        descriptors.append({"start_time": block[0][0] if block else 0.0,
+                            "offset_in_file": offset, "size": len(packed),
+                            "uncompressed_size": len(body), "format": 2})
+        data.append(packed)
+        offset += len(packed)
+    storage = dict(storage, data_blocks=descriptors)
+    threads = [zlib.compress(encode(storage, "ProtoSimulationStorage", TABLES), 1),
+               b"".join(data)]
+    layout, at = [], HEADER + 2 * THREAD_HEADER
+    chunks = []
+    for stream in threads:
+        offsets, k, start = [], 0, 0
+        while start < len(stream) or k == 0:
+            length = block_size(k, CLUSTER)
+            offsets.append(at)
+            chunks.append(stream[start:start + length].ljust(length, b"\0"))
+            at += length
+            start += length
+            k += 1
+        if k > BLOCKS_PER_THREAD:
+            raise ValueError("too much data for a .mdem file's 118 blocks")
+        layout.append((len(stream), offsets))
+    header = struct.pack("<4I", SIGNATURE, FORMAT_VERSION, 2, CLUSTER).ljust(HEADER, b"\0")
+    heads = b""
+    for name, (size, offsets) in zip(("simulation info", "time-dependent"), layout):
+        heads += (name.encode().ljust(64, b"\0") + struct.pack("<2Q", size, 0)
+                  + struct.pack(f"<{BLOCKS_PER_THREAD}Q",
+                                *offsets, *[0] * (BLOCKS_PER_THREAD - len(offsets))))
+    Path(path).write_bytes(header + heads + b"".join(chunks))
+
+
+def _length(data):
+    out = bytearray()
+    n = len(data)
+    while n >= 0x80:
+        out.append(n & 0x7F | 0x80)
+        n >>= 7
+    out.append(n)
+    return bytes(out)
+
+
+def export_mdem(results_path, out_file, every=1):
+    """``bondem export musen RESULTS --out FILE.mdem``: a results file as a MUSEN .mdem
+    file (what ``export_musen`` writes as text: compounds, interactions, domain, spheres
+    with every frame's coordinates, velocities and angular velocities, solid bonds with
+    their activity intervals, walls as triangles at t = 0, static) with the scene's models
+    and time stepping in its simulator settings, and a cmusen script beside it that runs
+    it (FILE_script.txt). Returns (file, script, notes)."""
+    import tomllib
+    from .musen_text import export_lines, simulator_keys
+    from .results import read_results
+    data = read_results(results_path)
+    scene = tomllib.loads(str(data["attrs"]["scene"]))
+    keys, notes = simulator_keys(scene, float(data["attrs"]["time_step"]))
+    storage, points = mdem_storage(export_lines(data, scene, every), keys)
+    out_file = Path(out_file)
+    out_file.parent.mkdir(parents=True, exist_ok=True)
+    write_mdem(out_file, storage, points)
+    script = out_file.with_name(out_file.stem + "_script.txt")
+    script.write_text("\n".join(["JOB", "COMPONENT SIMULATOR", f"SOURCE_FILE ./{out_file.name}",
+                                 f"RESULT_FILE ./{out_file.stem}_result.mdem",
+                                 *(f"{k} {v}" for k, v in keys.items())]) + "\n")
+    return out_file, script, notes

@@ -597,6 +597,19 @@ def write_script(scene, time_step, text_name, path):
     (s): import the text file ``text_name``, simulate with the scene's models (MUSEN 1.70
     names), END_TIME half a step short of the run's steps (MUSEN stops when its summed
     time reaches it). Returns the notes (settings MUSEN has no counterpart for)."""
+    keys, notes = simulator_keys(scene, time_step)
+    # "./": MUSEN 1.74 creates a result file's folder and fails on an empty name
+    lines = ["JOB", "COMPONENT IMPORT_FROM_TEXT", f"SOURCE_FILE {text_name}",
+             "RESULT_FILE ./scene_t0.mdem", "JOB", "COMPONENT SIMULATOR",
+             "SOURCE_FILE ./scene_t0.mdem", "RESULT_FILE ./result.mdem",
+             *(f"{k} {v}" for k, v in keys.items())]
+    Path(path).write_text("\n".join(lines) + "\n")
+    return notes
+
+
+def simulator_keys(scene, time_step):
+    """({cmusen SIMULATOR key: text}, notes) of a bondem scene (dict of its TOML) run with
+    ``time_step`` (s); see ``write_script``."""
     notes = []
     simulation = scene.get("simulation", {})
     bond_tables = list(scene.get("bond_materials", {}).values())
@@ -635,26 +648,27 @@ def write_script(scene, time_step, text_name, path):
     contacts = contact != "none"
     if contacts and contact not in WALL_MODELS:
         notes.append(f"contact_model = {contact!r}: written as MUSEN's Hertz-Mindlin")
-    # "./": MUSEN 1.74 creates a result file's folder and fails on an empty name
-    lines = ["JOB", "COMPONENT IMPORT_FROM_TEXT", f"SOURCE_FILE {text_name}",
-             "RESULT_FILE ./scene_t0.mdem", "JOB", "COMPONENT SIMULATOR",
-             "SOURCE_FILE ./scene_t0.mdem", "RESULT_FILE ./result.mdem", "SIMULATOR_TYPE CPU",
-             f"MODEL_SB {sb}", f"MODEL_SB_PARAMS {params}"]
+    keys = {"SIMULATOR_TYPE": "CPU", "MODEL_SB": sb, "MODEL_SB_PARAMS": params}
     if contacts:
         module = contact_models.BY_NAME[contact if contact in WALL_MODELS else "hertz_mindlin"]
-        lines += [f"MODEL_PP {module.MUSEN['pp']}", f"MODEL_PW {module.MUSEN['pw']}",
-                  f"CONNECTED_PP_CONTACT {int(bool(simulation.get('bonded_contacts', False)))}"]
-    lines += [f"SIMULATION_STEP {time_step!r}"]
+        keys.update(MODEL_PP=module.MUSEN["pp"], MODEL_PW=module.MUSEN["pw"],
+                    CONNECTED_PP_CONTACT=str(int(bool(simulation.get("bonded_contacts",
+                                                                     False)))))
+    keys["SIMULATION_STEP"] = repr(time_step)
     if "save_every" in simulation:
-        lines.append(f"SAVING_STEP {float(simulation['save_every'])!r}")
-    lines += [f"END_TIME {(steps - 0.5) * time_step!r}",
-              "EXT_ACCEL " + " ".join(repr(float(g)) for g in
-                                      simulation.get("gravity", [0.0, 0.0, 0.0])),
-              "VARIABLE_TIME_STEP 0"]
+        keys["SAVING_STEP"] = repr(float(simulation["save_every"]))
+    keys["END_TIME"] = repr((steps - 0.5) * time_step)
+    keys["EXT_ACCEL"] = " ".join(repr(float(g)) for g in
+                                 simulation.get("gravity", [0.0, 0.0, 0.0]))
+    keys["VARIABLE_TIME_STEP"] = "0"
     if float(simulation.get("damping", 0.0)):
         notes.append("local damping: MUSEN has none")
-    Path(path).write_text("\n".join(lines) + "\n")
-    return notes
+    for w, wall in enumerate(scene.get("walls", [])):
+        moved = [k for k in ("velocity_profile", "servo") if wall.get(k) is not None]
+        if moved:
+            notes.append(f"wall {w}: its {moved[0]} is not written (MUSEN moves it by a "
+                         "constant velocity only; written static)")
+    return keys, notes
 
 
 def export_musen(results_path, out_file, every=1):
@@ -667,6 +681,18 @@ def export_musen(results_path, out_file, every=1):
     from .results import read_results
     data = read_results(results_path)
     scene = tomllib.loads(str(data["attrs"]["scene"]))
+    lines = export_lines(data, scene, every)
+    out_file = Path(out_file)
+    out_file.parent.mkdir(parents=True, exist_ok=True)
+    out_file.write_text("\n".join(lines) + "\n")
+    script = out_file.with_name(out_file.stem + "_script.txt")
+    notes = write_script(scene, float(data["attrs"]["time_step"]), out_file.name, script)
+    return out_file, script, notes
+
+
+def export_lines(data, scene, every=1):
+    """The lines of MUSEN's text format for a results file's ``data`` (``read_results``)
+    and its scene table (see ``export_musen``)."""
     names = [str(n) for n in data["materials/names"]]
     bond_names = [str(n) for n in data.get("bond_materials/names", [])]
     lines = []
@@ -699,18 +725,35 @@ def export_musen(results_path, out_file, every=1):
     extent = (position[0].min(axis=0), position[0].max(axis=0)) if n else (np.zeros(3),) * 2
     size = 2.0 * float(np.max(extent[1] - extent[0]) + 4.0 * radius.max(initial=0.0))
     wall_materials = []
+    end_time = float(scene.get("simulation", {}).get("end_time", time[-1]))
+    wall_position = data.get("walls/position")
     for w, wall in enumerate(scene.get("walls", [])):
         triangles = _wall_triangles(data, w, wall, size)
+        spin = [float(v) for v in wall.get("angular_velocity", [0.0, 0.0, 0.0])]
+        # a translating wall's frames: its t = 0 triangles carried along by its recorded
+        # position (a turning wall: its t = 0 place, MUSEN moves it by its motion)
+        travel = (np.asarray(wall_position[::every, w]) - wall_position[0, w]
+                  if wall_position is not None and not any(spin)
+                  else np.zeros((len(time), 3)))
         first = ident
         for a, b, c in triangles:
             # the activity interval: MUSEN 1.74 makes an object without one inactive
-            lines.append(" ".join(["0", str(ident), "1", str(TRIANGULAR_WALL), "5", "23",
-                                   wall["material"], "24", "0", "1e+300",
-                                   "2", float_text(time[0]), "12",
-                                   *map(float_text, a), "31", *map(float_text, b), "0", "16",
-                                   *map(float_text, c)]))
+            parts = ["0", str(ident), "1", str(TRIANGULAR_WALL), "5", "23", wall["material"],
+                     "24", "0", "1e+300"]
+            for f, t in enumerate(time):
+                d = travel[f]
+                parts += ["2", float_text(t), "12", *map(float_text, np.add(a, d)), "31",
+                          *map(float_text, np.add(b, d)), "0", "16",
+                          *map(float_text, np.add(c, d))]
+            lines.append(" ".join(parts))
             ident += 1
         lines.append(f"25 wall{w} wall{w} 0 0 0 0")
+        velocity = [float(v) for v in wall.get("velocity", [0.0, 0.0, 0.0])]
+        if any(velocity) or any(spin):
+            # one time interval over the run: MUSEN's constant motion (type 1)
+            centre = [float(v) for v in wall.get("rotation_center", [0.0, 0.0, 0.0])]
+            lines.append("26 1 1 0 " + " ".join(map(float_text, [end_time, *velocity,
+                                                                  *centre, *spin])))
         lines.append(f"27 {ident - first} " + " ".join(str(i) for i in range(first, ident)))
         wall_materials.append(wall["material"])
     simulation = scene.get("simulation", {})
@@ -757,12 +800,7 @@ def export_musen(results_path, out_file, every=1):
                       for k, d in defaults.items()]
             lines.append(f"33 {keys[a]} {keys[b]} {RESTITUTION} {float_text(values[0])} "
                          f"{FRICTION} {float_text(values[1])} {ROLLING} {float_text(values[2])}")
-    out_file = Path(out_file)
-    out_file.parent.mkdir(parents=True, exist_ok=True)
-    out_file.write_text("\n".join(lines) + "\n")
-    script = out_file.with_name(out_file.stem + "_script.txt")
-    notes = write_script(scene, float(data["attrs"]["time_step"]), out_file.name, script)
-    return out_file, script, notes
+    return lines
 
 
 def _wall_triangles(data, w, wall, size):
