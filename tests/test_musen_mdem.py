@@ -303,7 +303,8 @@ def test_a_script_on_dask_equals_its_jobs_run_one_by_one(tmp_path):
 @pytest.mark.parametrize("change, message", [
     (("COMPONENT SIMULATOR", "COMPONENT SIMULATE", 1), "component 'SIMULATE'"),
     (("SOURCE_FILE scene.txt", "SOURCE_FILE missing.txt", 1), "does not exist"),
-    (("COMPONENT EXPORT_TO_TEXT", "COMPONENT BONDS_GENERATOR", 1), "BONDS_GENERATOR"),
+    (("COMPONENT EXPORT_TO_TEXT", "COMPONENT PACKAGE_GENERATOR", 1), "PACKAGE_GENERATOR is not run"),
+    (("COMPONENT EXPORT_TO_TEXT", "COMPONENT BONDS_GENERATOR", 1), "reads a scene"),
     (("SOURCE_FILE work/adhesive.mdem", "SOURCE_FILE work/scene_t0.mdem", 1),
      "EXPORT_TO_TEXT exports a run"),
 ])
@@ -385,3 +386,27 @@ def test_the_real_musen_simulates_an_exported_run_as_bondem_does(tmp_path):
     with h5py.File(results, "r") as f:
         np.testing.assert_allclose(time, f["time"][:], rtol=1e-12)
         assert np.abs(position - f["particles/position"][:]).max() < 1e-16
+
+
+def test_a_bonds_generator_job_makes_musens_bonds(tmp_path):
+    """IMPORT_FROM_TEXT, BONDS_GENERATOR (two generators given by the script: surfaces 0
+    to 0.3 mm apart with 0.4 mm bonds, 2 to 3 mm apart with 0.3 mm bonds; the scene's own
+    bonds removed) and SIMULATOR, run by the real cmusen 1.74.2 (bondgen/musen_run.mdem)
+    and by bondem: the same four bonds, and trajectories to round-off."""
+    from bondem.musen_jobs import run_script
+    folder = tmp_path / "bondgen"
+    folder.mkdir()
+    (tmp_path / "scene.txt").write_bytes((DATA / "scene.txt").read_bytes())
+    (folder / "script.txt").write_bytes((DATA / "bondgen" / "script.txt").read_bytes())
+    run_script(folder / "script.txt", echo=lambda line: None)
+    bonds = (folder / "work" / "run" / "bonds.csv").read_text().split()
+    # scene.txt: surfaces of 2-3 0.264 mm, 4-5 0.055 mm, 6-7 0.0002 mm, 3-4 2.62 mm apart
+    assert bonds == ["i,j,diameter,material", "2,3,0.0004,bond", "4,5,0.0004,bond",
+                     "6,7,0.0004,bond", "3,4,0.0003,bond"]
+    time, position, velocity = mdem_frames(DATA / "bondgen" / "musen_run.mdem", 9)
+    with h5py.File(folder / "work" / "run" / "results.h5", "r") as f:
+        np.testing.assert_allclose(f["time"][:], time, rtol=1e-12, atol=0)
+        assert np.abs(f["particles/position"][:] - position).max() < 1e-16
+        assert np.abs(f["particles/velocity"][:] - velocity).max() \
+            < 1e-11 * np.abs(velocity).max()
+        assert (~f["bonds/active"][-1]).sum() == 3   # the run breaks bonds

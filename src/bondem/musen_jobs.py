@@ -9,12 +9,16 @@ VERLET_COEF ...). File names are relative to the script's folder.
 What each job does here:
 - IMPORT_FROM_TEXT: the text scene becomes the source of the jobs that read its
   RESULT_FILE (no .mdem file is written).
+- BONDS_GENERATOR: MUSEN's bond generator (``musen_text.generate_bonds``) on its source:
+  the source's bonds removed, the generators of a .mdem source with the job's
+  ``BOND_GEN_MATERIAL|MINDIST|MAXDIST|DIAMETER|OVERLAY INDEX VALUE`` lines over them;
+  the scene goes on to the jobs that read its RESULT_FILE.
 - SIMULATOR: its source (an imported text scene, or a .mdem file on disk) with the job's
   keys over the file's own settings, imported as a bondem scene (MUSEN-compatible mode)
   into the folder named like RESULT_FILE without its suffix, and run there (results.h5).
 - EXPORT_TO_TEXT: a run of this script written in MUSEN's text format (``bondem export
   musen``).
-Other components (package, bonds and snapshot generators, the results analyzer) stop the
+Other components (the package and snapshot generators, the results analyzer) stop the
 script before anything runs, naming the job.
 
 Jobs are run in order. Simulations that read nothing another job of the script writes are
@@ -27,9 +31,12 @@ from pathlib import Path
 
 from .errors import InputError
 
-COMPONENTS = ("IMPORT_FROM_TEXT", "SIMULATOR", "EXPORT_TO_TEXT")
-OTHER_COMPONENTS = ("PACKAGE_GENERATOR", "BONDS_GENERATOR", "RESULTS_ANALYZER",
-                    "SNAPSHOT_GENERATOR")
+COMPONENTS = ("IMPORT_FROM_TEXT", "BONDS_GENERATOR", "SIMULATOR", "EXPORT_TO_TEXT")
+OTHER_COMPONENTS = ("PACKAGE_GENERATOR", "RESULTS_ANALYZER", "SNAPSHOT_GENERATOR")
+SCENE_MAKERS = ("IMPORT_FROM_TEXT", "BONDS_GENERATOR")
+BOND_GEN_KEYS = {"BOND_GEN_MATERIAL": "compound", "BOND_GEN_MINDIST": "min_distance",
+                 "BOND_GEN_MAXDIST": "max_distance", "BOND_GEN_DIAMETER": "diameter",
+                 "BOND_GEN_OVERLAY": "overlay"}
 _SYNONYMS = {"RESULTS_FILE": "RESULT_FILE", "SIMULATION_TSTEP": "SIMULATION_STEP",
              "SAVING_TSTEP": "SAVING_STEP", "MODEL_EXT_FORCE": "MODEL_EF",
              "MODEL_EXT_FORCE_PARAMS": "MODEL_EF_PARAMS"}
@@ -38,12 +45,14 @@ _SYNONYMS = {"RESULTS_FILE": "RESULT_FILE", "SIMULATION_TSTEP": "SIMULATION_STEP
 @dataclass
 class Job:
     """One job of a script: its number (from 1), component, source and result files
-    (absolute) and its other keys ({KEY: rest of the line}, the last one given)."""
+    (absolute), its other keys ({KEY: rest of the line}, the last one given) and every
+    line of them in order ([(KEY, rest)], for keys given per generator)."""
     number: int
     component: str = "SIMULATOR"
     source: Path | None = None
     result: Path | None = None
     keys: dict = field(default_factory=dict)
+    lines: list = field(default_factory=list)
 
 
 def is_script(path):
@@ -92,6 +101,7 @@ def read_jobs(path):
             job.result = (folder / rest).resolve()
         else:
             job.keys[key] = rest
+            job.lines.append((key, rest))
     for job in jobs:
         if job.component in OTHER_COMPONENTS:
             raise InputError(f"job {job.number}: component {job.component} is not run by "
@@ -126,11 +136,11 @@ def plan(jobs, path):
                                                   or maker.component != "SIMULATOR"):
             raise InputError(f"job {job.number}: EXPORT_TO_TEXT exports a run of this "
                              "script (a SIMULATOR job's RESULT_FILE)", file=path)
-        if job.component == "SIMULATOR" and maker is not None \
-                and maker.component != "IMPORT_FROM_TEXT":
-            raise InputError(f"job {job.number}: a SIMULATOR job reads a scene (a .mdem "
-                             "file or an IMPORT_FROM_TEXT job's result), not another run",
-                             file=path)
+        if job.component in ("SIMULATOR", "BONDS_GENERATOR") and maker is not None \
+                and maker.component not in SCENE_MAKERS:
+            raise InputError(f"job {job.number}: a {job.component} job reads a scene (a "
+                             ".mdem file or the result of an IMPORT_FROM_TEXT or "
+                             "BONDS_GENERATOR job), not a run", file=path)
         if job.component == "IMPORT_FROM_TEXT" and maker is not None:
             raise InputError(f"job {job.number}: IMPORT_FROM_TEXT reads a text file",
                              file=path)
@@ -138,21 +148,53 @@ def plan(jobs, path):
     return needs
 
 
-def import_job(job, sources):
-    """Write the scene of SIMULATOR job ``job`` into its run folder; returns (scene
-    path, notes). ``sources``: {RESULT_FILE of an IMPORT_FROM_TEXT job: its text file}."""
+def source_scene(job, scenes):
+    """(MusenScene, script keys, MUSEN release or None, file) of the scene job ``job``
+    reads: an earlier job's (``scenes``: {RESULT_FILE: (scene, keys, release, file)})
+    or a .mdem file's. A copy: the job may change it."""
+    import copy
     from .io.musen_mdem import MdemFile, musen_release, scene_of, script_of
-    from .io.musen_text import read_text, to_bondem
+    if job.source in scenes:
+        return copy.deepcopy(scenes[job.source])
+    mdem = MdemFile(job.source)
+    mdem.check()
+    return scene_of(mdem), script_of(mdem), musen_release(mdem), job.source
+
+
+def generators_of(job, source):
+    """The bond generators of BONDS_GENERATOR job ``job``: those of its .mdem source, then
+    the job's BOND_GEN_<KEY> INDEX VALUE lines over them (index from 1; a new index adds a
+    generator with MUSEN's defaults)."""
+    from .io.musen_mdem import MdemFile, bond_generators
+    from .io.musen_text import BOND_GENERATOR
+    generators = (bond_generators(MdemFile(source)) if source.suffix.lower() == ".mdem"
+                  and source.is_file() else [])
+    for key, rest in job.lines:
+        if key not in BOND_GEN_KEYS:
+            continue
+        words = rest.split(None, 1)
+        try:
+            index = int(words[0]) - 1
+            value = words[1].strip()
+            if key != "BOND_GEN_MATERIAL":
+                value = float(value)
+        except (IndexError, ValueError):
+            raise InputError(f"job {job.number}: expected {key} INDEX VALUE, got "
+                             f"{rest!r}", key=key) from None
+        while len(generators) <= index:
+            generators.append(dict(BOND_GENERATOR))
+        name = BOND_GEN_KEYS[key]
+        generators[index][name] = bool(value) if name == "overlay" else value
+    return generators
+
+
+def import_job(job, scenes):
+    """Write the scene of SIMULATOR job ``job`` into its run folder; returns (scene
+    path, notes). The job's keys go over the source's own settings."""
+    from .io.musen_text import to_bondem
     folder = run_folder(job.result)
-    if job.source in sources:    # a text scene: the job's keys are its whole script
-        source = sources[job.source]
-        scene, script, release = read_text(source), dict(job.keys), None
-    else:                        # a .mdem file: the job's keys over the file's settings
-        source = job.source
-        mdem = MdemFile(source)
-        mdem.check()
-        scene, script, release = scene_of(mdem), script_of(mdem), musen_release(mdem)
-        script.update(job.keys)
+    scene, script, release, source = source_scene(job, scenes)
+    script.update(job.keys)
     try:
         notes = to_bondem(scene, script, folder,
                           **({"musen_version": release} if release else {}))
@@ -178,13 +220,25 @@ def run_script(path, *, workers=1, echo=print):
     path = Path(path)
     jobs = read_jobs(path)
     needs = plan(jobs, path)
-    sources = {job.result: job.source for job in jobs
-               if job.component == "IMPORT_FROM_TEXT"}
+    from .io.musen_text import generate_bonds, read_text
+    scenes = {}
     written = {}
     simulations = []
-    for job in jobs:
-        if job.component == "SIMULATOR":
-            scene_path, notes = import_job(job, sources)
+    for job in jobs:    # every scene first: a bad one stops the script before any run
+        if job.component == "IMPORT_FROM_TEXT":
+            scenes[job.result] = (read_text(job.source), {}, None, job.source)
+            written[job.number] = job.source
+            echo(f"job {job.number}: {job.component} {job.source.name} (read by the "
+                 "jobs that follow)")
+        elif job.component == "BONDS_GENERATOR":
+            scene, script, release, source = source_scene(job, scenes)
+            made = generate_bonds(scene, generators_of(job, job.source))
+            scenes[job.result] = (scene, script, release, source)
+            written[job.number] = job.result
+            echo(f"job {job.number}: {job.component}: {made} bonds (read by the jobs "
+                 "that follow)")
+        elif job.component == "SIMULATOR":
+            scene_path, notes = import_job(job, scenes)
             for note in notes:
                 echo(f"job {job.number}: note: {note}")
             simulations.append((job, scene_path))
@@ -202,11 +256,7 @@ def run_script(path, *, workers=1, echo=print):
     for job in jobs:
         if job.number in written:
             continue
-        if job.component == "IMPORT_FROM_TEXT":
-            written[job.number] = job.source
-            echo(f"job {job.number}: {job.component} {job.source.name} (read by the "
-                 "jobs that follow)")
-        elif job.component == "SIMULATOR":
+        if job.component == "SIMULATOR":
             scene_path = next(p for j, p in simulations if j is job)
             written[job.number] = Path(_simulate(scene_path, run_folder(job.result)))
             echo(f"job {job.number}: {job.component} -> {written[job.number]}")

@@ -141,9 +141,21 @@ TABLES = {
     "ProtoMaterialsDatabase": {1: ("compound", "ProtoCompound", True),
                                2: ("interaction", "ProtoInteraction", True),
                                3: ("mixture", "bytes", True)},
+    "ProtoBondsGenerator": {1: ("name", "string", False),
+                            2: ("material_key", "string", False),
+                            3: ("obj_type", "varint", False),
+                            4: ("min_length", "double", False),
+                            5: ("max_length", "double", False),
+                            6: ("property1", "double", False),
+                            7: ("allow_overlap", "bool", False),
+                            8: ("compound_specific", "bool", False),
+                            9: ("partner_compounds1", "string", True),
+                            10: ("partner_compounds2", "string", True),
+                            11: ("activity", "bool", False)},
+    "ProtoModuleBondsGenerator": {1: ("generators", "ProtoBondsGenerator", True)},
     "ProtoModulesData": {1: ("simulator", "ProtoModuleSimulator", False),
                          2: ("objects_generator", "bytes", False),
-                         3: ("bonds_generator", "bytes", False),
+                         3: ("bonds_generator", "ProtoModuleBondsGenerator", False),
                          4: ("package_generator", "bytes", False),
                          5: ("model_manager", "ProtoModuleModelManager", False),
                          6: ("materials_database", "ProtoMaterialsDatabase", False)},
@@ -455,9 +467,25 @@ def scene_of(mdem):
                         ("multispheres", "multisphere")):
         if info.get(field):
             scene.unmapped.append(f"{len(info[field])} {what}(s) not mapped")
-    if mdem.modules.get("bonds_generator"):
-        scene.unmapped.append("the bonds generator's settings are not mapped")
     return scene
+
+
+def bond_generators(mdem):
+    """The bond generators a .mdem file keeps (MUSEN's SBondClass as a dict: active, name,
+    compound, min_distance, max_distance (m, between the particles' surfaces), diameter
+    (m), overlay, compound lists or None)."""
+    out = []
+    for g in mdem.modules.get("bonds_generator", {}).get("generators", []):
+        specific = g.get("compound_specific", False)
+        out.append({"active": g.get("activity", False), "name": g.get("name", ""),
+                    "compound": g.get("material_key", ""),
+                    "min_distance": g.get("min_length", 0.0),
+                    "max_distance": g.get("max_length", 0.0),
+                    "diameter": g.get("property1", 0.0),
+                    "overlay": g.get("allow_overlap", False),
+                    "compounds": ((g.get("partner_compounds1", []),
+                                   g.get("partner_compounds2", [])) if specific else None)})
+    return out
 
 
 def _motion_text(motion):

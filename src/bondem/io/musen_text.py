@@ -16,6 +16,7 @@ script (``MODEL_SB``, ``SIMULATION_STEP`` ...), read by ``read_script``.
 """
 from __future__ import annotations
 
+import itertools
 import math
 import tomllib
 from dataclasses import dataclass, field
@@ -820,3 +821,60 @@ def _wall_triangles(data, w, wall, size):
     corners = [point + h * (su * u + sv * v) for su, sv in ((-1, -1), (1, -1), (1, 1), (-1, 1))]
     return [tuple(map(tuple, (corners[0], corners[1], corners[2]))),
             tuple(map(tuple, (corners[0], corners[2], corners[3])))]
+
+
+# MUSEN's bond generator as a script adds it (its SBondClass defaults)
+BOND_GENERATOR = {"active": True, "name": "", "compound": "", "min_distance": 0.0,
+                  "max_distance": 1e-3, "diameter": 5e-4, "overlay": False,
+                  "compounds": None}
+
+
+def generate_bonds(scene, generators):
+    """MUSEN's bonds generator (BondsGenerator.cpp) on ``scene`` (a MusenScene): its solid
+    bonds removed, then for each active generator a bond between every pair of spheres
+    whose surfaces are min_distance to max_distance (m) apart, of diameter min(diameter,
+    both particles' diameters), initial length their distance, compound the generator's;
+    without ``overlay`` no second bond between two particles; ``compounds`` (two lists)
+    limits the pairs to one particle of each. Returns the number of bonds made."""
+    from scipy.spatial import cKDTree
+    free = sorted(i for i, o in scene.objects.items() if o.type == SOLID_BOND)
+    for ident in free:
+        del scene.objects[ident]
+    spheres = sorted((o for o in scene.objects.values() if o.type == SPHERE),
+                     key=lambda o: o.id)
+    if not spheres:
+        return 0
+    position = np.array([o.coordinates for o in spheres])
+    radius = np.array([o.geometry[0] for o in spheres])
+    tree = cKDTree(position)
+    connected = set()
+    # MUSEN gives new objects the ids the removed bonds freed, then new ones
+    fresh = itertools.chain(free, itertools.count(max(list(scene.objects) + free) + 1))
+    made = 0
+    for g in generators:
+        if not g["active"]:
+            continue
+        reach = 2.0 * radius.max() + g["max_distance"]
+        pairs = np.array(sorted(tree.query_pairs(reach)), dtype=np.int64).reshape(-1, 2)
+        gap = np.linalg.norm(position[pairs[:, 1]] - position[pairs[:, 0]], axis=1) \
+            - radius[pairs[:, 0]] - radius[pairs[:, 1]]
+        keep = (gap >= g["min_distance"]) & (gap <= g["max_distance"])
+        for (a, b), d in zip(pairs[keep], gap[keep]):
+            left, right = spheres[a], spheres[b]
+            if g["compounds"] is not None:
+                first, second = g["compounds"]
+                if not ((left.compound in first and right.compound in second)
+                        or (right.compound in first and left.compound in second)):
+                    continue
+            key = (min(left.id, right.id), max(left.id, right.id))
+            if not g["overlay"] and key in connected:
+                continue
+            connected.add(key)
+            diameter = min(g["diameter"], 2.0 * radius[a], 2.0 * radius[b])
+            ident = next(fresh)
+            scene.objects[ident] = MusenObject(
+                ident, SOLID_BOND, [float(left.id), float(right.id), float(diameter),
+                                    float(d + radius[a] + radius[b])], g["compound"],
+                (0.0, 1e300), time=left.time, times=1)
+            made += 1
+    return made
