@@ -262,3 +262,21 @@ def test_jammed_request_fails_with_a_clear_error():
     container = Sphere((0, 0, 0), (250 * R ** 3 / 0.64) ** (1 / 3))
     with pytest.raises(RuntimeError, match="jammed"):
         pack_spheres(container, radius=R, solids_fraction=0.64, seed=0)
+
+
+def test_pack_spheres_takes_the_radii_themselves():
+    """An array of radii is packed as given (MUSEN's package generator fixes the counts
+    per fraction): the same radii in the same order, inside the box, overlaps within the
+    limit."""
+    from bondem.generate import Box, max_overlap, pack_spheres
+    radii = np.repeat([2e-4, 3e-4], [40, 13])
+    box = Box((0.0, 0.01, -0.002), (3e-3, 0.0125, 0.002))
+    position, radius = pack_spheres(box, radius=radii, solids_fraction=0.3, seed=2,
+                                    max_overlap=1e-3)
+    assert np.array_equal(radius, radii)
+    low, high = np.array(box.low), np.array(box.high)
+    assert np.all(position - radius[:, None] >= low - 1e-12)
+    assert np.all(position + radius[:, None] <= high + 1e-12)
+    assert max_overlap(position, radius) <= 1e-3 * 1.0001   # relative to the smaller radius
+    with pytest.raises(ValueError, match="radii must be finite"):
+        pack_spheres(box, radius=np.array([2e-4, -1e-4]), solids_fraction=0.3)

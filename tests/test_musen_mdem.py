@@ -303,7 +303,10 @@ def test_a_script_on_dask_equals_its_jobs_run_one_by_one(tmp_path):
 @pytest.mark.parametrize("change, message", [
     (("COMPONENT SIMULATOR", "COMPONENT SIMULATE", 1), "component 'SIMULATE'"),
     (("SOURCE_FILE scene.txt", "SOURCE_FILE missing.txt", 1), "does not exist"),
-    (("COMPONENT EXPORT_TO_TEXT", "COMPONENT PACKAGE_GENERATOR", 1), "PACKAGE_GENERATOR is not run"),
+    (("COMPONENT EXPORT_TO_TEXT", "COMPONENT RESULTS_ANALYZER", 1),
+     "RESULTS_ANALYZER is not run"),
+    (("COMPONENT EXPORT_TO_TEXT", "COMPONENT PACKAGE_GENERATOR", 1),
+     "PACKAGE_GENERATOR reads a .mdem file"),
     (("COMPONENT EXPORT_TO_TEXT", "COMPONENT BONDS_GENERATOR", 1), "reads a scene"),
     (("SOURCE_FILE work/adhesive.mdem", "SOURCE_FILE work/scene_t0.mdem", 1),
      "EXPORT_TO_TEXT exports a run"),
@@ -410,3 +413,36 @@ def test_a_bonds_generator_job_makes_musens_bonds(tmp_path):
         assert np.abs(f["particles/velocity"][:] - velocity).max() \
             < 1e-11 * np.abs(velocity).max()
         assert (~f["bonds/active"][-1]).sum() == 3   # the run breaks bonds
+
+
+def test_a_package_generator_job_fills_musens_volume_with_musens_counts(tmp_path):
+    """packing/packing.mdem (written by bondem, read by cmusen 1.74.2): a 4 x 3 x 5 mm box
+    to fill at porosity 0.6 with a mixture of 0.4 mm (number fraction 0.6) and 0.6 mm
+    (0.4) spheres moving down at 0.1 m/s. MUSEN's counts, floor((1 - 0.6) V f_i /
+    sum_k f_k pi d_k^3 / 6) = 220 and 146, are what cmusen made (musen_packed.mdem); bondem
+    packs the same numbers inside the box, the scene's own nine spheres kept."""
+    from bondem.musen_jobs import run_script
+    folder = tmp_path / "packing"
+    folder.mkdir()
+    for name in ("packing.mdem", "script.txt"):
+        (folder / name).write_bytes((DATA / "packing" / name).read_bytes())
+    run_script(folder / "script.txt", echo=lambda line: None)
+    volume = 4e-3 * 3e-3 * 5e-3
+    mean = 0.6 * np.pi / 6 * 4e-4 ** 3 + 0.4 * np.pi / 6 * 6e-4 ** 3
+    expected = [int(0.4 * volume / mean * 0.6), int(0.4 * volume / mean * 0.4)]
+    musen = scene_spheres(MdemFile(DATA / "packing" / "musen_packed.mdem"))
+    assert [sum(1 for o in musen if o.geometry[0] == r) for r in (2e-4, 3e-4)] == expected
+    rows = np.genfromtxt(folder / "work" / "fall" / "particles.csv", delimiter=",",
+                         names=True, dtype=None, encoding="utf-8")
+    new = rows[9:]
+    assert [int(np.sum(new["radius"] == r)) for r in (2e-4, 3e-4)] == expected
+    assert set(new["material"]) == {"solid"} and np.all(new["vz"] == -0.1)
+    centre, half = np.array([0.0, 0.02, 0.005]), np.array([2e-3, 1.5e-3, 2.5e-3])
+    for axis, name in enumerate("xyz"):
+        assert np.all(np.abs(new[name] - centre[axis]) <= half[axis] - new["radius"] + 1e-9)
+    assert len(rows) == 9 + sum(expected)
+
+
+def scene_spheres(mdem):
+    from bondem.io.musen_mdem import scene_of
+    return [o for o in scene_of(mdem).objects.values() if o.type == 1]

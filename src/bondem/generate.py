@@ -206,7 +206,8 @@ class MeshVolume:
 def sample_radii(target_volume, *, radius=None, radius_distribution=None, rng=None):
     """Radii (m) whose total sphere volume is closest to ``target_volume`` (m^3).
 
-    Either ``radius`` (m, monodisperse) or ``radius_distribution``, a dict:
+    Either ``radius`` (m, monodisperse; a 1-D array: these radii, whatever the volume)
+    or ``radius_distribution``, a dict:
     ``{"type": "normal" | "lognormal", "mean": m, "std": m, "min": m, "max": m}`` (mean
     and standard deviation of the radius itself; min/max cut, default mean -/+ 3 std,
     min at least mean/10) or ``{"type": "table", "radius": [m...], "fraction": [...],
@@ -215,6 +216,12 @@ def sample_radii(target_volume, *, radius=None, radius_distribution=None, rng=No
     rng = np.random.default_rng(0) if rng is None else rng
     if (radius is None) == (radius_distribution is None):
         raise ValueError("give exactly one of radius and radius_distribution")
+    if radius is not None and np.ndim(radius) == 1:   # the radii themselves
+        radii = np.asarray(radius, dtype=float)
+        if radii.size == 0 or not np.all(np.isfinite(radii)) or np.any(radii <= 0):
+            raise ValueError("radii must be finite numbers > 0")
+        _check_count(radii.size)
+        return radii.copy()
     if radius is not None:
         radius = _positive(radius, "radius")
         # in logarithms: radius ** 3 overflows (1e300 m) or vanishes (1e-300 m) in doubles
@@ -303,7 +310,8 @@ def pack_spheres(volume, *, radius=None, radius_distribution=None, solids_fracti
     """Dense random packing of spheres inside ``volume`` (Sphere, Box, Cylinder or
     MeshVolume).
 
-    radius: m (monodisperse) or radius_distribution (see ``sample_radii``);
+    radius: m (monodisperse; an array: the radii themselves, in order) or
+    radius_distribution (see ``sample_radii``);
     solids_fraction: particle volume / container volume, in (0, 0.66) (monodisperse
     spheres reach 0.62 with walls; above that the minimisation may not converge);
     seed: random seed, the same seed gives the same packing bit for bit;

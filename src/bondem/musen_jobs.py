@@ -18,8 +18,12 @@ What each job does here:
   into the folder named like RESULT_FILE without its suffix, and run there (results.h5).
 - EXPORT_TO_TEXT: a run of this script written in MUSEN's text format (``bondem export
   musen``).
-Other components (the package and snapshot generators, the results analyzer) stop the
-script before anything runs, naming the job.
+- PACKAGE_GENERATOR: on a .mdem source, its package generators (volume, mixture,
+  porosity, overlap, initial velocity; the job's ``PACK_GEN_* INDEX VALUE`` lines over
+  them) with MUSEN's particle counts, packed by bondem's generator
+  (``musen_text.generate_package``); the scene goes on like a bonds generator's.
+Other components (the snapshot generator, the results analyzer) stop the script before
+anything runs, naming the job.
 
 Jobs are run in order. Simulations that read nothing another job of the script writes are
 independent: with ``workers`` above 1 they run side by side as a Dask ensemble.
@@ -31,9 +35,10 @@ from pathlib import Path
 
 from .errors import InputError
 
-COMPONENTS = ("IMPORT_FROM_TEXT", "BONDS_GENERATOR", "SIMULATOR", "EXPORT_TO_TEXT")
-OTHER_COMPONENTS = ("PACKAGE_GENERATOR", "RESULTS_ANALYZER", "SNAPSHOT_GENERATOR")
-SCENE_MAKERS = ("IMPORT_FROM_TEXT", "BONDS_GENERATOR")
+COMPONENTS = ("IMPORT_FROM_TEXT", "PACKAGE_GENERATOR", "BONDS_GENERATOR", "SIMULATOR",
+              "EXPORT_TO_TEXT")
+OTHER_COMPONENTS = ("RESULTS_ANALYZER", "SNAPSHOT_GENERATOR")
+SCENE_MAKERS = ("IMPORT_FROM_TEXT", "PACKAGE_GENERATOR", "BONDS_GENERATOR")
 BOND_GEN_KEYS = {"BOND_GEN_MATERIAL": "compound", "BOND_GEN_MINDIST": "min_distance",
                  "BOND_GEN_MAXDIST": "max_distance", "BOND_GEN_DIAMETER": "diameter",
                  "BOND_GEN_OVERLAY": "overlay"}
@@ -136,6 +141,10 @@ def plan(jobs, path):
                                                   or maker.component != "SIMULATOR"):
             raise InputError(f"job {job.number}: EXPORT_TO_TEXT exports a run of this "
                              "script (a SIMULATOR job's RESULT_FILE)", file=path)
+        if job.component == "PACKAGE_GENERATOR" and (maker is not None
+                                                     or job.source.suffix.lower() != ".mdem"):
+            raise InputError(f"job {job.number}: PACKAGE_GENERATOR reads a .mdem file (its "
+                             "volumes, mixtures and generators)", file=path)
         if job.component in ("SIMULATOR", "BONDS_GENERATOR") and maker is not None \
                 and maker.component not in SCENE_MAKERS:
             raise InputError(f"job {job.number}: a {job.component} job reads a scene (a "
@@ -188,6 +197,51 @@ def generators_of(job, source):
     return generators
 
 
+def package_job(job):
+    """The package generators of PACKAGE_GENERATOR job ``job``: its .mdem source's, with
+    the job's PACK_GEN_VOLUME|MIXTURE|POROSITY|OVERLAP|VELOCITY|INSIDE INDEX VALUE lines
+    over them (index from 1; a volume or mixture by name or key)."""
+    from .io.musen_mdem import MdemFile, package_generators, package_tables
+    mdem = MdemFile(job.source)
+    generators = package_generators(mdem)
+    volumes, mixtures = package_tables(mdem)
+    for key, rest in job.lines:
+        if not key.startswith("PACK_GEN_"):
+            continue
+        words = rest.split()
+        try:
+            index = int(words[0]) - 1
+            value = words[1:]
+            while len(generators) <= index:
+                generators.append({"active": True, "name": "Generator", "volume": None,
+                                   "mixture": None, "porosity": 0.5, "max_overlap": 1e-7,
+                                   "velocity": (0.0, 0.0, 0.0), "inside_geometry": False})
+            g = generators[index]
+            if key == "PACK_GEN_VOLUME":
+                g["volume"] = _named(volumes, " ".join(value), job, key)
+            elif key == "PACK_GEN_MIXTURE":
+                g["mixture"] = _named(mixtures, " ".join(value), job, key)
+            elif key == "PACK_GEN_POROSITY":
+                g["porosity"] = float(value[0])
+            elif key == "PACK_GEN_OVERLAP":
+                g["max_overlap"] = float(value[0])
+            elif key == "PACK_GEN_VELOCITY":
+                g["velocity"] = tuple(float(v) for v in value[:3])
+            elif key == "PACK_GEN_INSIDE":
+                g["inside_geometry"] = bool(int(float(value[0])))
+        except (IndexError, ValueError):
+            raise InputError(f"job {job.number}: expected {key} INDEX VALUE, got "
+                             f"{rest!r}", key=key) from None
+    return generators
+
+
+def _named(table, name, job, key):
+    if name not in table:
+        raise InputError(f"job {job.number}: {key} {name!r} is not in the file (it has: "
+                         f"{', '.join(sorted(table)) or 'none'})", file=job.source, key=key)
+    return table[name]
+
+
 def import_job(job, scenes):
     """Write the scene of SIMULATOR job ``job`` into its run folder; returns (scene
     path, notes). The job's keys go over the source's own settings."""
@@ -230,6 +284,24 @@ def run_script(path, *, workers=1, echo=print):
             written[job.number] = job.source
             echo(f"job {job.number}: {job.component} {job.source.name} (read by the "
                  "jobs that follow)")
+        elif job.component == "PACKAGE_GENERATOR":
+            from .io.musen_text import generate_package
+            scene, script, release, source = source_scene(job, scenes)
+            made = 0
+            for generator in package_job(job):
+                if generator["active"]:
+                    try:
+                        count, notes = generate_package(scene, generator)
+                    except InputError as error:
+                        raise InputError(f"job {job.number}: {error.reason}",
+                                         file=job.source) from None
+                    made += count
+                    for note in notes:
+                        echo(f"job {job.number}: note: {note}")
+            scenes[job.result] = (scene, script, release, source)
+            written[job.number] = job.result
+            echo(f"job {job.number}: {job.component}: {made} particles (read by the jobs "
+                 "that follow)")
         elif job.component == "BONDS_GENERATOR":
             scene, script, release, source = source_scene(job, scenes)
             made = generate_bonds(scene, generators_of(job, job.source))

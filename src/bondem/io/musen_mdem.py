@@ -85,7 +85,7 @@ TABLES = {
                             7: ("real_geometry_v0", "ProtoRealGeometry_v0", True),
                             26: ("real_geometry", "ProtoRealGeometry", True),
                             8: ("analysis_volume_v0", "bytes", True),
-                            24: ("analysis_volume", "bytes", True),
+                            24: ("analysis_volume", "ProtoAnalysisVolume", True),
                             9: ("savedTimePoints", "double", True),
                             10: ("multispheres", "bytes", True),
                             11: ("periodic_conditions_min", _V, False),
@@ -140,7 +140,7 @@ TABLES = {
                          3: ("property", "ProtoTPProperty", True)},
     "ProtoMaterialsDatabase": {1: ("compound", "ProtoCompound", True),
                                2: ("interaction", "ProtoInteraction", True),
-                               3: ("mixture", "bytes", True)},
+                               3: ("mixture", "ProtoMixture", True)},
     "ProtoBondsGenerator": {1: ("name", "string", False),
                             2: ("material_key", "string", False),
                             3: ("obj_type", "varint", False),
@@ -153,10 +153,35 @@ TABLES = {
                             10: ("partner_compounds2", "string", True),
                             11: ("activity", "bool", False)},
     "ProtoModuleBondsGenerator": {1: ("generators", "ProtoBondsGenerator", True)},
+    "ProtoTriangle": {1: ("vert1", _V, False), 2: ("vert2", _V, False),
+                      3: ("vert3", _V, False)},
+    "ProtoAnalysisVolume": {1: ("version", "varint", False),
+                            2: ("base_geometry", "ProtoBaseGeometry", False),
+                            3: ("triangles", "ProtoTriangle", True),
+                            4: ("center", _V, False)},
+    "ProtoCompoundFraction": {1: ("fractionName", "string", False),
+                              2: ("compoundKey", "string", False),
+                              3: ("diameter", "double", False),
+                              4: ("fraction", "double", False),
+                              5: ("contact_diameter", "double", False)},
+    "ProtoMixture": {1: ("uniqueKey", "string", False), 2: ("mixtureName", "string", False),
+                     3: ("fraction", "ProtoCompoundFraction", True)},
+    "ProtoPackageGenerator": {1: ("volume_name", "string", False),
+                              8: ("mixture_key", "string", False),
+                              10: ("porosity", "double", False),
+                              11: ("max_overlap", "double", False),
+                              12: ("max_iterations", "varint", False),
+                              13: ("init_velocity", _V, False),
+                              15: ("volume_active", "bool", False),
+                              16: ("volume_key", "string", False),
+                              17: ("inside_geometry", "bool", False)},
+    "ProtoModulePackageGenerator": {1: ("generators", "ProtoPackageGenerator", True),
+                                    2: ("simulator_type", "varint", False),
+                                    3: ("verlet_coeff", "double", False)},
     "ProtoModulesData": {1: ("simulator", "ProtoModuleSimulator", False),
                          2: ("objects_generator", "bytes", False),
                          3: ("bonds_generator", "ProtoModuleBondsGenerator", False),
-                         4: ("package_generator", "bytes", False),
+                         4: ("package_generator", "ProtoModulePackageGenerator", False),
                          5: ("model_manager", "ProtoModuleModelManager", False),
                          6: ("materials_database", "ProtoMaterialsDatabase", False)},
     "ProtoBlockDescriptor": {1: ("start_time", "double", False),
@@ -380,7 +405,7 @@ def script_of(mdem):
     # MUSEN's defaults (2, on) are what a script without these keys runs with
     if simulator.get("verlet_dist_coeff", 2.0) != 2.0:
         script["VERLET_COEF"] = _text(simulator["verlet_dist_coeff"])
-    if not simulator.get("verlet_auto_adjust", False):
+    if not simulator.get("verlet_auto_adjust", "simulator" not in mdem.modules):
         script["VERLET_AUTO"] = "0"
     models = list(manager.get("models", []))
     models += [manager[k] for k in _OLD_MODELS if manager.get(k, {}).get("path")]
@@ -468,6 +493,51 @@ def scene_of(mdem):
         if info.get(field):
             scene.unmapped.append(f"{len(info[field])} {what}(s) not mapped")
     return scene
+
+
+def package_tables(mdem):
+    """({name and key: analysis volume}, {name and key: mixture}) of a .mdem file: a
+    volume as {name, key, shape (0 sphere, 1 box, 2 cylinder, 3 hollow sphere, 5 STL),
+    sizes (m), rotation (3x3), triangles (T,3,3) m}, a mixture as {name, key, fractions:
+    [(compound, diameter, contact diameter (m), number fraction)]}."""
+    volumes = {}
+    for v in mdem.info.get("analysis_volume", []):
+        base = v.get("base_geometry", {})
+        rotation = base.get("rotation")
+        matrix = (np.array([vector(rotation.get(f"v{k}")) for k in (1, 2, 3)])
+                  if rotation else np.eye(3))
+        triangles = np.array([[vector(t.get(f"vert{k}")) for k in (1, 2, 3)]
+                              for t in v.get("triangles", [])]).reshape(-1, 3, 3)
+        entry = {"name": base.get("name", ""), "key": base.get("key", ""),
+                 "shape": base.get("shape", 0), "sizes": base.get("sizes", []),
+                 "rotation": matrix, "triangles": triangles}
+        volumes[entry["key"]] = volumes.setdefault(entry["name"], entry)
+    mixtures = {}
+    for m in mdem.modules.get("materials_database", {}).get("mixture", []):
+        entry = {"name": m.get("mixtureName", ""), "key": m.get("uniqueKey", ""),
+                 "fractions": [(f.get("compoundKey", ""), f.get("diameter", 0.0),
+                                f.get("contact_diameter", 0.0), f.get("fraction", 0.0))
+                               for f in m.get("fraction", [])]}
+        mixtures[entry["key"]] = mixtures.setdefault(entry["name"], entry)
+    return volumes, mixtures
+
+
+def package_generators(mdem):
+    """The package generators of a .mdem file: [{active, name, volume, mixture (as
+    ``package_tables`` gives them; None when the file has no such key), porosity,
+    max_overlap (m), velocity (m/s), inside_geometry}]."""
+    volumes, mixtures = package_tables(mdem)
+    out = []
+    for g in mdem.modules.get("package_generator", {}).get("generators", []):
+        out.append({"active": g.get("volume_active", False),
+                    "name": g.get("volume_name", ""),
+                    "volume": volumes.get(g.get("volume_key", "")),
+                    "mixture": mixtures.get(g.get("mixture_key", "")),
+                    "porosity": g.get("porosity", 0.0),
+                    "max_overlap": g.get("max_overlap", 0.0),
+                    "velocity": vector(g.get("init_velocity")),
+                    "inside_geometry": g.get("inside_geometry", False)})
+    return out
 
 
 def bond_generators(mdem):

@@ -878,3 +878,73 @@ def generate_bonds(scene, generators):
                 (0.0, 1e300), time=left.time, times=1)
             made += 1
     return made
+
+
+def package_volume(volume):
+    """A MUSEN analysis volume (``musen_mdem.package_generators``) as a bondem container
+    and its MUSEN volume (m^3, what MUSEN fills): a sphere, an axis-aligned box or a
+    cylinder from its sizes about its mesh's centre, any other (a turned box, a hollow
+    sphere, an STL volume) as the inside of its mesh."""
+    from ..generate import Box, Cylinder, MeshVolume, Sphere
+    triangles = volume["triangles"]
+    if triangles.shape[0] == 0:
+        raise InputError(f"analysis volume {volume['name']!r} has no mesh", file=None)
+    centre = 0.5 * (triangles.reshape(-1, 3).min(axis=0) + triangles.reshape(-1, 3).max(axis=0))
+    sizes, shape, rotation = list(volume["sizes"]), volume["shape"], volume["rotation"]
+    if shape == 0 and sizes:
+        return Sphere(centre, sizes[0]), 4.0 * math.pi * sizes[0] ** 3 / 3.0
+    if shape == 1 and len(sizes) >= 3 and np.allclose(rotation, np.eye(3)):
+        half = 0.5 * np.array(sizes[:3])
+        return Box(centre - half, centre + half), sizes[0] * sizes[1] * sizes[2]
+    if shape == 2 and len(sizes) >= 2:
+        return (Cylinder(centre, sizes[0], sizes[1], tuple(rotation @ [0.0, 0.0, 1.0])),
+                math.pi * sizes[0] ** 2 * sizes[1])
+    import trimesh
+    mesh = trimesh.Trimesh(triangles.reshape(-1, 3),
+                           np.arange(triangles.shape[0] * 3).reshape(-1, 3), process=True)
+    container = MeshVolume(mesh)
+    return container, (4.0 * math.pi / 3.0 * (sizes[0] ** 3 - sizes[1] ** 3)
+                       if shape == 3 and len(sizes) >= 2 else container.volume)
+
+
+def generate_package(scene, generator, seed=0):
+    """MUSEN's package generator on ``scene`` (a MusenScene): ``generator`` as
+    ``musen_mdem.package_generators`` gives it. MUSEN's counts (per fraction, the whole
+    part of (1 - porosity) V / sum_k f_k pi d_k^3 / 6 times f_i), packed by bondem's
+    generator (``generate.pack_spheres``, seeded: MUSEN's own placement is random) inside
+    the volume, overlaps below MUSEN's absolute limit, with the generator's initial
+    velocity. Returns (number of spheres added, notes)."""
+    from ..generate import pack_spheres
+    notes = []
+    volume, mixture = generator["volume"], generator["mixture"]
+    if volume is None or mixture is None:
+        raise InputError(f"package generator {generator['name']!r}: its "
+                         f"{'volume' if volume is None else 'mixture'} is not in the file",
+                         file=None)
+    container, fill = package_volume(volume)
+    fractions = [f for f in mixture["fractions"] if f[1] > 0 and f[3] > 0]
+    solid = (1.0 - generator["porosity"]) * fill
+    mean = sum(f[3] * math.pi / 6.0 * f[1] ** 3 for f in fractions)
+    counts = [int(solid / mean * f[3]) for f in fractions]
+    radii = np.repeat([0.5 * f[1] for f in fractions], counts)
+    compounds = np.repeat([f[0] for f in fractions], counts)
+    if radii.size == 0:
+        return 0, notes
+    if any(f[2] not in (0.0, f[1]) for f in fractions):
+        notes.append(f"package generator {generator['name']!r}: contact diameters other "
+                     "than the diameters are kept but not used by bondem")
+    overlap = float(np.clip(generator["max_overlap"] / radii.min(), 1e-6, 0.05))
+    position, radius = pack_spheres(container, radius=radii,
+                                    solids_fraction=min(max(1.0 - generator["porosity"],
+                                                            1e-6), 0.65),
+                                    seed=seed, max_overlap=overlap)
+    contact = np.repeat([0.5 * (f[2] or f[1]) for f in fractions], counts)
+    ident = max(scene.objects, default=-1) + 1
+    for k in range(radius.size):
+        scene.objects[ident] = MusenObject(ident, SPHERE, [float(radius[k]),
+                                                          float(contact[k])],
+                                           str(compounds[k]), (0.0, 1e300), time=0.0,
+                                           coordinates=tuple(map(float, position[k])),
+                                           velocity=tuple(generator["velocity"]), times=1)
+        ident += 1
+    return int(radius.size), notes
