@@ -446,3 +446,17 @@ def test_a_package_generator_job_fills_musens_volume_with_musens_counts(tmp_path
 def scene_spheres(mdem):
     from bondem.io.musen_mdem import scene_of
     return [o for o in scene_of(mdem).objects.values() if o.type == 1]
+
+
+@pytest.mark.parametrize("line", ["BOND_GEN_MAXDIST 0 3e-4", "BOND_GEN_MAXDIST 1 far",
+                                  "BOND_GEN_DIAMETER 1"])
+def test_bad_generator_lines_name_the_job_and_key(tmp_path, line):
+    folder = tmp_path / "bondgen"
+    folder.mkdir()
+    (tmp_path / "scene.txt").write_bytes((DATA / "scene.txt").read_bytes())
+    script = (DATA / "bondgen" / "script.txt").read_text()
+    (folder / "script.txt").write_text(script.replace("BOND_GEN_MAXDIST 1 3e-4", line))
+    result = CliRunner().invoke(main, ["run", str(folder / "script.txt")])
+    assert result.exit_code == 2, result.output
+    assert "job 2" in result.output and line.split()[0] in result.output
+    assert not (folder / "work").exists()

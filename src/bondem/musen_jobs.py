@@ -110,8 +110,8 @@ def read_jobs(path):
     for job in jobs:
         if job.component in OTHER_COMPONENTS:
             raise InputError(f"job {job.number}: component {job.component} is not run by "
-                             f"bondem (it runs {', '.join(COMPONENTS)}; bondem generate "
-                             "packs and bonds: docs/musen_migration.md)", file=path)
+                             f"bondem (it runs {', '.join(COMPONENTS)}: "
+                             "docs/musen_migration.md)", file=path)
         if job.source is None or job.result is None:
             raise InputError(f"job {job.number} ({job.component}): needs SOURCE_FILE and "
                              "RESULT_FILE", file=path)
@@ -148,8 +148,8 @@ def plan(jobs, path):
         if job.component in ("SIMULATOR", "BONDS_GENERATOR") and maker is not None \
                 and maker.component not in SCENE_MAKERS:
             raise InputError(f"job {job.number}: a {job.component} job reads a scene (a "
-                             ".mdem file or the result of an IMPORT_FROM_TEXT or "
-                             "BONDS_GENERATOR job), not a run", file=path)
+                             ".mdem file or the result of an "
+                             f"{', '.join(SCENE_MAKERS)} job), not a run", file=path)
         if job.component == "IMPORT_FROM_TEXT" and maker is not None:
             raise InputError(f"job {job.number}: IMPORT_FROM_TEXT reads a text file",
                              file=path)
@@ -171,7 +171,8 @@ def source_scene(job, scenes):
 
 
 def generators_of(job, source):
-    """The bond generators of BONDS_GENERATOR job ``job``: those of its .mdem source, then
+    """The bond generators of BONDS_GENERATOR job ``job``: those of the .mdem file its
+    scene comes from (``source``), then
     the job's BOND_GEN_<KEY> INDEX VALUE lines over them (index from 1; a new index adds a
     generator with MUSEN's defaults)."""
     from .io.musen_mdem import MdemFile, bond_generators
@@ -183,7 +184,7 @@ def generators_of(job, source):
             continue
         words = rest.split(None, 1)
         try:
-            index = int(words[0]) - 1
+            index = _index(words[0])
             value = words[1].strip()
             if key != "BOND_GEN_MATERIAL":
                 value = float(value)
@@ -210,7 +211,7 @@ def package_job(job):
             continue
         words = rest.split()
         try:
-            index = int(words[0]) - 1
+            index = _index(words[0])
             value = words[1:]
             while len(generators) <= index:
                 generators.append({"active": True, "name": "Generator", "volume": None,
@@ -233,6 +234,14 @@ def package_job(job):
             raise InputError(f"job {job.number}: expected {key} INDEX VALUE, got "
                              f"{rest!r}", key=key) from None
     return generators
+
+
+def _index(word):
+    """A generator's index of a script line (from 1) as a list index."""
+    index = int(word) - 1
+    if index < 0:
+        raise ValueError(word)
+    return index
 
 
 def _named(table, name, job, key):
@@ -304,7 +313,7 @@ def run_script(path, *, workers=1, echo=print):
                  "that follow)")
         elif job.component == "BONDS_GENERATOR":
             scene, script, release, source = source_scene(job, scenes)
-            made = generate_bonds(scene, generators_of(job, job.source))
+            made = generate_bonds(scene, generators_of(job, source))
             scenes[job.result] = (scene, script, release, source)
             written[job.number] = job.result
             echo(f"job {job.number}: {job.component}: {made} bonds (read by the jobs "
