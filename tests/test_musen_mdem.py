@@ -229,7 +229,11 @@ def test_damaged_truncated_and_foreign_files_end_in_one_line_errors(tmp_path):
     assert len(result.output.strip().splitlines()) == 1
 
 
-JOBS = DATA / "jobs"   # script.txt, run by the real cmusen 1.74.2: musen_*.mdem
+# script.txt run by the real cmusen 1.74.2: musen_breaking.mdem from the whole script,
+# musen_adhesive.mdem from its jobs 3 and 4 alone: in one cmusen run, the second
+# simulation also keeps the first one's Hertz-Mindlin contact models active (measured:
+# 1.3e-5 m apart after 2e-4 s; the same models in both jobs: equal to the job alone)
+JOBS = DATA / "jobs"
 
 
 def mdem_frames(path, n):
@@ -244,19 +248,21 @@ def mdem_frames(path, n):
 
 def copy_jobs(folder):
     folder.mkdir()
-    for name in ("scene.txt", "script.txt"):
+    (folder / "scene.txt").write_bytes((DATA / "scene.txt").read_bytes())
+    for name in ("scene2.txt", "script.txt"):
         (folder / name).write_bytes((JOBS / name).read_bytes())
     return folder / "script.txt"
 
 
 def test_a_cmusen_script_runs_to_the_real_cmusen_runs_of_it(tmp_path):
-    """Two simulations of one imported scene (Hertz-Mindlin with breaking bonds and
-    STOP_CRITERION BROKEN_BONDS 1; JKR without breakage) and a text export: bondem's runs
-    follow cmusen's to round-off, and stop at the saved frame where MUSEN stopped."""
+    """Two scenes imported, each simulated with other models (Hertz-Mindlin with
+    breaking bonds and STOP_CRITERION BROKEN_BONDS 1; JKR with an unbreakable bond), and a
+    text export: bondem's runs follow cmusen's runs of the jobs to round-off, and stop at
+    the saved frame where MUSEN stopped."""
     from bondem.musen_jobs import run_script
     script = copy_jobs(tmp_path / "jobs")
     written = run_script(script, echo=lambda line: None)
-    assert sorted(written) == [1, 2, 3, 4]
+    assert sorted(written) == [1, 2, 3, 4, 5]
     for name in ("breaking", "adhesive"):
         time, position, velocity = mdem_frames(JOBS / f"musen_{name}.mdem", 9)
         with h5py.File(tmp_path / "jobs" / "work" / name / "results.h5", "r") as f:
@@ -276,18 +282,22 @@ def test_a_cmusen_script_runs_to_the_real_cmusen_runs_of_it(tmp_path):
 
 
 def test_a_script_on_dask_equals_its_jobs_run_one_by_one(tmp_path):
-    """The two simulations read only the imported scene: with two workers they run side
+    """The two simulations read only the imported scenes: with two workers they run side
     by side (Dask); each equals, bit for bit, the same job run alone (bondem import musen
-    with the job's keys as its script, then bondem run)."""
+    of its scene with the job's keys as its script, then bondem run)."""
     from bondem.musen_jobs import read_jobs, run_script
     script = copy_jobs(tmp_path / "jobs")
     run_script(script, workers=2, echo=lambda line: None)
     runner = CliRunner()
-    for job in read_jobs(script)[1:3]:
+    jobs = read_jobs(script)
+    texts = {job.result: job.source for job in jobs if job.component == "IMPORT_FROM_TEXT"}
+    simulations = [job for job in jobs if job.component == "SIMULATOR"]
+    assert len(simulations) == 2 and len({texts[j.source] for j in simulations}) == 2
+    for job in simulations:
         alone = tmp_path / f"alone{job.number}"
         alone.mkdir()
         (alone / "script.txt").write_text("".join(f"{k} {v}\n" for k, v in job.keys.items()))
-        result = runner.invoke(main, ["import", "musen", str(JOBS / "scene.txt"), "--script",
+        result = runner.invoke(main, ["import", "musen", str(texts[job.source]), "--script",
                                       str(alone / "script.txt"), "--out", str(alone)])
         assert result.exit_code == 0, result.output
         result = runner.invoke(main, ["run", str(alone / "scene.toml"), "--out",
