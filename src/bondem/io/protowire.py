@@ -16,6 +16,7 @@ _SCALAR_WIRE = {"double": FIXED64, "float": FIXED32, "varint": VARINT, "sint": V
                 "bool": VARINT}
 _D = struct.Struct("<d")
 _F = struct.Struct("<f")
+_VECTOR = struct.Struct("<xdxdxd")
 
 
 class WireError(ValueError):
@@ -70,6 +71,22 @@ def _skip(wire, buf, k):
     raise WireError(f"unsupported wire type {wire}")
 
 
+_VECTORS = {}
+
+
+def _vector_names(kind, tables):
+    """The field names of message ``kind`` if it is three doubles numbered 1, 2, 3 (read
+    in one unpack), else None."""
+    key = (id(tables), kind)
+    if key not in _VECTORS:
+        table = tables.get(kind)
+        _VECTORS[key] = (tuple(table[f][0] for f in (1, 2, 3))
+                         if table is not None and sorted(table) == [1, 2, 3]
+                         and all(table[f][1:] == ("double", False) for f in (1, 2, 3))
+                         else None)
+    return _VECTORS[key]
+
+
 def decode(buf, message, tables):
     """The message ``message`` of ``tables`` in ``buf`` (bytes) as a dict {field name:
     value}; repeated fields are lists, absent ones are absent, unknown fields are skipped.
@@ -93,7 +110,11 @@ def decode(buf, message, tables):
                 raise WireError(f"field {name} of {message} runs past its end")
             chunk = buf[k:k + size]
             k += size
-            if kind in tables:
+            names = _vector_names(kind, tables) if size == 27 else None
+            if names and chunk[0] == 0x09 and chunk[9] == 0x11 and chunk[18] == 0x19:
+                # three doubles as fields 1, 2, 3 (a vector, MUSEN's commonest message)
+                value = dict(zip(names, _VECTOR.unpack(chunk)))
+            elif kind in tables:
                 value = decode(chunk, kind, tables)
             elif kind == "string":
                 try:
