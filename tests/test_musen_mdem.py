@@ -22,7 +22,7 @@ from bondem.cli import main
 from bondem.errors import InputError
 from bondem.io.musen_mdem import (MdemFile, block_size, break_modes, import_mdem,
                                   import_mdem_results, musen_release)
-from bondem.io.musen_text import import_musen
+from bondem.io.musen_text import import_musen, read_series
 
 DATA = Path(__file__).parent / "data" / "musen_mdem"
 RUNS = {"170": "1.70.0", "174": "1.74.2"}
@@ -32,36 +32,8 @@ SCENE_FILES = ("scene.toml", "particles.csv", "bonds.csv", "walls_0.stl")
 def export_series(path):
     """MUSEN's text export as {object id: (type, geometry, activity, [(time, {command:
     values})])}; every number as MUSEN wrote it (17 digits)."""
-    widths = {12: 3, 15: 3, 16: 3, 20: 3, 18: 1, 31: 4, 36: 9, 37: 1, 42: 3, 43: 1,
-              44: 9, 45: 3}
-    objects = {}
-    for line in gzip.open(path, "rt"):
-        words = line.split()
-        if not words or words[0] != "0":
-            continue
-        ident, kind = int(words[1]), int(words[3])
-        k = 4
-        geometry = {1: 2, 9: 4, 14: 0}[kind]
-        assert words[k] == "5"
-        geometry_values = [float(w) for w in words[k + 1:k + 1 + geometry]]
-        k += 1 + geometry
-        assert words[k] == "23"
-        k += 2
-        assert words[k] == "24"
-        activity = (float(words[k + 1]), float(words[k + 2]))
-        k += 3
-        points = []
-        while k < len(words):
-            command = int(words[k])
-            if command == 2:
-                points.append((float(words[k + 1]), {}))
-                k += 2
-                continue
-            n = widths[command]
-            points[-1][1][command] = [float(w) for w in words[k + 1:k + 1 + n]]
-            k += 1 + n
-        objects[ident] = (kind, geometry_values, activity, points)
-    return objects
+    objects, _ = read_series(gzip.open(path, "rt"))
+    return {i: (o[0], o[1], o[3], o[4]) for i, o in objects.items()}
 
 
 def test_block_sizes_follow_musens_table():

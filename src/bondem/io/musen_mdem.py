@@ -751,36 +751,6 @@ def _property(kind, value):
                                                    "parameter": [float(value)]}]}
 
 
-def _text_objects(lines):
-    """Objects ({id: (type, geometry, compound, activity, [(time, {command: values})])})
-    and scene lines of MUSEN text written by ``musen_text.export_lines``."""
-    width = {12: 3, 15: 3, 16: 3, 31: 4}
-    objects, scene = {}, []
-    for line in lines:
-        words = line.split()
-        if words[0] != "0":
-            scene.append(words)
-            continue
-        ident, kind = int(words[1]), int(words[3])
-        count = {SPHERE: 2, SOLID_BOND: 4, TRIANGULAR_WALL: 0}[kind]
-        geometry = [float(w) for w in words[5:5 + count]]
-        k = 5 + count
-        compound = words[k + 1]
-        activity = (float(words[k + 3]), float(words[k + 4]))
-        k += 5
-        points = []
-        while k < len(words):
-            command = int(words[k])
-            if command == 2:
-                points.append((float(words[k + 1]), {}))
-                k += 2
-                continue
-            points[-1][1][command] = [float(w) for w in words[k + 1:k + 1 + width[command]]]
-            k += 1 + width[command]
-        objects[ident] = (kind, geometry, compound, activity, points)
-    return objects, scene
-
-
 def _properties(words):
     return {int(float(words[k])): float(words[k + 1]) for k in range(3, len(words) - 1, 2)}
 
@@ -788,7 +758,8 @@ def _properties(words):
 def mdem_storage(lines, keys):
     """(ProtoSimulationStorage dict without its blocks, [(time, [per-object dicts])]) of
     MUSEN text lines and cmusen SIMULATOR keys ({KEY: text})."""
-    objects, scene = _text_objects(lines)
+    from .musen_text import read_series
+    objects, scene = read_series(lines)
     count = max(objects) + 1 if objects else 0
     times = sorted({t for o in objects.values() for t, _ in o[4]})
     frames = [[{} for _ in range(count)] for _ in times]

@@ -242,6 +242,43 @@ def _object_line(scene, tokens, path, number):
             obj.angular_velocity = tuple(values[6:9])
 
 
+def read_series(lines):
+    """Every object line of MUSEN text (an iterable of lines) with all its time points:
+    ({id: (type, geometry values, compound, activity (start, end) s, [(time s, {command:
+    values})])}, the other lines split in words). Numbers as written."""
+    objects, scene = {}, []
+    geometry_width = {SPHERE: 2, SOLID_BOND: 4, LIQUID_BOND: 4, TRIANGULAR_WALL: 0}
+    for line in lines:
+        words = line.split()
+        if not words:
+            continue
+        if words[0] != "0":
+            scene.append(words)
+            continue
+        kind, geometry, compound, activity, points = 0, [], "", (0.0, 1e300), []
+        ident, k = int(words[1]), 2
+        while k < len(words):
+            command = int(float(words[k]))
+            if command == 1:
+                kind, k = int(words[k + 1]), k + 2
+            elif command == 5:
+                count = geometry_width[kind]
+                geometry, k = [float(w) for w in words[k + 1:k + 1 + count]], k + 1 + count
+            elif command == 23:
+                compound, k = words[k + 1], k + 2
+            elif command == 24:
+                activity, k = (float(words[k + 1]), float(words[k + 2])), k + 3
+            elif command == 2:
+                points.append((float(words[k + 1]), {}))
+                k += 2
+            else:
+                n = _WIDTH[command]
+                points[-1][1][command] = [float(w) for w in words[k + 1:k + 1 + n]]
+                k += 1 + n
+        objects[ident] = (kind, geometry, compound, activity, points)
+    return objects, scene
+
+
 def read_script(path) -> dict:
     """The keys of a cmusen script that a scene needs ({KEY: rest of the line}), from its
     SIMULATOR job (or the whole file if it has none)."""
