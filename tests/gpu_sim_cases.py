@@ -135,6 +135,20 @@ def case_musen_bonds_match_cpu():
     case_bonds_match_cpu(musen_compat=True)
 
 
+def fluid_cluster():
+    """bonded_cluster in a dense liquid that flows past it (Di Felice drag in a bed of
+    voidage 0.7, buoyancy): every branch of the fluid force."""
+    model, state = bonded_cluster()
+    model.fluid = bondem.model.fluid_array(density=800.0, viscosity=2e-3,
+                                           velocity=(1.0, 0.5, -0.2), drag="di_felice",
+                                           buoyancy=True, voidage=0.7)
+    return model, state
+
+
+def case_fluid_match_cpu():
+    case_bonds_match_cpu(system=fluid_cluster)
+
+
 def case_bonds_match_cpu(steps=30, system=bonded_cluster, musen_compat=False, breaks=True,
                          laws=lambda backend: [], time_step="auto"):
     """GPU (simulator) and CPU runs of the same cluster agree to round-off."""

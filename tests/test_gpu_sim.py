@@ -45,6 +45,13 @@ def test_bond_path_matches_cpu_under_simulator():
     assert "ok" in out
 
 
+def test_fluid_forces_match_cpu_under_simulator():
+    """The bonded cluster in a flowing liquid (drag, buoyancy): the CUDA kernel takes the
+    fluid array and the same physics function as the CPU's."""
+    out = run_case("fluid_match_cpu")
+    assert "velocity" in out and "energy work_external" in out
+
+
 def test_periodic_musen_start_matches_cpu_under_simulator():
     """A bonded ring across a periodic boundary, MUSEN-compatible start-up, 20 steps."""
     run_case("periodic_match_cpu")

@@ -15,6 +15,9 @@ import numpy as np
 from .physics import bond_models, contact_models
 from .physics.bond_elastic import CRITERION_CODES
 from .physics.bond_models import bond_material_schema
+from .physics.field_fluid import (DRAG_LAWS, FLUID_BUOYANCY, FLUID_COLUMNS, FLUID_DENSITY,
+                                  FLUID_DRAG, FLUID_VELOCITY, FLUID_VISCOSITY,
+                                  FLUID_VOIDAGE)
 
 INDEX = np.int64
 
@@ -140,7 +143,8 @@ class Model:
     fixed (N,) bool: velocity prescribed, not integrated (zero velocity = clamped);
     external_force (N,3) N and external_moment (N,3) N m: constant loads;
     bond_pairs (B,2) particle indices i, j; bond_diameter (B,) m; bond_initial_length (B,) m;
-    bond_material (B,) index into bond_materials; gravity (3,) m/s^2;
+    bond_material (B,) index into bond_materials; gravity (3,) m/s^2; fluid: the fluid
+    around the particles (``fluid_array``; drag and buoyancy, physics/field_fluid.py);
     periodic (3,) bool with box_low/box_high (3,) m the periodic cell (also the domain
     outside which a particle means a blown-up run, along non-periodic axes where finite);
     damping: local (non-viscous) damping coefficient in [0, 1), 0 for none.
@@ -159,6 +163,7 @@ class Model:
     bond_material: np.ndarray
     bond_materials: list
     gravity: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    fluid: np.ndarray = field(default_factory=lambda: fluid_array())
     periodic: np.ndarray = field(default_factory=lambda: np.zeros(3, dtype=bool))
     box_low: np.ndarray = field(default_factory=lambda: np.full(3, -np.inf))
     box_high: np.ndarray = field(default_factory=lambda: np.full(3, np.inf))
@@ -170,6 +175,11 @@ class Model:
                 f"{len(self.materials)} materials, {len(self.bond_materials)} bond materials, "
                 f"{int(np.count_nonzero(self.fixed))} fixed, periodic {periodic}, "
                 f"gravity {self.gravity.tolist()} m/s^2, damping {self.damping:g})")
+
+    @property
+    def has_fluid(self) -> bool:
+        """Whether a fluid acts (drag or buoyancy)."""
+        return bool(self.fluid[FLUID_DRAG] != 0.0 or self.fluid[FLUID_BUOYANCY] != 0.0)
 
     @property
     def n_particles(self) -> int:
@@ -333,11 +343,42 @@ def bond_separation(position, pairs, box_length, periodic):
     return separation
 
 
+def fluid_array(density=0.0, viscosity=0.0, velocity=(0.0, 0.0, 0.0), drag="none",
+                buoyancy=False, voidage=1.0):
+    """The fluid around the particles as the particle loop takes it (physics/
+    field_fluid.py's FLUID_* columns): density kg/m^3 (>= 0), dynamic viscosity Pa s
+    (> 0 for a drag law), velocity (3,) m/s, drag one of DRAG_LAWS, buoyancy (Archimedes'
+    force, needs the density), voidage in (0, 1]. ValueError names a bad one."""
+    if drag not in DRAG_LAWS:
+        raise ValueError(f"drag = {drag!r}; allowed: {', '.join(DRAG_LAWS)}")
+    velocity = np.asarray(velocity, dtype=np.float64)
+    if velocity.shape != (3,) or not np.all(np.isfinite(velocity)):
+        raise ValueError(f"velocity: expected 3 finite numbers, got {velocity!r}")
+    if not (math.isfinite(density) and density >= 0.0):
+        raise ValueError(f"density = {density!r}; allowed [0, inf)")
+    if not (math.isfinite(viscosity) and viscosity >= 0.0):
+        raise ValueError(f"viscosity = {viscosity!r}; allowed [0, inf)")
+    if drag != "none" and viscosity == 0.0:
+        raise ValueError(f"drag = {drag!r} needs viscosity > 0 (Pa s)")
+    if drag not in ("none", "stokes") and density == 0.0:
+        raise ValueError(f"drag = {drag!r} needs density > 0 (kg/m^3)")
+    if not (0.0 < voidage <= 1.0):
+        raise ValueError(f"voidage = {voidage!r}; allowed (0, 1]")
+    out = np.zeros(FLUID_COLUMNS)
+    out[FLUID_DRAG] = DRAG_LAWS[drag]
+    out[FLUID_DENSITY] = density
+    out[FLUID_VISCOSITY] = viscosity
+    out[FLUID_VELOCITY:FLUID_VELOCITY + 3] = velocity
+    out[FLUID_BUOYANCY] = 1.0 if buoyancy else 0.0
+    out[FLUID_VOIDAGE] = voidage
+    return out
+
+
 def make_system(position, radius, material, *, material_index=None, velocity=None,
                 angular_velocity=None, fixed=None, external_force=None, external_moment=None,
                 bonds=None, bond_diameter=None, bond_material=None, bond_material_index=None,
                 gravity=(0.0, 0.0, 0.0), periodic=(False, False, False), box_low=None,
-                box_high=None, damping=0.0):
+                box_high=None, damping=0.0, fluid=None):
     """Build a validated (Model, State) pair from plain arrays.
 
     position (N,3) m; radius (N,) or scalar m; material: a Material or a list of them
@@ -345,7 +386,8 @@ def make_system(position, radius, material, *, material_index=None, velocity=Non
     angular_velocity (N,3) rad/s; fixed (N,) bool; external_force (N,3) N;
     external_moment (N,3) N m; bonds (B,2) 0-based particle indices; bond_diameter (B,) or
     scalar m; bond_material: a BondMaterial or a list (then bond_material_index (B,));
-    gravity (3,) m/s^2; periodic (3,) bool with box_low/box_high (3,) m; damping: local
+    gravity (3,) m/s^2; fluid: ``fluid_array``'s (None: no fluid); periodic (3,) bool with
+    box_low/box_high (3,) m; damping: local
     damping coefficient in [0, 1). Bond initial lengths are the current distances
     (minimum image along periodic axes). Raises ValueError on inconsistent input.
     """
@@ -455,7 +497,9 @@ def make_system(position, radius, material, *, material_index=None, velocity=Non
         external_moment=_as_vectors("external_moment", external_moment, n),
         materials=materials, bond_pairs=bonds, bond_diameter=bond_diameter,
         bond_initial_length=initial_length, bond_material=bond_material_index,
-        bond_materials=bond_materials, gravity=gravity, periodic=periodic,
+        bond_materials=bond_materials, gravity=gravity,
+        fluid=fluid_array() if fluid is None else np.asarray(fluid, dtype=np.float64),
+        periodic=periodic,
         box_low=box_low, box_high=box_high, damping=float(damping))
     state = State(
         time=0.0, step=0, started=False, position=position,

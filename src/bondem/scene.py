@@ -18,11 +18,13 @@ import numpy as np
 from .errors import InputError, decode_text, unknown_key
 from .generate import bonds_from_gap, particles_from_generator
 from .io.csv_files import read_bonds, read_particles
-from .model import BondMaterial, Material, bond_material_schema, make_system, material_schema
+from .model import (BondMaterial, Material, bond_material_schema, fluid_array, make_system,
+                    material_schema)
 from .physics import contact_models
 from .physics import bond_models
 from .physics._registry import REQUIRED as _REQUIRED
 from .physics.contact_hertz_musen import MUSEN_VERSION, MUSEN_VERSIONS
+from .physics.field_fluid import DRAG_LAWS
 
 BACKENDS = ("cpu", "gpu")
 CONTACT_MODELS = (*contact_models.NAMES, "none")   # declared by physics/contact_*.py
@@ -101,7 +103,17 @@ MESH_KEYS = {
     "rotation_center": ("vector3", [0.0, 0.0, 0.0], -INF, INF, False, False),
     "velocity_profile": ("profile", None, None, None, None, None),
 }
-TOP_KEYS = ("simulation", "materials", "bond_materials", "particles", "bonds", "walls")
+TOP_KEYS = ("simulation", "materials", "bond_materials", "particles", "bonds", "walls",
+            "fluid")
+# [fluid]: drag and buoyancy (physics/field_fluid.py, docs/fields.md)
+FLUID_KEYS = {
+    "density": ("number", 0.0, 0.0, INF, True, False),
+    "viscosity": ("number", 0.0, 0.0, INF, True, False),
+    "velocity": ("vector3", [0.0, 0.0, 0.0], -INF, INF, False, False),
+    "drag": ("str", "none", tuple(DRAG_LAWS), None, None, None),
+    "buoyancy": ("bool", None, None, None, None, None),
+    "voidage": ("number", 1.0, 0.0, 1.0, False, True),
+}
 
 
 @dataclass
@@ -333,6 +345,17 @@ def _build(data, text, path):
         if key not in data:
             raise InputError("missing required table", file=path, key=key)
     sim = _check_table(data["simulation"], SIMULATION_KEYS, "simulation", path)
+    fluid = _check_table(data.get("fluid", {}), FLUID_KEYS, "fluid", path)
+    if fluid["buoyancy"] is None:   # a fluid with a density buoys its particles
+        fluid["buoyancy"] = fluid["density"] > 0.0
+    try:
+        fluid_values = fluid_array(**fluid)
+    except ValueError as error:
+        reason = str(error)
+        needed = [k for k in ("viscosity", "density") if f"needs {k}" in reason]
+        raise InputError(reason, file=path,
+                         key=f"fluid.{needed[0] if needed else reason.split()[0].rstrip(':')}"
+                         ) from None
     save_every_given = sim["save_every"] is not None
     if not save_every_given:
         sim["save_every"] = sim["end_time"] / 100.0   # rounded up to a step below
@@ -372,7 +395,7 @@ def _build(data, text, path):
             bond_material=bond_material_objects or None,
             bond_material_index=bond_material_index if bonds.shape[0] else None,
             gravity=sim["gravity"], periodic=periodic, box_low=sim["box_low"],
-            box_high=sim["box_high"], damping=sim["damping"])
+            box_high=sim["box_high"], damping=sim["damping"], fluid=fluid_values)
     except ValueError as error:
         raise InputError(str(error), file=path, key=_guess_key(str(error)))
     for name, outside in (("box_low", position < model.box_low),

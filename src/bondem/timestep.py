@@ -1,6 +1,8 @@
 """Stable time step of a model (SPEC section 1)."""
 import numpy as np
 
+from .physics.field_fluid import FLUID_DRAG, FLUID_VISCOSITY
+
 
 def step_count(end_time, time_step):
     """Steps of a run to ``end_time`` (s) with ``time_step`` (s): the nearest whole number,
@@ -11,7 +13,8 @@ def step_count(end_time, time_step):
 
 def time_scales(model, musen_compat=False):
     """Smallest time scale (s) of each kind: {"rayleigh", "bond_axial", "bond_bending"},
-    and those of the bond models in use (e.g. "bond_dashpot" of Kelvin bonds).
+    those of the bond models in use (e.g. "bond_dashpot" of Kelvin bonds), and
+    "fluid_drag", m / (3 pi mu d), when a fluid drags the particles.
 
     Rayleigh: pi r sqrt(rho / G) / (0.1631 nu + 0.8766) per particle. Bonds:
     sqrt(m_red L0 / (E A_b)) and sqrt(I_red L0 / (E I)), with the pair's reduced mass
@@ -43,6 +46,13 @@ def time_scales(model, musen_compat=False):
         for module in model.bond_models_used():
             bonds = np.flatnonzero(codes == module.CODE)
             scales.update(module.time_scales(model, bonds, reduced_mass[bonds], musen_compat))
+    fluid = getattr(model, "fluid", None)
+    if fluid is not None and fluid[FLUID_DRAG] != 0.0 and model.radius.size:
+        # a particle's velocity relaxes to the fluid's in m / (3 pi mu d) under Stokes drag;
+        # faster drag laws relax faster, by the factor their drag exceeds Stokes' at the
+        # Reynolds number they run at (docs/fields.md)
+        scales["fluid_drag"] = float((model.mass / (6.0 * np.pi * fluid[FLUID_VISCOSITY]
+                                                    * model.radius)).min())
     return scales
 
 

@@ -303,15 +303,15 @@ def gather_bond_loads(index, loads, force, moment, assign=False):
 
 
 @numba.njit(**_serial)
-def integrate_range(first, last, particles, bodies, force, moment, gravity, damping,
+def integrate_range(first, last, particles, bodies, force, moment, gravity, fluid, damping,
                     kick_dt, drift_dt, box, track_energy, energy):
     """``loops.integrate_particle`` for particles first to last - 1; returns the status
     of the last one that blew up (STATUS_OK if none)."""
     status = STATUS_OK
     for p in range(first, last):
         work, lost, code = integrate_particle(p, row3(force, p), row3(moment, p), particles,
-                                              bodies, gravity, damping, kick_dt, drift_dt,
-                                              box, track_energy)
+                                              bodies, gravity, fluid, damping, kick_dt,
+                                              drift_dt, box, track_energy)
         if track_energy:
             energy[p, 0] = work
             energy[p, 1] = lost
@@ -321,19 +321,20 @@ def integrate_range(first, last, particles, bodies, force, moment, gravity, damp
 
 
 @numba.njit(**_jit)
-def integrate(particles, bodies, force, moment, gravity, damping, kick_dt, drift_dt, box,
-              status, track_energy, energy):
+def integrate(particles, bodies, force, moment, gravity, fluid, damping, kick_dt, drift_dt,
+              box, status, track_energy, energy):
     """``loops.integrate_particle`` for every particle with its loads force (N), moment
-    (N m). Sets status[0] when a particle blows up. If track_energy, energy (N,2) receives
-    each particle's (work of gravity and external loads, energy removed by damping) in J
-    over this kick."""
+    (N m), gravity (m/s^2) and the fluid (physics/field_fluid.py). Sets status[0] when a
+    particle blows up. If track_energy, energy (N,2) receives each particle's (work of
+    gravity, the fluid and external loads, energy removed by damping) in J over this
+    kick."""
     # Energies go to per-particle slots, summed by the caller in a fixed order: a scalar
     # "+=" here would be a prange reduction, whose sum depends on the thread count (and
     # which numba 0.68 silently dropped, returning 0, inside this nested loop).
     n = particles.position.shape[0]
     for c in prange(chunks(n)):
         code = integrate_range(c * CHUNK, min(n, (c + 1) * CHUNK), particles, bodies, force,
-                               moment, gravity, damping, kick_dt, drift_dt, box,
+                               moment, gravity, fluid, damping, kick_dt, drift_dt, box,
                                track_energy, energy)
         if code != STATUS_OK:
             status[0] = code
@@ -414,7 +415,8 @@ def box(model, put=lambda a: a):
 def bodies(model, put=lambda a: a):
     """The model's per-particle constants as a ``loops.Bodies`` (kg, kg m^2, N, N m)."""
     return loops.Bodies(put(model.mass), put(model.inertia), put(model.fixed),
-                        put(model.external_force), put(model.external_moment))
+                        put(model.external_force), put(model.external_moment),
+                        put(model.radius))
 
 
 class ElasticBonds:
@@ -534,11 +536,12 @@ class Integrator:
     def advance(self, model, state, force, moment, kick_dt, drift_dt):
         """Kick velocities by kick_dt (s), drift positions by drift_dt (s); return status."""
         self.status[0] = STATUS_OK
-        # Energy bookkeeping only where gravity, external loads or damping act.
-        track = self._external or model.damping > 0.0 or bool(np.any(model.gravity))
+        # Energy bookkeeping only where gravity, a fluid, external loads or damping act.
+        track = (self._external or model.damping > 0.0 or bool(np.any(model.gravity))
+                 or model.has_fluid)
         integrate(particles(state), bodies(model), force, moment, model.gravity,
-                  model.damping, kick_dt, drift_dt, box(model), self.status, track,
-                  self.energy)
+                  model.fluid, model.damping, kick_dt, drift_dt, box(model), self.status,
+                  track, self.energy)
         if track:
             # a sum in a fixed order: the same bits whatever the thread count.
             work, dissipated = column_sums(self.energy)

@@ -44,7 +44,7 @@ from ..physics._registry import (PAIR_BETA, PAIR_E_STAR, PAIR_FRICTION,  # noqa:
 # What the bodies take, by name (a swapped pair of same-shaped arrays would otherwise
 # run silently). Units: SI throughout (m, m/s, rad/s, kg, kg m^2, N, N m, J, Pa).
 Particles = namedtuple("Particles", "position velocity angular_velocity")
-Bodies = namedtuple("Bodies", "mass inertia fixed external_force external_moment")
+Bodies = namedtuple("Bodies", "mass inertia fixed external_force external_moment radius")
 Box = namedtuple("Box", "low high length periodic")
 # strength: each bond's strength factor (Model.bond_strength_factors; 1 without scatter)
 Bonds = namedtuple("Bonds", "pairs diameter initial_length material strength")
@@ -368,13 +368,15 @@ def bond_energy(b, bonds, materials, state, position, box):
 # -- particles ----------------------------------------------------------------------------
 
 @body
-def integrate_particle(p, load_f, load_m, particles, bodies, gravity, damping, kick_dt,
-                       drift_dt, box, track_energy):
+def integrate_particle(p, load_f, load_m, particles, bodies, gravity, fluid, damping,
+                       kick_dt, drift_dt, box, track_energy):
     """Semi-implicit Euler for particle p: v += F/m kick_dt; x += v drift_dt;
-    w += M/I kick_dt, with its loads load_f (N), load_m (N m) and gravity, external
-    loads and local damping (Cundall: damping |F_k| against the sign of v_k, |M_k|
-    against w_k, per component). Fixed particles keep their velocity. Returns (work of
-    gravity and external loads, energy removed by damping) in J over this kick, each
+    w += M/I kick_dt, with its loads load_f (N), load_m (N m) and gravity, the fluid's
+    drag and buoyancy (``fluid``: physics/field_fluid.py's columns; the drag at the
+    velocity before the kick), external loads and local damping (Cundall: damping |F_k|
+    against the sign of v_k, |M_k| against w_k, per component). Fixed particles keep
+    their velocity. Returns (work of gravity, the fluid and external loads, energy
+    removed by damping) in J over this kick, each
     load times the mean of the old and new velocity (the leapfrog's exact change of
     kinetic energy; 0 unless track_energy: it costs a third of the step), and a status:
     STATUS_NOT_FINITE or STATUS_OUT_OF_DOMAIN if it blew up, else STATUS_OK; a periodic
@@ -386,8 +388,9 @@ def integrate_particle(p, load_f, load_m, particles, bodies, gravity, damping, k
     if not bodies.fixed[p]:
         mass = bodies.mass[p]
         inertia = bodies.inertia[p]
+        carried = fluid_force(fluid, bodies.radius[p], row3(v, p), gravity)
         for k in range(3):
-            applied = mass * gravity[k] + bodies.external_force[p, k]
+            applied = mass * gravity[k] + bodies.external_force[p, k] + carried[k]
             f = load_f[k] + applied
             mk = load_m[k] + bodies.external_moment[p, k]
             damp_f = 0.0

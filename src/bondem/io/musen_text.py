@@ -557,6 +557,11 @@ def to_bondem(scene: MusenScene, script: dict | None, out_dir, *, end_time=None,
             notes.append(f"{key} {script[key]}: no counterpart (bondem's contact list: "
                          "docs/musen_migration.md)")
     data = {"simulation": simulation, "materials": materials}
+    fluid, note = musen_fluid(script)
+    if fluid:
+        data["fluid"] = fluid
+    if note:
+        notes.append(note)
     if bond_materials:
         data["bond_materials"] = bond_materials
     data["particles"] = {"file": "particles.csv"}
@@ -597,6 +602,29 @@ def wall_groups(scene):
     if loose:
         groups.append(("walls", loose, ""))
     return [g for g in groups if g[1]]
+
+
+# MUSEN's ModelEFViscousField: its parameters and their defaults (kinematic viscosity
+# m^2/s, density kg/m^3)
+VISCOUS_FIELD = {"MEDIUM_VISCOSITY": 1.34e-5, "MEDIUM_DENSITY": 1.28}
+
+
+def musen_fluid(script):
+    """(bondem [fluid] table or None, note or None) of a cmusen script's MODEL_EF:
+    ModelEFViscousField (a still medium of kinematic viscosity MEDIUM_VISCOSITY and
+    density MEDIUM_DENSITY) is the "musen_viscous" drag without buoyancy; another
+    external force model is named in the note."""
+    name = script.get("MODEL_EF", "").split()
+    if not name:
+        return None, None
+    if name[0] != "ModelEFViscousField":
+        return None, f"external force model {name[0]}: not mapped (no such field in bondem)"
+    values = dict(VISCOUS_FIELD)
+    values.update({k: v for k, v in _params(script.get("MODEL_EF_PARAMS", "")).items()
+                   if k in values})
+    density = values["MEDIUM_DENSITY"]
+    return {"density": density, "viscosity": values["MEDIUM_VISCOSITY"] * density,
+            "drag": "musen_viscous", "buoyancy": False}, None
 
 
 def _is_number(text):

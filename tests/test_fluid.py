@@ -1,0 +1,228 @@
+"""A fluid around the particles: drag and buoyancy (physics/field_fluid.py, docs/fields.md).
+
+Closed forms: a sphere settling in a still fluid follows Stokes' exponential to its
+terminal velocity (rho_p - rho_f) g d^2 / (18 mu); at Re ~ 100 it ends at the speed where
+Schiller and Naumann's drag balances its weight less its buoyancy; at the fluid's density
+it does not move; a bonded cluster in a uniform flow takes up the flow's velocity at the
+rate its particles' drags sum to; the fluid's work closes the energy balance.
+"""
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.optimize import brentq
+
+import bondem
+from bondem.errors import InputError
+from bondem.model import Material, fluid_array, make_system
+from bondem.physics.field_fluid import drag_coefficient
+from bondem.scene import load_scene
+
+GRAVITY = (0.0, 0.0, -9.81)
+
+
+def settling(rho_p, d, fluid, gravity=GRAVITY):
+    """One sphere at rest in ``fluid``."""
+    glass = Material(name="glass", density=rho_p, young_modulus=1e9, poisson_ratio=0.3)
+    return make_system(np.array([[1e-3, -2e-3, 5e-3]]), np.array([0.5 * d]), [glass],
+                       gravity=gravity, fluid=fluid)
+
+
+def test_stokes_settling_follows_the_exponential_to_the_terminal_velocity():
+    rho_p, rho_f, mu, d = 2650.0, 998.0, 1.3e-3, 8e-5
+    gravity = (0.8, 0.0, -9.81)   # a tilted g: the settling follows it, not an axis
+    model, state = settling(rho_p, d, fluid_array(density=rho_f, viscosity=mu,
+                                                  drag="stokes", buoyancy=True), gravity)
+    tau = rho_p * d * d / (18.0 * mu)
+    terminal = (rho_p - rho_f) * d * d / (18.0 * mu) * np.array(gravity)
+    sim = bondem.Simulation(model, state, time_step=tau / 400, force_time_step=True)
+    sim.run(until=tau)
+    expected = terminal * (1.0 - math.exp(-sim.state.time / tau))
+    np.testing.assert_allclose(sim.state.velocity[0], expected, rtol=5e-3, atol=0)
+    sim.run(until=15 * tau)
+    np.testing.assert_allclose(sim.state.velocity[0], terminal, rtol=5e-3, atol=0)
+    # the walked distance: terminal (t - tau (1 - e^(-t / tau)))
+    t = sim.state.time
+    walked = terminal * (t - tau * (1.0 - math.exp(-t / tau)))
+    np.testing.assert_allclose(sim.state.position[0] - [1e-3, -2e-3, 5e-3], walked,
+                               rtol=5e-3, atol=0)
+
+
+def test_schiller_naumann_terminal_velocity_at_re_100():
+    rho_p, rho_f, mu, d = 2000.0, 1000.0, 1e-3, 1e-3
+    weight = (rho_p - rho_f) * math.pi / 6.0 * d ** 3 * 9.81
+
+    def balance(v):
+        re = rho_f * v * d / mu
+        return 0.5 * rho_f * drag_coefficient(2, re) * math.pi / 4 * d * d * v * v - weight
+
+    terminal = brentq(balance, 1e-6, 10.0, xtol=1e-14)
+    re = rho_f * terminal * d / mu
+    assert 80.0 < re < 120.0
+    # against the standard drag curve (Clift, Grace & Weber 1978: C_d = 1.09 at Re 100)
+    assert drag_coefficient(2, 100.0) == pytest.approx(1.09, rel=0.02)
+    model, state = settling(rho_p, d, fluid_array(density=rho_f, viscosity=mu,
+                                                  drag="schiller_naumann", buoyancy=True))
+    sim = bondem.Simulation(model, state, time_step=2e-5, force_time_step=True)
+    sim.run(until=0.4)
+    assert -sim.state.velocity[0, 2] == pytest.approx(terminal, rel=5e-3)
+    assert np.all(sim.state.velocity[0, :2] == 0.0)
+
+
+def test_a_particle_as_dense_as_the_fluid_floats():
+    model, state = settling(1030.0, 2e-4, fluid_array(density=1030.0, viscosity=1e-3,
+                                                      drag="schiller_naumann",
+                                                      buoyancy=True))
+    sim = bondem.Simulation(model, state, time_step=1e-5, force_time_step=True)
+    sim.step(1000)
+    assert np.abs(sim.state.velocity).max() < 1e-12 * 9.81 * sim.state.time
+    # without buoyancy nor drag it falls freely (the leapfrog's velocity half a step
+    # behind its time)
+    model, state = settling(1030.0, 2e-4, fluid_array(density=1030.0, viscosity=1e-3,
+                                                      drag="none", buoyancy=False))
+    sim = bondem.Simulation(model, state, time_step=1e-5, force_time_step=True)
+    sim.step(1000)
+    assert sim.state.velocity[0, 2] == pytest.approx(-9.81 * (sim.state.time - 0.5e-5),
+                                                     rel=1e-12)
+
+
+def test_a_bonded_cluster_takes_up_a_uniform_flow_at_its_summed_drag_rate():
+    """Four bonded spheres of two sizes at rest in a Stokes flow u, placed so that their
+    drag centre is their mass centre (two large ones across x, two small ones across y:
+    no torque, no spin): the momentum grows as sum_i 3 pi mu d_i (u - v_i) and the
+    cluster moves as one, so its velocity is u (1 - exp(-t / T)), T = M / (3 pi mu sum
+    d_i), between the large spheres' own relaxation time and the small ones'."""
+    glass = Material(name="glass", density=2500.0, young_modulus=1e7, poisson_ratio=0.3)
+    radius = np.array([1.5e-4, 1.5e-4, 1e-4, 1e-4])
+    centre = np.array([3e-3, -1e-3, 2e-3])
+    position = centre + np.array([[2e-4, 0.0, 0.0], [-2e-4, 0.0, 0.0], [0.0, 2.5e-4, 0.0],
+                                  [0.0, -2.5e-4, 0.0]])
+    bonds = np.array([[0, 2], [2, 1], [1, 3], [3, 0], [0, 1], [2, 3]])
+    u = np.array([0.02, -0.01, 0.005])
+    mu = 1.8e-3
+    binder = bondem.BondMaterial(young_modulus=1e7, poisson_ratio=0.3, breakage="none")
+    model, state = make_system(position, radius, glass, bonds=bonds, bond_diameter=1e-4,
+                               bond_material=binder,
+                               fluid=fluid_array(viscosity=mu, velocity=u, drag="stokes"))
+    total = model.mass.sum()
+    rate = 3.0 * math.pi * mu * 2.0 * radius.sum() / total
+    sim = bondem.Simulation(model, state)
+    sim.run(until=1.0 / rate)
+    mean = (model.mass[:, None] * sim.state.velocity).sum(axis=0) / total
+    np.testing.assert_allclose(mean, u * (1.0 - math.exp(-rate * sim.state.time)),
+                               rtol=5e-3)
+    # alone, the large spheres would lag and the small ones lead: the bonds hold them
+    alone = 3.0 * math.pi * mu * 2.0 * radius / model.mass
+    assert alone[0] < rate < alone[2]
+    assert np.abs(sim.state.velocity - mean).max() < 1e-3 * np.abs(u).max()
+    assert np.all(sim.state.bond_active)
+
+
+def test_the_fluid_work_closes_the_energy_balance():
+    rho_p, rho_f, mu, d = 2500.0, 1.2, 1.8e-5, 2e-4
+    model, state = settling(rho_p, d, fluid_array(density=rho_f, viscosity=mu,
+                                                  velocity=(0.3, 0.0, 0.1),
+                                                  drag="schiller_naumann", buoyancy=True))
+    sim = bondem.Simulation(model, state, time_step=1e-4, force_time_step=True)
+    before = sum(sim.kinetic_energy())
+    sim.run(until=0.5)
+    gained = sum(sim.kinetic_energy()) - before
+    assert gained > 0.0
+    assert sim.state.work_external == pytest.approx(gained, rel=1e-9)
+
+
+def test_di_felice_is_dallavalles_drag_in_a_lone_particle_and_grows_in_a_bed():
+    # eps = 1: C_d = (0.63 + 4.8 / sqrt(Re))^2 (Dallavalle), no voidage factor
+    assert drag_coefficient(3, 100.0) == pytest.approx((0.63 + 0.48) ** 2, rel=1e-14)
+    from bondem.physics.field_fluid import fluid_force
+    for eps in (1.0, 0.6):
+        fluid = fluid_array(density=1000.0, viscosity=1e-3, velocity=(0.1, 0.0, 0.0),
+                            drag="di_felice", voidage=eps)
+        force = fluid_force(fluid, 5e-4, (0.0, 0.0, 0.0), GRAVITY)
+        re = 1000.0 * eps * 0.1 * 1e-3 / 1e-3
+        chi = 3.7 - 0.65 * math.exp(-0.5 * (1.5 - math.log10(re)) ** 2)
+        expected = (0.5 * 1000.0 * drag_coefficient(3, re) * math.pi / 4 * 1e-6 * 0.01
+                    * eps ** (2.0 - chi))
+        assert force[0] == pytest.approx(expected, rel=1e-12)
+        assert force[1] == 0.0 and force[2] == 0.0
+    # the voidage factor eps^(2 - chi) > 1 for chi ~ 3.7: a bed drags harder
+    dense = fluid_force(fluid_array(density=1000.0, viscosity=1e-3, velocity=(0.1, 0, 0),
+                                    drag="di_felice", voidage=0.6), 5e-4, (0, 0, 0), GRAVITY)
+    lone = fluid_force(fluid_array(density=1000.0, viscosity=1e-3, velocity=(0.1, 0, 0),
+                                   drag="di_felice"), 5e-4, (0, 0, 0), GRAVITY)
+    assert dense[0] > 2.0 * lone[0]
+
+
+SCENE = """
+[simulation]
+end_time = 1e-3
+gravity = [0.0, 0.0, -9.81]
+[materials.glass]
+density = 2500.0
+young_modulus = 1e9
+poisson_ratio = 0.3
+[particles]
+file = "particles.csv"
+[fluid]
+{fluid}
+"""
+
+
+@pytest.mark.parametrize("fluid, key, message", [
+    ('drag = "stoke"\nviscosity = 1e-3', "fluid.drag", "schiller_naumann"),
+    ('drag = "stokes"', "fluid.viscosity", "needs viscosity"),
+    ('drag = "schiller_naumann"\nviscosity = 1e-3', "fluid.density", "needs density"),
+    ('voidage = 0.0', "fluid.voidage", "voidage"),
+    ('density = -1.0', "fluid.density", "density"),
+    ('speed = 1.0', "fluid.speed", "allowed"),
+])
+def test_bad_fluid_keys_are_named(tmp_path, fluid, key, message):
+    (tmp_path / "particles.csv").write_text("x,y,z,radius,material\n0,0,0,1e-4,glass\n")
+    (tmp_path / "scene.toml").write_text(SCENE.format(fluid=fluid))
+    with pytest.raises(InputError) as error:
+        load_scene(tmp_path / "scene.toml")
+    assert error.value.key == key and message in str(error.value)
+
+
+def test_a_scene_fluid_buoys_by_default_and_sets_the_time_step(tmp_path):
+    (tmp_path / "particles.csv").write_text("x,y,z,radius,material\n0,0,0,1e-4,glass\n")
+    (tmp_path / "scene.toml").write_text(SCENE.format(
+        fluid='density = 998.0\nviscosity = 1e-3\ndrag = "stokes"'))
+    scene = load_scene(tmp_path / "scene.toml")
+    assert scene.model.has_fluid and scene.model.fluid[6] == 1.0
+    sim = scene.make_simulation()
+    tau = 2500.0 * 2e-4 ** 2 / (18.0 * 1e-3)
+    from bondem.timestep import time_scales
+    assert time_scales(scene.model)["fluid_drag"] == pytest.approx(tau, rel=1e-12)
+    assert sim.time_step <= 0.2 * tau
+
+
+RUNS = Path(bondem.__file__).parent / "data" / "validation" / "musen-runs"
+
+
+def test_musens_viscous_field_imports_and_reproduces_the_real_musen_run(tmp_path):
+    """viscous_field: a run of the real MUSEN 1.74.2 with ModelEFViscousField (four
+    spheres, one in each branch of its drag curve and one far into the last). Imported
+    from its text scene and cmusen script, the scene's [fluid] is MUSEN's medium; run in
+    MUSEN-compatible mode it follows MUSEN's positions and velocities to 1e-12 of their
+    largest values (the refdata rows of bondem validate)."""
+    from bondem.io.musen_text import import_musen
+    from bondem.validation import refdata
+    folder = RUNS / "viscous_field"
+    path, notes = import_musen(folder / "musen_scene.txt", tmp_path,
+                               folder / "musen_script.txt")
+    import tomllib
+    table = tomllib.loads(path.read_text())["fluid"]
+    assert table == {"density": 1000.0, "viscosity": 1e-5 * 1000.0, "drag": "musen_viscous",
+                     "buoyancy": False}
+    assert (path.parent / "particles.csv").read_text() == \
+        (folder / "particles.csv").read_text()
+    run = next(r for r in refdata.discover(RUNS) if r.name == "viscous_field")
+    rows = refdata.compare_run(run, None)
+    assert len(rows) == 2 and all(r.passed for r in rows), rows
+    # another external force model is named, not dropped
+    script = tmp_path / "script.txt"
+    script.write_text("MODEL_EF ModelEFCentrifugalCasting\n")
+    _, notes = import_musen(folder / "musen_scene.txt", tmp_path / "other", script)
+    assert any("ModelEFCentrifugalCasting: not mapped" in n for n in notes)
