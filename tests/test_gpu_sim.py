@@ -46,8 +46,9 @@ def test_bond_path_matches_cpu_under_simulator():
 
 
 def test_fluid_forces_match_cpu_under_simulator():
-    """The bonded cluster in a flowing liquid (drag, buoyancy): the CUDA kernel takes the
-    fluid array and the same physics function as the CPU's."""
+    """The bonded cluster in a flowing liquid (drag, buoyancy) in a rotating frame: the
+    CUDA kernel takes the fluid and frame arrays and the same physics functions as the
+    CPU's."""
     out = run_case("fluid_match_cpu")
     assert "velocity" in out and "energy work_external" in out
 

@@ -15,6 +15,7 @@ import numpy as np
 from .physics import bond_models, contact_models
 from .physics.bond_elastic import CRITERION_CODES
 from .physics.bond_models import bond_material_schema
+from .physics.field_frame import FRAME_CENTER, FRAME_COLUMNS, FRAME_OMEGA
 from .physics.field_fluid import (DRAG_LAWS, FLUID_BUOYANCY, FLUID_COLUMNS, FLUID_DENSITY,
                                   FLUID_DRAG, FLUID_VELOCITY, FLUID_VISCOSITY,
                                   FLUID_VOIDAGE)
@@ -145,6 +146,7 @@ class Model:
     bond_pairs (B,2) particle indices i, j; bond_diameter (B,) m; bond_initial_length (B,) m;
     bond_material (B,) index into bond_materials; gravity (3,) m/s^2; fluid: the fluid
     around the particles (``fluid_array``; drag and buoyancy, physics/field_fluid.py);
+    frame: a rotating frame of reference (``frame_array``; physics/field_frame.py);
     periodic (3,) bool with box_low/box_high (3,) m the periodic cell (also the domain
     outside which a particle means a blown-up run, along non-periodic axes where finite);
     damping: local (non-viscous) damping coefficient in [0, 1), 0 for none.
@@ -164,6 +166,7 @@ class Model:
     bond_materials: list
     gravity: np.ndarray = field(default_factory=lambda: np.zeros(3))
     fluid: np.ndarray = field(default_factory=lambda: fluid_array())
+    frame: np.ndarray = field(default_factory=lambda: np.zeros(FRAME_COLUMNS))
     periodic: np.ndarray = field(default_factory=lambda: np.zeros(3, dtype=bool))
     box_low: np.ndarray = field(default_factory=lambda: np.full(3, -np.inf))
     box_high: np.ndarray = field(default_factory=lambda: np.full(3, np.inf))
@@ -374,11 +377,25 @@ def fluid_array(density=0.0, viscosity=0.0, velocity=(0.0, 0.0, 0.0), drag="none
     return out
 
 
+def frame_array(angular_velocity=(0.0, 0.0, 0.0), center=(0.0, 0.0, 0.0)):
+    """A rotating frame of reference (physics/field_frame.py's FRAME_* columns): its
+    angular velocity (3,) rad/s about the point center (3,) m. ValueError names a bad
+    one."""
+    out = np.zeros(FRAME_COLUMNS)
+    for name, value, column in (("angular_velocity", angular_velocity, FRAME_OMEGA),
+                                ("center", center, FRAME_CENTER)):
+        value = np.asarray(value, dtype=np.float64)
+        if value.shape != (3,) or not np.all(np.isfinite(value)):
+            raise ValueError(f"{name}: expected 3 finite numbers, got {value!r}")
+        out[column:column + 3] = value
+    return out
+
+
 def make_system(position, radius, material, *, material_index=None, velocity=None,
                 angular_velocity=None, fixed=None, external_force=None, external_moment=None,
                 bonds=None, bond_diameter=None, bond_material=None, bond_material_index=None,
                 gravity=(0.0, 0.0, 0.0), periodic=(False, False, False), box_low=None,
-                box_high=None, damping=0.0, fluid=None):
+                box_high=None, damping=0.0, fluid=None, frame=None):
     """Build a validated (Model, State) pair from plain arrays.
 
     position (N,3) m; radius (N,) or scalar m; material: a Material or a list of them
@@ -386,7 +403,8 @@ def make_system(position, radius, material, *, material_index=None, velocity=Non
     angular_velocity (N,3) rad/s; fixed (N,) bool; external_force (N,3) N;
     external_moment (N,3) N m; bonds (B,2) 0-based particle indices; bond_diameter (B,) or
     scalar m; bond_material: a BondMaterial or a list (then bond_material_index (B,));
-    gravity (3,) m/s^2; fluid: ``fluid_array``'s (None: no fluid); periodic (3,) bool with
+    gravity (3,) m/s^2; fluid: ``fluid_array``'s (None: no fluid); frame: ``frame_array``'s
+    (None: an inertial frame); periodic (3,) bool with
     box_low/box_high (3,) m; damping: local
     damping coefficient in [0, 1). Bond initial lengths are the current distances
     (minimum image along periodic axes). Raises ValueError on inconsistent input.
@@ -499,6 +517,7 @@ def make_system(position, radius, material, *, material_index=None, velocity=Non
         bond_initial_length=initial_length, bond_material=bond_material_index,
         bond_materials=bond_materials, gravity=gravity,
         fluid=fluid_array() if fluid is None else np.asarray(fluid, dtype=np.float64),
+        frame=frame_array() if frame is None else np.asarray(frame, dtype=np.float64),
         periodic=periodic,
         box_low=box_low, box_high=box_high, damping=float(damping))
     state = State(

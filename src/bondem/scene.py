@@ -18,8 +18,8 @@ import numpy as np
 from .errors import InputError, decode_text, unknown_key
 from .generate import bonds_from_gap, particles_from_generator
 from .io.csv_files import read_bonds, read_particles
-from .model import (BondMaterial, Material, bond_material_schema, fluid_array, make_system,
-                    material_schema)
+from .model import (BondMaterial, Material, bond_material_schema, fluid_array, frame_array,
+                    make_system, material_schema)
 from .physics import contact_models
 from .physics import bond_models
 from .physics._registry import REQUIRED as _REQUIRED
@@ -104,7 +104,12 @@ MESH_KEYS = {
     "velocity_profile": ("profile", None, None, None, None, None),
 }
 TOP_KEYS = ("simulation", "materials", "bond_materials", "particles", "bonds", "walls",
-            "fluid")
+            "fluid", "frame")
+# [frame]: a rotating frame of reference (physics/field_frame.py, docs/fields.md)
+FRAME_KEYS = {
+    "angular_velocity": ("vector3", [0.0, 0.0, 0.0], -INF, INF, False, False),
+    "center": ("vector3", [0.0, 0.0, 0.0], -INF, INF, False, False),
+}
 # [fluid]: drag and buoyancy (physics/field_fluid.py, docs/fields.md)
 FLUID_KEYS = {
     "density": ("number", 0.0, 0.0, INF, True, False),
@@ -348,6 +353,7 @@ def _build(data, text, path):
     fluid = _check_table(data.get("fluid", {}), FLUID_KEYS, "fluid", path)
     if fluid["buoyancy"] is None:   # a fluid with a density buoys its particles
         fluid["buoyancy"] = fluid["density"] > 0.0
+    frame = _check_table(data.get("frame", {}), FRAME_KEYS, "frame", path)
     try:
         fluid_values = fluid_array(**fluid)
     except ValueError as error:
@@ -395,7 +401,8 @@ def _build(data, text, path):
             bond_material=bond_material_objects or None,
             bond_material_index=bond_material_index if bonds.shape[0] else None,
             gravity=sim["gravity"], periodic=periodic, box_low=sim["box_low"],
-            box_high=sim["box_high"], damping=sim["damping"], fluid=fluid_values)
+            box_high=sim["box_high"], damping=sim["damping"], fluid=fluid_values,
+            frame=frame_array(**frame))
     except ValueError as error:
         raise InputError(str(error), file=path, key=_guess_key(str(error)))
     for name, outside in (("box_low", position < model.box_low),

@@ -2,6 +2,7 @@
 import numpy as np
 
 from .physics.field_fluid import FLUID_DRAG, FLUID_VISCOSITY
+from .physics.field_frame import FRAME_OMEGA
 
 
 def step_count(end_time, time_step):
@@ -14,7 +15,8 @@ def step_count(end_time, time_step):
 def time_scales(model, musen_compat=False):
     """Smallest time scale (s) of each kind: {"rayleigh", "bond_axial", "bond_bending"},
     those of the bond models in use (e.g. "bond_dashpot" of Kelvin bonds), and
-    "fluid_drag", m / (3 pi mu d), when a fluid drags the particles.
+    "fluid_drag", m / (3 pi mu d), when a fluid drags the particles, and
+    "frame_rotation", 1 / |Omega|, in a rotating frame.
 
     Rayleigh: pi r sqrt(rho / G) / (0.1631 nu + 0.8766) per particle. Bonds:
     sqrt(m_red L0 / (E A_b)) and sqrt(I_red L0 / (E I)), with the pair's reduced mass
@@ -53,6 +55,11 @@ def time_scales(model, musen_compat=False):
         # Reynolds number they run at (docs/fields.md)
         scales["fluid_drag"] = float((model.mass / (6.0 * np.pi * fluid[FLUID_VISCOSITY]
                                                     * model.radius)).min())
+    frame = getattr(model, "frame", None)
+    if frame is not None and np.any(frame[FRAME_OMEGA:FRAME_OMEGA + 3]):
+        # a rotating frame turns by one radian in 1 / |Omega|
+        scales["frame_rotation"] = float(
+            1.0 / np.linalg.norm(frame[FRAME_OMEGA:FRAME_OMEGA + 3]))
     return scales
 
 

@@ -303,15 +303,15 @@ def gather_bond_loads(index, loads, force, moment, assign=False):
 
 
 @numba.njit(**_serial)
-def integrate_range(first, last, particles, bodies, force, moment, gravity, fluid, damping,
-                    kick_dt, drift_dt, box, track_energy, energy):
+def integrate_range(first, last, particles, bodies, force, moment, gravity, fluid, frame,
+                    damping, kick_dt, drift_dt, box, track_energy, energy):
     """``loops.integrate_particle`` for particles first to last - 1; returns the status
     of the last one that blew up (STATUS_OK if none)."""
     status = STATUS_OK
     for p in range(first, last):
         work, lost, code = integrate_particle(p, row3(force, p), row3(moment, p), particles,
-                                              bodies, gravity, fluid, damping, kick_dt,
-                                              drift_dt, box, track_energy)
+                                              bodies, gravity, fluid, frame, damping,
+                                              kick_dt, drift_dt, box, track_energy)
         if track_energy:
             energy[p, 0] = work
             energy[p, 1] = lost
@@ -321,10 +321,11 @@ def integrate_range(first, last, particles, bodies, force, moment, gravity, flui
 
 
 @numba.njit(**_jit)
-def integrate(particles, bodies, force, moment, gravity, fluid, damping, kick_dt, drift_dt,
-              box, status, track_energy, energy):
+def integrate(particles, bodies, force, moment, gravity, fluid, frame, damping, kick_dt,
+              drift_dt, box, status, track_energy, energy):
     """``loops.integrate_particle`` for every particle with its loads force (N), moment
-    (N m), gravity (m/s^2) and the fluid (physics/field_fluid.py). Sets status[0] when a
+    (N m), gravity (m/s^2), the fluid (physics/field_fluid.py) and the rotating frame
+    (physics/field_frame.py). Sets status[0] when a
     particle blows up. If track_energy, energy (N,2) receives each particle's (work of
     gravity, the fluid and external loads, energy removed by damping) in J over this
     kick."""
@@ -334,8 +335,8 @@ def integrate(particles, bodies, force, moment, gravity, fluid, damping, kick_dt
     n = particles.position.shape[0]
     for c in prange(chunks(n)):
         code = integrate_range(c * CHUNK, min(n, (c + 1) * CHUNK), particles, bodies, force,
-                               moment, gravity, fluid, damping, kick_dt, drift_dt, box,
-                               track_energy, energy)
+                               moment, gravity, fluid, frame, damping, kick_dt, drift_dt,
+                               box, track_energy, energy)
         if code != STATUS_OK:
             status[0] = code
 
@@ -538,10 +539,10 @@ class Integrator:
         self.status[0] = STATUS_OK
         # Energy bookkeeping only where gravity, a fluid, external loads or damping act.
         track = (self._external or model.damping > 0.0 or bool(np.any(model.gravity))
-                 or model.has_fluid)
+                 or model.has_fluid or bool(np.any(model.frame)))
         integrate(particles(state), bodies(model), force, moment, model.gravity,
-                  model.fluid, model.damping, kick_dt, drift_dt, box(model), self.status,
-                  track, self.energy)
+                  model.fluid, model.frame, model.damping, kick_dt, drift_dt, box(model),
+                  self.status, track, self.energy)
         if track:
             # a sum in a fixed order: the same bits whatever the thread count.
             work, dissipated = column_sums(self.energy)

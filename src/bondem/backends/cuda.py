@@ -70,12 +70,13 @@ def gather_bond_loads_kernel(index, loads, force, moment, assign):
 
 @cuda.jit
 def integrate_kernel(index, loads, use_loads, particles, bodies, force, moment, gravity,
-                     fluid, damping, kick_dt, drift_dt, box, status, work, dissipated):
+                     fluid, frame, damping, kick_dt, drift_dt, box, status, work,
+                     dissipated):
     """``loops.integrate_particle`` for every particle, with its bond loads gathered here
     (``loops.bond_ends_sum``) plus, when ``use_loads``, the other laws' loads in force (N)
     and moment (N m). Fusing the gather saves a launch and the force arrays' write and
     read (96 B per particle) when the bonds are the only law. Adds each particle's work
-    of gravity, the fluid and external loads and its damping loss (J) to ``work[p]`` and
+    of gravity, the fields and external loads and its damping loss (J) to ``work[p]`` and
     ``dissipated[p]``, summed on the host when the state is copied back; sets status[0]
     on a NaN or a particle out of the domain."""
     for p in range(cuda.grid(1), particles.position.shape[0], cuda.gridsize(1)):
@@ -84,7 +85,7 @@ def integrate_kernel(index, loads, use_loads, particles, bodies, force, moment, 
             f = add(f, row3(force, p))
             m = add(m, row3(moment, p))
         gained, lost, code = integrate_particle(p, f, m, particles, bodies, gravity, fluid,
-                                                damping, kick_dt, drift_dt, box, True)
+                                                frame, damping, kick_dt, drift_dt, box, True)
         work[p] += gained
         dissipated[p] += lost
         if code != STATUS_OK:
@@ -154,6 +155,7 @@ class GpuBackend:
         self.box = box(model, put)
         self.gravity = put(model.gravity)
         self.fluid = put(model.fluid)
+        self.frame = put(model.frame)
         # the domain's arrays the contact law's kernels take directly
         self.periodic, self.box_length = self.box.periodic, self.box.length
         self.status = put(np.zeros(1, dtype=np.int64))
@@ -379,6 +381,7 @@ class IntegratorGpu:
         index, loads = self._no_bonds if bonds is None else (bonds.index, bonds.loads)
         integrate_kernel[_blocks(model.n_particles), THREADS](
             index, loads, use_loads, particles(g.device), g.bodies, force, moment, g.gravity,
-            g.fluid, model.damping, kick_dt, drift_dt, g.box, g.status, g.device.work,
+            g.fluid, g.frame, model.damping, kick_dt, drift_dt, g.box, g.status,
+            g.device.work,
             g.device.dissipated)
         return STATUS_OK

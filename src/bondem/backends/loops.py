@@ -368,15 +368,17 @@ def bond_energy(b, bonds, materials, state, position, box):
 # -- particles ----------------------------------------------------------------------------
 
 @body
-def integrate_particle(p, load_f, load_m, particles, bodies, gravity, fluid, damping,
-                       kick_dt, drift_dt, box, track_energy):
+def integrate_particle(p, load_f, load_m, particles, bodies, gravity, fluid, frame,
+                       damping, kick_dt, drift_dt, box, track_energy):
     """Semi-implicit Euler for particle p: v += F/m kick_dt; x += v drift_dt;
     w += M/I kick_dt, with its loads load_f (N), load_m (N m) and gravity, the fluid's
-    drag and buoyancy (``fluid``: physics/field_fluid.py's columns; the drag at the
-    velocity before the kick), external loads and local damping (Cundall: damping |F_k|
-    against the sign of v_k, |M_k| against w_k, per component). Fixed particles keep
-    their velocity. Returns (work of gravity, the fluid and external loads, energy
-    removed by damping) in J over this kick, each
+    drag and buoyancy (``fluid``: physics/field_fluid.py's columns), a rotating frame's
+    centrifugal and Coriolis forces and its torque on the spin (``frame``: physics/
+    field_frame.py's; all at the state before the kick), external loads and local
+    damping (Cundall:
+    damping |F_k| against the sign of v_k, |M_k| against w_k, per component). Fixed
+    particles keep their velocity. Returns (work of gravity, the fields and external
+    loads, energy removed by damping) in J over this kick, each
     load times the mean of the old and new velocity (the leapfrog's exact change of
     kinetic energy; 0 unless track_energy: it costs a third of the step), and a status:
     STATUS_NOT_FINITE or STATUS_OUT_OF_DOMAIN if it blew up, else STATUS_OK; a periodic
@@ -388,11 +390,14 @@ def integrate_particle(p, load_f, load_m, particles, bodies, gravity, fluid, dam
     if not bodies.fixed[p]:
         mass = bodies.mass[p]
         inertia = bodies.inertia[p]
-        carried = fluid_force(fluid, bodies.radius[p], row3(v, p), gravity)
+        carried = add(fluid_force(fluid, bodies.radius[p], row3(v, p), gravity),
+                      frame_force(frame, mass, row3(particles.position, p), row3(v, p)))
+        turned = frame_moment(frame, inertia, row3(w, p))
         for k in range(3):
             applied = mass * gravity[k] + bodies.external_force[p, k] + carried[k]
+            applied_m = bodies.external_moment[p, k] + turned[k]
             f = load_f[k] + applied
-            mk = load_m[k] + bodies.external_moment[p, k]
+            mk = load_m[k] + applied_m
             damp_f = 0.0
             damp_m = 0.0
             if damping > 0.0:
@@ -405,7 +410,7 @@ def integrate_particle(p, load_f, load_m, particles, bodies, gravity, fluid, dam
             if track_energy:
                 v_mean = 0.5 * (v_old + v[p, k])
                 w_mean = 0.5 * (w_old + w[p, k])
-                work += (applied * v_mean + bodies.external_moment[p, k] * w_mean) * kick_dt
+                work += (applied * v_mean + applied_m * w_mean) * kick_dt
                 lost -= (damp_f * v_mean + damp_m * w_mean) * kick_dt
     status = STATUS_OK
     for k in range(3):
