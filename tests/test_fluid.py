@@ -266,3 +266,63 @@ def test_a_free_sphere_in_a_rotating_frame_moves_straight_in_the_inertial_one():
         assert np.abs(sim.state.angular_velocity[0] - spin).max() \
             < 10 * np.linalg.norm(omega) * dt * np.linalg.norm(w_in)
     assert 1.7 < errors[0] / errors[1] < 2.3   # first order
+
+
+def load_example(name):
+    import importlib.util
+    path = Path(__file__).resolve().parents[1] / "examples" / f"{name}.py"
+    spec = importlib.util.spec_from_file_location(name, path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_two_way_coupling_conserves_momentum_and_ends_at_the_mean_velocity():
+    """examples/coupled_gas_column.py: particles at rest in a periodic gas column that
+    moves; the solver gives each particle Stokes drag and its cell the opposite, for the
+    interval bondem says the loads act (the first one half a step shorter: the start-up
+    kick). With no other force the total momentum stays what it was at every exchange,
+    and gas and particles end at P / (M_gas + M_particles)."""
+    example = load_example("coupled_gas_column")
+    sim, gas, grid = example.column()
+    totals = []
+
+    def solver(exchange):
+        totals.append((sim.model.mass[:, None] * exchange.velocity).sum(axis=0)
+                      + gas.momentum())
+        if len(totals) == 1:
+            assert exchange.interval == pytest.approx(9.5 * sim.time_step, rel=1e-12)
+        assert exchange.voidage.shape == (1, 1, gas.cells)
+        return gas(exchange)
+
+    coupling = sim.couple(solver, every=10, grid=grid)
+    sim.run(until=0.15)
+    assert coupling.exchanges == 1500
+    totals = np.array(totals)
+    np.testing.assert_allclose(totals, np.broadcast_to(totals[0], totals.shape),
+                               rtol=1e-12, atol=1e-22)
+    mean = totals[0] / (sim.model.mass.sum() + gas.mass().sum())
+    np.testing.assert_allclose(sim.state.velocity, np.broadcast_to(mean, (20, 3)),
+                               rtol=5e-3, atol=1e-6)
+    np.testing.assert_allclose(gas.u, np.broadcast_to(mean, gas.u.shape), rtol=5e-3,
+                               atol=1e-6)
+    # the coupling's work is booked: kinetic energy gained = work of the external loads
+    assert sim.state.work_external == pytest.approx(sum(sim.kinetic_energy()), rel=1e-9)
+
+
+def test_voidage_of_a_grid_and_bad_coupling_answers():
+    from bondem.coupling import voidage_grid
+    position = np.array([[0.5e-3, 0.5e-3, 0.5e-3], [1.5e-3, 0.2e-3, 0.7e-3],
+                         [1.6e-3, 0.3e-3, 0.1e-3], [5e-3, 0.0, 0.0]])
+    radius = np.array([1e-4, 2e-4, 1.5e-4, 3e-4])
+    voidage = voidage_grid(position, radius, (0, 0, 0), (2e-3, 1e-3, 1e-3), (2, 1, 1))
+    cell = 1e-9
+    volume = 4 / 3 * np.pi * radius ** 3
+    np.testing.assert_allclose(voidage[:, 0, 0], [1 - volume[0] / cell,
+                                                  1 - (volume[1] + volume[2]) / cell])
+    glass = Material(name="glass", density=2500.0, young_modulus=1e9, poisson_ratio=0.3)
+    model, state = make_system(position[:3], radius[:3], [glass])
+    sim = bondem.Simulation(model, state, time_step=1e-6, force_time_step=True)
+    sim.couple(lambda exchange: np.zeros((2, 3)))
+    with pytest.raises(ValueError, match="3 x 3 finite numbers"):
+        sim.step(1)

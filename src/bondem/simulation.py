@@ -113,6 +113,21 @@ class Simulation:
         self.integrator = self.backend.integrator(model)
         self.force, self.moment = self.backend.load_arrays(model.n_particles)
 
+    def couple(self, solver, every=1, grid=None):
+        """Couple a fluid solver (coupling.py): every ``every`` steps ``solver`` gets an
+        ``Exchange`` (positions, velocities, radii, the voidage of ``grid`` = (low, high,
+        shape) or None, the time its loads will act) and returns the particles' force
+        (N,3) N [and moment (N,3) N m], which act as external loads until the next
+        exchange. CPU backend. Returns the coupling (its ``exchanges`` count)."""
+        from .coupling import FluidCoupling
+        if self.backend_name != "cpu":
+            raise ValueError("couple: the CPU backend only (the GPU keeps its external "
+                             "loads on the device)")
+        coupling = FluidCoupling(self.model, solver, every, grid, self.time_step,
+                                 self.musen_compat)
+        self.laws.append(coupling)
+        return coupling
+
     def __repr__(self):
         state = self.state
         intact = int(np.count_nonzero(state.bond_active))

@@ -515,7 +515,6 @@ class Integrator:
     def __init__(self, model):
         self.status = np.zeros(1, dtype=np.int64)
         self.energy = np.zeros((model.n_particles, 2))
-        self._external = bool(np.any(model.external_force) or np.any(model.external_moment))
 
     @contextlib.contextmanager
     def thread_limit(self, model):
@@ -538,8 +537,10 @@ class Integrator:
         """Kick velocities by kick_dt (s), drift positions by drift_dt (s); return status."""
         self.status[0] = STATUS_OK
         # Energy bookkeeping only where gravity, a fluid, external loads or damping act.
-        track = (self._external or model.damping > 0.0 or bool(np.any(model.gravity))
-                 or model.has_fluid or bool(np.any(model.frame)))
+        # (the external loads are looked at each step: a coupled solver sets them)
+        track = (model.damping > 0.0 or bool(np.any(model.gravity)) or model.has_fluid
+                 or bool(np.any(model.frame)) or bool(model.external_force.any())
+                 or bool(model.external_moment.any()))
         integrate(particles(state), bodies(model), force, moment, model.gravity,
                   model.fluid, model.frame, model.damping, kick_dt, drift_dt, box(model),
                   self.status, track, self.energy)
