@@ -139,7 +139,7 @@ def test_di_felice_is_dallavalles_drag_in_a_lone_particle_and_grows_in_a_bed():
     for eps in (1.0, 0.6):
         fluid = fluid_array(density=1000.0, viscosity=1e-3, velocity=(0.1, 0.0, 0.0),
                             drag="di_felice", voidage=eps)
-        force = fluid_force(fluid, 5e-4, (0.0, 0.0, 0.0), GRAVITY)
+        force = fluid_force(fluid, 5e-4, 1e-6, (1e-3, 0.0, 0.0), (0.0, 0.0, 0.0), GRAVITY)
         re = 1000.0 * eps * 0.1 * 1e-3 / 1e-3
         chi = 3.7 - 0.65 * math.exp(-0.5 * (1.5 - math.log10(re)) ** 2)
         expected = (0.5 * 1000.0 * drag_coefficient(3, re) * math.pi / 4 * 1e-6 * 0.01
@@ -148,9 +148,11 @@ def test_di_felice_is_dallavalles_drag_in_a_lone_particle_and_grows_in_a_bed():
         assert force[1] == 0.0 and force[2] == 0.0
     # the voidage factor eps^(2 - chi) > 1 for chi ~ 3.7: a bed drags harder
     dense = fluid_force(fluid_array(density=1000.0, viscosity=1e-3, velocity=(0.1, 0, 0),
-                                    drag="di_felice", voidage=0.6), 5e-4, (0, 0, 0), GRAVITY)
+                                    drag="di_felice", voidage=0.6), 5e-4, 1e-6, (0, 0, 0),
+                       (0, 0, 0), GRAVITY)
     lone = fluid_force(fluid_array(density=1000.0, viscosity=1e-3, velocity=(0.1, 0, 0),
-                                   drag="di_felice"), 5e-4, (0, 0, 0), GRAVITY)
+                                   drag="di_felice"), 5e-4, 1e-6, (0, 0, 0), (0, 0, 0),
+                      GRAVITY)
     assert dense[0] > 2.0 * lone[0]
 
 
@@ -223,9 +225,9 @@ def test_musens_viscous_field_imports_and_reproduces_the_real_musen_run(tmp_path
     assert len(rows) == 2 and all(r.passed for r in rows), rows
     # another external force model is named, not dropped
     script = tmp_path / "script.txt"
-    script.write_text("MODEL_EF ModelEFCentrifugalCasting\n")
+    script.write_text("MODEL_EF ModelEFHeatTransfer\n")
     _, notes = import_musen(folder / "musen_scene.txt", tmp_path / "other", script)
-    assert any("ModelEFCentrifugalCasting: not mapped" in n for n in notes)
+    assert any("ModelEFHeatTransfer: not mapped" in n for n in notes)
 
 
 def rotation(axis_angle):
@@ -326,3 +328,38 @@ def test_voidage_of_a_grid_and_bad_coupling_answers():
     sim.couple(lambda exchange: np.zeros((2, 3)))
     with pytest.raises(ValueError, match="3 x 3 finite numbers"):
         sim.step(1)
+
+
+def test_musens_centrifugal_casting_reproduces_the_real_musen_run(tmp_path):
+    """centrifugal_casting: a run of the real MUSEN 1.74.2 with
+    ModelEFCentrifugalCasting (a liquid turning at 60 rad/s about y). Imported, it is
+    the "musen_centrifugal" drag with the liquid's spin; run in MUSEN-compatible mode it
+    follows MUSEN to 1e-12 (the refdata rows of bondem validate)."""
+    from bondem.io.musen_text import import_musen
+    from bondem.validation import refdata
+    import tomllib
+    folder = RUNS / "centrifugal_casting"
+    path, _ = import_musen(folder / "musen_scene.txt", tmp_path, folder / "musen_script.txt")
+    assert tomllib.loads(path.read_text())["fluid"] == {
+        "density": 1100.0, "viscosity": 0.002, "drag": "musen_centrifugal",
+        "buoyancy": False, "spin": [0.0, 60.0, 0.0]}
+    run = next(r for r in refdata.discover(RUNS) if r.name == "centrifugal_casting")
+    rows = refdata.compare_run(run, None)
+    assert len(rows) == 2 and all(r.passed for r in rows), rows
+
+
+def test_the_centrifugal_law_against_its_formula_off_the_axis():
+    """A sphere off a skew spin axis: Stokes drag in the turning liquid plus the net
+    centrifugal force across the axis, each term from its definition."""
+    from bondem.physics.field_fluid import fluid_force
+    spin = np.array([1.0, 2.0, -0.5])
+    x, v = np.array([0.01, -0.02, 0.005]), np.array([0.1, 0.0, -0.2])
+    r, rho, mu = 4e-4, 1100.0, 2e-3
+    mass = 2500.0 * 4 / 3 * np.pi * r ** 3
+    fluid = fluid_array(density=rho, viscosity=mu, drag="musen_centrifugal", spin=spin)
+    axis = spin / np.linalg.norm(spin)
+    across = x - np.dot(x, axis) * axis
+    expected = (6 * np.pi * mu * r * (np.cross(spin, x) - v)
+                + (mass - rho * 4 / 3 * np.pi * r ** 3) * np.dot(spin, spin) * across)
+    np.testing.assert_allclose(fluid_force(fluid, r, mass, tuple(x), tuple(v), GRAVITY),
+                               expected, rtol=1e-12)

@@ -17,7 +17,7 @@ from .physics.bond_elastic import CRITERION_CODES
 from .physics.bond_models import bond_material_schema
 from .physics.field_frame import FRAME_CENTER, FRAME_COLUMNS, FRAME_OMEGA
 from .physics.field_fluid import (DRAG_LAWS, FLUID_BUOYANCY, FLUID_COLUMNS, FLUID_DENSITY,
-                                  FLUID_DRAG, FLUID_VELOCITY, FLUID_VISCOSITY,
+                                  FLUID_DRAG, FLUID_SPIN, FLUID_VELOCITY, FLUID_VISCOSITY,
                                   FLUID_VOIDAGE)
 
 INDEX = np.int64
@@ -347,16 +347,21 @@ def bond_separation(position, pairs, box_length, periodic):
 
 
 def fluid_array(density=0.0, viscosity=0.0, velocity=(0.0, 0.0, 0.0), drag="none",
-                buoyancy=False, voidage=1.0):
+                buoyancy=False, voidage=1.0, spin=(0.0, 0.0, 0.0)):
     """The fluid around the particles as the particle loop takes it (physics/
     field_fluid.py's FLUID_* columns): density kg/m^3 (>= 0), dynamic viscosity Pa s
     (> 0 for a drag law), velocity (3,) m/s, drag one of DRAG_LAWS, buoyancy (Archimedes'
-    force, needs the density), voidage in (0, 1]. ValueError names a bad one."""
+    force, needs the density), voidage in (0, 1], spin (3,) rad/s (the fluid turning
+    about an axis through the origin: u(x) = velocity + spin x x). ValueError names a
+    bad one."""
     if drag not in DRAG_LAWS:
         raise ValueError(f"drag = {drag!r}; allowed: {', '.join(DRAG_LAWS)}")
     velocity = np.asarray(velocity, dtype=np.float64)
     if velocity.shape != (3,) or not np.all(np.isfinite(velocity)):
         raise ValueError(f"velocity: expected 3 finite numbers, got {velocity!r}")
+    spin = np.asarray(spin, dtype=np.float64)
+    if spin.shape != (3,) or not np.all(np.isfinite(spin)):
+        raise ValueError(f"spin: expected 3 finite numbers, got {spin!r}")
     if not (math.isfinite(density) and density >= 0.0):
         raise ValueError(f"density = {density!r}; allowed [0, inf)")
     if not (math.isfinite(viscosity) and viscosity >= 0.0):
@@ -374,6 +379,7 @@ def fluid_array(density=0.0, viscosity=0.0, velocity=(0.0, 0.0, 0.0), drag="none
     out[FLUID_VELOCITY:FLUID_VELOCITY + 3] = velocity
     out[FLUID_BUOYANCY] = 1.0 if buoyancy else 0.0
     out[FLUID_VOIDAGE] = voidage
+    out[FLUID_SPIN:FLUID_SPIN + 3] = spin
     return out
 
 

@@ -118,6 +118,7 @@ FLUID_KEYS = {
     "drag": ("str", "none", tuple(DRAG_LAWS), None, None, None),
     "buoyancy": ("bool", None, None, None, None, None),
     "voidage": ("number", 1.0, 0.0, 1.0, False, True),
+    "spin": ("vector3", [0.0, 0.0, 0.0], -INF, INF, False, False),
 }
 
 

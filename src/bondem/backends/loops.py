@@ -390,7 +390,8 @@ def integrate_particle(p, load_f, load_m, particles, bodies, gravity, fluid, fra
     if not bodies.fixed[p]:
         mass = bodies.mass[p]
         inertia = bodies.inertia[p]
-        carried = add(fluid_force(fluid, bodies.radius[p], row3(v, p), gravity),
+        carried = add(fluid_force(fluid, bodies.radius[p], mass, row3(particles.position, p),
+                                  row3(v, p), gravity),
                       frame_force(frame, mass, row3(particles.position, p), row3(v, p)))
         turned = frame_moment(frame, inertia, row3(w, p))
         for k in range(3):

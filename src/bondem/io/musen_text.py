@@ -604,27 +604,37 @@ def wall_groups(scene):
     return [g for g in groups if g[1]]
 
 
-# MUSEN's ModelEFViscousField: its parameters and their defaults (kinematic viscosity
-# m^2/s, density kg/m^3)
-VISCOUS_FIELD = {"MEDIUM_VISCOSITY": 1.34e-5, "MEDIUM_DENSITY": 1.28}
+# MUSEN's external force models that bondem has: their parameters and defaults
+# (ModelEFViscousField: kinematic viscosity m^2/s, density kg/m^3;
+# ModelEFCentrifugalCasting: rad/s about y, kg/m^3, Pa s)
+EXTERNAL_FORCES = {
+    "ModelEFViscousField": {"MEDIUM_VISCOSITY": 1.34e-5, "MEDIUM_DENSITY": 1.28},
+    "ModelEFCentrifugalCasting": {"ROTATION_VELOCITY": 1.0, "LIQUID_DENSITY": 1000.0,
+                                  "LIQUID_VISCOSITY": 1.8e-3},
+}
 
 
 def musen_fluid(script):
     """(bondem [fluid] table or None, note or None) of a cmusen script's MODEL_EF:
     ModelEFViscousField (a still medium of kinematic viscosity MEDIUM_VISCOSITY and
-    density MEDIUM_DENSITY) is the "musen_viscous" drag without buoyancy; another
-    external force model is named in the note."""
+    density MEDIUM_DENSITY) is the "musen_viscous" drag, ModelEFCentrifugalCasting (a
+    liquid turning at ROTATION_VELOCITY about y) the "musen_centrifugal" one, both
+    without buoyancy; another external force model is named in the note."""
     name = script.get("MODEL_EF", "").split()
     if not name:
         return None, None
-    if name[0] != "ModelEFViscousField":
+    if name[0] not in EXTERNAL_FORCES:
         return None, f"external force model {name[0]}: not mapped (no such field in bondem)"
-    values = dict(VISCOUS_FIELD)
+    values = dict(EXTERNAL_FORCES[name[0]])
     values.update({k: v for k, v in _params(script.get("MODEL_EF_PARAMS", "")).items()
                    if k in values})
-    density = values["MEDIUM_DENSITY"]
-    return {"density": density, "viscosity": values["MEDIUM_VISCOSITY"] * density,
-            "drag": "musen_viscous", "buoyancy": False}, None
+    if name[0] == "ModelEFViscousField":
+        density = values["MEDIUM_DENSITY"]
+        return {"density": density, "viscosity": values["MEDIUM_VISCOSITY"] * density,
+                "drag": "musen_viscous", "buoyancy": False}, None
+    return {"density": values["LIQUID_DENSITY"], "viscosity": values["LIQUID_VISCOSITY"],
+            "drag": "musen_centrifugal", "buoyancy": False,
+            "spin": [0.0, values["ROTATION_VELOCITY"], 0.0]}, None
 
 
 def _is_number(text):

@@ -1,9 +1,11 @@
 """A fluid around the particles: drag and buoyancy (body forces on each particle).
 
-The fluid has a density rho_f (kg/m^3), a dynamic viscosity mu (Pa s), a velocity u (m/s,
-uniform and constant) and a voidage eps (-, the local fluid fraction; 1 for a lone
-particle). A particle of diameter d (m) moving at v feels, with the slip s = u - v and the
-particle Reynolds number Re = rho_f eps |s| d / mu:
+The fluid has a density rho_f (kg/m^3), a dynamic viscosity mu (Pa s), a velocity field
+u(x) = u_0 + W x x (m/s: a uniform flow u_0 plus a rigid rotation at W rad/s about an axis
+through the origin, as a liquid turning with its drum) and a voidage eps (-, the local
+fluid fraction; 1 for a lone particle). A particle of diameter d (m) at x moving at v
+feels, with the slip s = u(x) - v and the particle Reynolds number
+Re = rho_f eps |s| d / mu:
 
 - drag, by the chosen correlation:
   - "stokes": F = 3 pi mu d s (creeping flow, Re << 1);
@@ -17,6 +19,10 @@ particle Reynolds number Re = rho_f eps |s| d / mu:
   - "musen_viscous": MUSEN's ModelEFViscousField: Re = |s| d / nu (nu = mu / rho_f), C_d =
     24/Re (Re < 0.5), 27/Re^0.8 (Re < 10.1), 17/Re^0.6 above; F = C_d pi r^2 rho_f / 2
     |s| s (MUSEN's fluid is at rest: u = 0 in its runs);
+  - "musen_centrifugal": MUSEN's ModelEFCentrifugalCasting: Stokes drag 6 pi mu r s in the
+    turning liquid plus (m - rho_f pi d^3 / 6) |W|^2 x_perp, the centrifugal force of the
+    frame that turns with the liquid less the liquid's buoyancy (x_perp: x's part across
+    the axis), as MUSEN adds both to a particle it moves in the laboratory's frame;
 - buoyancy: F = -rho_f (pi d^3 / 6) g (Archimedes, g the gravity vector), when on.
 
 The fluid's parameters travel as one array (``FLUID_*`` columns) so that the particle
@@ -28,10 +34,10 @@ from ._registry import physics
 
 # columns of the fluid array (Model.fluid)
 FLUID_DRAG, FLUID_DENSITY, FLUID_VISCOSITY, FLUID_VELOCITY = 0, 1, 2, 3
-FLUID_BUOYANCY, FLUID_VOIDAGE, FLUID_COLUMNS = 6, 7, 8
+FLUID_BUOYANCY, FLUID_VOIDAGE, FLUID_SPIN, FLUID_COLUMNS = 6, 7, 8, 11
 # drag correlations: their names and codes (0: no drag)
 DRAG_LAWS = {"none": 0, "stokes": 1, "schiller_naumann": 2, "di_felice": 3,
-             "musen_viscous": 4}
+             "musen_viscous": 4, "musen_centrifugal": 5}
 
 
 @physics
@@ -55,9 +61,9 @@ def drag_coefficient(law, re):
 
 
 @physics
-def fluid_force(fluid, radius, v, gravity):
-    """Drag plus buoyancy (N, 3-tuple) on a particle of radius (m) moving at v (m/s) in
-    the fluid ``fluid`` (FLUID_* columns), gravity (m/s^2)."""
+def fluid_force(fluid, radius, mass, x, v, gravity):
+    """Drag plus buoyancy (N, 3-tuple) on a particle of radius (m) and mass (kg) at x (m)
+    moving at v (m/s) in the fluid ``fluid`` (FLUID_* columns), gravity (m/s^2)."""
     law = int(fluid[FLUID_DRAG])
     rho = fluid[FLUID_DENSITY]
     fx = 0.0
@@ -72,9 +78,22 @@ def fluid_force(fluid, radius, v, gravity):
         return (fx, fy, fz)
     mu = fluid[FLUID_VISCOSITY]
     eps = fluid[FLUID_VOIDAGE]
-    sx = fluid[FLUID_VELOCITY] - v[0]
-    sy = fluid[FLUID_VELOCITY + 1] - v[1]
-    sz = fluid[FLUID_VELOCITY + 2] - v[2]
+    wx = fluid[FLUID_SPIN]
+    wy = fluid[FLUID_SPIN + 1]
+    wz = fluid[FLUID_SPIN + 2]
+    sx = fluid[FLUID_VELOCITY] + wy * x[2] - wz * x[1] - v[0]
+    sy = fluid[FLUID_VELOCITY + 1] + wz * x[0] - wx * x[2] - v[1]
+    sz = fluid[FLUID_VELOCITY + 2] + wx * x[1] - wy * x[0] - v[2]
+    if law == 5:
+        # MUSEN's centrifugal casting: x's part across the spin axis, |W|^2 times the
+        # mass less the liquid it displaces
+        w2 = wx * wx + wy * wy + wz * wz
+        along = (x[0] * wx + x[1] * wy + x[2] * wz) / w2 if w2 > 0.0 else 0.0
+        net = (mass - rho * 4.0 / 3.0 * math.pi * radius * radius * radius) * w2
+        c = 6.0 * math.pi * mu * radius
+        return (fx + c * sx + net * (x[0] - along * wx),
+                fy + c * sy + net * (x[1] - along * wy),
+                fz + c * sz + net * (x[2] - along * wz))
     speed = math.sqrt(sx * sx + sy * sy + sz * sz)
     if speed == 0.0 or mu == 0.0:
         return (fx, fy, fz)
