@@ -363,3 +363,37 @@ def test_the_centrifugal_law_against_its_formula_off_the_axis():
                 + (mass - rho * 4 / 3 * np.pi * r ** 3) * np.dot(spin, spin) * across)
     np.testing.assert_allclose(fluid_force(fluid, r, mass, tuple(x), tuple(v), GRAVITY),
                                expected, rtol=1e-12)
+
+
+def test_the_fields_force_is_saved_and_exported(tmp_path):
+    """A sphere settling at its Stokes terminal velocity in a run through bondem run:
+    results.h5 holds the fields' force on it, which then balances its weight (the drag
+    and buoyancy of the last frame: (rho_p - rho_f) V g upward), and ParaView's files
+    carry it."""
+    import h5py
+    from click.testing import CliRunner
+    from bondem.cli import main
+    rho_p, rho_f, mu, d = 2650.0, 998.0, 1e-3, 1e-4
+    (tmp_path / "particles.csv").write_text(f"x,y,z,radius,material\n0,0,0,{d / 2},glass\n")
+    tau = rho_p * d * d / (18 * mu)
+    (tmp_path / "scene.toml").write_text(SCENE.format(
+        fluid=f'density = {rho_f}\nviscosity = {mu}\ndrag = "stokes"').replace(
+        "end_time = 1e-3", f"end_time = {20 * tau}\ntime_step = {tau / 50}\n"
+        "force_time_step = true\nsave_every = " + repr(10 * tau)).replace(
+        "density = 2500.0", f"density = {rho_p}"))
+    runner = CliRunner()
+    result = runner.invoke(main, ["run", str(tmp_path / "scene.toml"), "--out",
+                                  str(tmp_path / "run"), "--no-progress"])
+    assert result.exit_code == 0, result.output
+    weight = (rho_p - rho_f) * math.pi / 6 * d ** 3 * 9.81
+    with h5py.File(tmp_path / "run" / "results.h5", "r") as f:
+        field = f["particles/field_force"][-1, 0]
+        assert f["particles/field_force"].attrs["unit"] == "N"
+    # at the terminal velocity the fluid carries the whole weight m g: drag (rho_p -
+    # rho_f) V g plus buoyancy rho_f V g
+    assert field[2] == pytest.approx(rho_p * math.pi / 6 * d ** 3 * 9.81, rel=1e-6)
+    assert field[2] - rho_f * math.pi / 6 * d ** 3 * 9.81 == pytest.approx(weight, rel=1e-6)
+    result = runner.invoke(main, ["export", "vtk", str(tmp_path / "run" / "results.h5"),
+                                  "--out", str(tmp_path / "vtk")])
+    assert result.exit_code == 0, result.output
+    assert b'Name="field_force"' in (tmp_path / "vtk" / "particles_000002.vtp").read_bytes()

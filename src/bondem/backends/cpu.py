@@ -33,6 +33,10 @@ row3 = L.row3
 elastic_bond = L.elastic_bond
 bond_stiffnesses = L.bond_stiffnesses
 bond_loads_on_particles = L.bond_loads_on_particles
+store3 = L.store3
+add = L.add
+fluid_force = L.fluid_force
+frame_force = L.frame_force
 
 # The same physics for the vectorised bond loop (``advance_bond_block``): inlined into the
 # loop, without the twist's libm branch (bonds with a large twist are redone by the scalar
@@ -339,6 +343,29 @@ def integrate(particles, bodies, force, moment, gravity, fluid, frame, damping, 
                                box, track_energy, energy)
         if code != STATUS_OK:
             status[0] = code
+
+
+@numba.njit(**_serial)
+def field_forces(position, velocity, radius, mass, fixed, gravity, fluid, frame, out):
+    """out[p] = the fields' force on particle p (N): the fluid's drag and buoyancy and the
+    rotating frame's centrifugal and Coriolis forces (loops.integrate_particle's), zero
+    for fixed particles."""
+    for p in range(position.shape[0]):
+        if fixed[p]:
+            store3(out, p, (0.0, 0.0, 0.0))
+            continue
+        x = row3(position, p)
+        v = row3(velocity, p)
+        store3(out, p, add(fluid_force(fluid, radius[p], mass[p], x, v, gravity),
+                           frame_force(frame, mass[p], x, v)))
+
+
+def field_force_array(model, state):
+    """(N,3) N: the fields' force on each particle in ``state`` (``field_forces``)."""
+    out = np.zeros((model.n_particles, 3))
+    field_forces(state.position, state.velocity, model.radius, model.mass, model.fixed,
+                 model.gravity, model.fluid, model.frame, out)
+    return out
 
 
 @numba.njit(cache=True, nogil=True)

@@ -17,6 +17,8 @@ Layout (F frames, N particles, B bonds, W walls; every dataset has a ``unit`` at
        rotation_center (W,3) m, -, m/s, rad/s, m at t = 0; meshN/vertices (V,3) m and
        meshN/triangles (T,3) for mesh wall N (for the ParaView export)
 /particles/force (F,N,3) N: the particles' loads of the last force evaluation
+/particles/field_force (F,N,3) N: with a fluid or a rotating frame, their force on each
+           particle at the frame's state (drag, buoyancy, centrifugal, Coriolis)
 /energy/<term> (F,) J: Simulation.energy_terms()
 /materials/names, /bond_materials/names
 attrs on /: scene (the scene text), scene_name, bondem_version, backend, time_step (s),
@@ -51,6 +53,7 @@ UNITS = {
     "bonds/normal_moment": "N m", "bonds/tangential_moment": "N m", "walls/force": "N",
     "walls/torque": "N m", "walls/position": "m", "particles/force": "N",
     "walls/history/time": "s", "walls/history/force": "N", "walls/history/position": "m",
+    "particles/field_force": "N",
     "contacts/end": "1", "contact_rows/i": "1", "contact_rows/j": "1",
     "contact_rows/force": "N",
 }
@@ -99,6 +102,18 @@ def bond_forces(model, state):
     force = normal + state.bond_tangential_force
     force[~state.bond_active] = 0.0
     return force
+
+
+def _has_fields(model):
+    """Whether a fluid or a rotating frame acts on the particles."""
+    return bool(getattr(model, "has_fluid", False)
+                or np.any(getattr(model, "frame", np.zeros(1))))
+
+
+def _field_forces(model, state):
+    """(N,3) N: the fluid's and the rotating frame's force on each particle."""
+    from ..backends.cpu import field_force_array
+    return field_force_array(model, state)
 
 
 def _intact_only(vectors, active):
@@ -215,6 +230,8 @@ class ResultsWriter:
             "particles/velocity": state.velocity,
             "particles/angular_velocity": state.angular_velocity,
             "particles/force": _host(sim.force),
+            "particles/field_force": (_field_forces(sim.model, state)
+                                      if _has_fields(sim.model) else None),
             "bonds/active": state.bond_active,
             "bonds/force": bond_forces(sim.model, state),
             "bonds/normal_moment": _intact_only(state.bond_normal_moment, state.bond_active),
@@ -243,7 +260,7 @@ class ResultsWriter:
                     dataset[start:] = data
                 values["contacts/end"] = start + rows[0].shape[0]
             for name, value in values.items():
-                if name in f:   # files of earlier versions have no /particles/force
+                if value is not None and name in f:   # older files lack some
                     dataset = f[name]
                     dataset.resize(k + 1, axis=0)
                     dataset[k] = value
@@ -375,6 +392,8 @@ def _create_layout(f, sim, *, scene_text, backend, scene_name, material_names,
     frames("time", ())
     for name in ("position", "velocity", "angular_velocity", "force"):
         frames(f"particles/{name}", (n, 3))
+    if _has_fields(model):
+        frames("particles/field_force", (n, 3))
     frames("bonds/active", (b,), dtype=np.bool_)
     for name in ("force", "normal_moment", "tangential_moment"):
         frames(f"bonds/{name}", (b, 3))

@@ -8,7 +8,8 @@ the 0.5 GB ``vtk`` package; the tests read the files back with VTK's reader.
 
 Particles: points with point data radius (m), velocity (m/s), speed (|v|, m/s),
 angular_velocity (rad/s), force (N, the load of the last force evaluation, when the
-results file has /particles/force) and force_magnitude (N), material, and fragment (the
+results file has /particles/force) and force_magnitude (N), field_force (N, a fluid's and a
+rotating frame's, when the results have it), material, and fragment (the
 fragment id: from /particles/fragment, the analysis' sidecar ``<stem>.fragments.h5``, or
 computed here from the intact bonds; 0 is the heaviest fragment).
 
@@ -143,7 +144,7 @@ def bond_stresses(position, pairs, diameter, force, normal_moment, tangential_mo
 
 
 def particles_polydata(position, radius, velocity, angular_velocity, material, fragment=None,
-                       force=None):
+                       force=None, field_force=None):
     """Particles as vertices with their point data (see the module docstring)."""
     n = position.shape[0]
     poly = _PolyData(position)
@@ -156,6 +157,8 @@ def particles_polydata(position, radius, velocity, angular_velocity, material, f
     if force is not None:
         poly.point_data += [("force", np.asarray(force, np.float64)),
                             ("force_magnitude", np.linalg.norm(force, axis=1))]
+    if field_force is not None:
+        poly.point_data.append(("field_force", np.asarray(field_force, np.float64)))
     if fragment is not None:
         poly.point_data.append(("fragment", np.asarray(fragment, np.int64)))
     return poly
@@ -311,6 +314,7 @@ def export_vtk(results_path, out_dir=None, *, every=1) -> Path:
                     else sidecar["particles/fragment"] if sidecar is not None
                     and "particles/fragment" in sidecar else None)
         has_force = "particles/force" in f
+        has_field = "particles/field_force" in f
         geometry = _read_geometry(f)
         n = radius.shape[0]
         start = f["particles/position"][0] if times.shape[0] else np.zeros((n, 3))
@@ -336,7 +340,8 @@ def export_vtk(results_path, out_dir=None, *, every=1) -> Path:
             particles = particles_polydata(
                 position, radius, f["particles/velocity"][k],
                 f["particles/angular_velocity"][k], material, frag,
-                f["particles/force"][k] if has_force else None)
+                f["particles/force"][k] if has_force else None,
+                f["particles/field_force"][k] if has_field else None)
             name = f"particles_{k:06d}.vtp"
             particles.write(out_dir / name)
             entries.append((times[k], 0, name))
