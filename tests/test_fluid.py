@@ -397,3 +397,87 @@ def test_the_fields_force_is_saved_and_exported(tmp_path):
                                   "--out", str(tmp_path / "vtk")])
     assert result.exit_code == 0, result.output
     assert b'Name="field_force"' in (tmp_path / "vtk" / "particles_000002.vtp").read_bytes()
+
+
+def rotating_flow_grid(spin, low, high, shape):
+    """Node values of the rigid rotation spin x x on a grid: (velocity, origin, spacing)."""
+    axes = [np.linspace(low[a], high[a], shape[a]) for a in range(3)]
+    nodes = np.stack(np.meshgrid(*axes, indexing="ij"), axis=-1)
+    spacing = (np.array(high) - np.array(low)) / (np.array(shape) - 1)
+    return np.cross(spin, nodes), np.array(low, dtype=float), spacing
+
+
+def test_a_flow_grid_of_a_linear_field_drags_as_the_field_itself():
+    """Trilinear interpolation reproduces a linear field exactly: a rigid rotation given
+    on a coarse, uneven grid drags two spheres as the analytic spin does (to round-off),
+    over a path that crosses many cells."""
+    spin = np.array([20.0, -35.0, 50.0])
+    low, high, shape = (-0.02, -0.015, -0.016), (0.02, 0.015, 0.012), (5, 4, 8)
+    velocity, origin, spacing = rotating_flow_grid(spin, low, high, shape)
+    runs = []
+    for use_grid in (False, True):
+        glass = Material(name="glass", density=2500.0, young_modulus=1e9,
+                         poisson_ratio=0.3)
+        model, state = make_system(np.array([[0.004, -0.003, 0.002], [-0.006, 0.005, 0.0]]),
+                                   np.array([2e-4, 3e-4]), [glass],
+                                   fluid=fluid_array(density=1000.0, viscosity=1e-3,
+                                                     drag="schiller_naumann",
+                                                     spin=(0.0, 0.0, 0.0) if use_grid
+                                                     else spin))
+        if use_grid:
+            model.set_flow(velocity, origin, spacing)
+        sim = bondem.Simulation(model, state, time_step=2e-5, force_time_step=True)
+        sim.run(until=0.05)
+        runs.append(sim.state.position.copy())
+    travelled = np.abs(runs[0] - [[0.004, -0.003, 0.002], [-0.006, 0.005, 0.0]]).max()
+    assert travelled > 2 * spacing.min()       # it crossed cells
+    assert np.all((runs[0] > low) & (runs[0] < high))   # and stayed in the grid
+    np.testing.assert_allclose(runs[1], runs[0], rtol=0, atol=1e-12 * travelled)
+
+
+def test_flow_velocity_interpolates_and_holds_the_faces_outside():
+    from bondem.physics.field_fluid import flow_velocity
+    rng = np.random.default_rng(3)
+    flow = rng.uniform(-1.0, 1.0, (3, 2, 4, 3))
+    box = np.array([1.0, -2.0, 0.5, 0.1, 0.2, 0.05])
+    node = lambda i, j, k: box[:3] + box[3:] * [i, j, k]  # noqa: E731
+    # at a node: its value
+    assert np.allclose(flow_velocity(flow, box, tuple(node(2, 1, 3))), flow[2, 1, 3])
+    # the middle of a cell: the mean of its 8 nodes
+    middle = tuple(node(0.5, 0.5, 1.5))
+    assert np.allclose(flow_velocity(flow, box, middle), flow[0:2, 0:2, 1:3].mean(axis=(0, 1, 2)))
+    # beyond the +x face and below the z origin: the face's values
+    assert np.allclose(flow_velocity(flow, box, tuple(node(7.0, 1.0, -3.0))), flow[2, 1, 0])
+    # no grid: nothing
+    assert flow_velocity(flow, np.zeros(6), (0.0, 0.0, 0.0)) == (0.0, 0.0, 0.0)
+
+
+@pytest.mark.parametrize("write, message", [
+    (lambda f: f.create_dataset("speed", data=np.zeros((2, 2, 2, 3))), "no dataset 'velocity'"),
+    (lambda f: f.create_dataset("velocity", data=np.zeros((2, 2, 2, 3))), "no attribute 'origin'"),
+    (lambda f: f.create_dataset("velocity", data=np.zeros((2, 2, 3))), "(nx, ny, nz, 3)"),
+])
+def test_a_scene_flow_file_and_its_defects(tmp_path, write, message):
+    import h5py
+    (tmp_path / "particles.csv").write_text("x,y,z,radius,material\n0,0,0,1e-4,glass\n")
+    fluid = 'density = 1000.0\nviscosity = 1e-3\ndrag = "stokes"\nvelocity_file = "flow.h5"'
+    (tmp_path / "scene.toml").write_text(SCENE.format(fluid=fluid))
+    with h5py.File(tmp_path / "flow.h5", "w") as f:
+        f.attrs["spacing"] = [1e-3, 1e-3, 1e-3]
+        write(f)
+        if "velocity" in f and f["velocity"].ndim == 3:
+            f.attrs["origin"] = [0.0, 0.0, 0.0]
+    with pytest.raises(InputError) as error:
+        load_scene(tmp_path / "scene.toml")
+    assert error.value.key == "fluid.velocity_file" and message in str(error.value)
+    # a good file: the grid is the model's
+    velocity, origin, spacing = rotating_flow_grid(np.array([0.0, 0.0, 3.0]),
+                                                   (-1e-3, -1e-3, -1e-3), (1e-3, 1e-3, 1e-3),
+                                                   (3, 3, 3))
+    with h5py.File(tmp_path / "flow.h5", "w") as f:
+        f["velocity"] = velocity
+        f["velocity"].attrs["origin"] = origin
+        f["velocity"].attrs["spacing"] = spacing
+    model = load_scene(tmp_path / "scene.toml").model
+    assert np.array_equal(model.flow, velocity)
+    assert np.array_equal(model.flow_box, np.r_[origin, spacing])

@@ -147,6 +147,8 @@ class Model:
     bond_material (B,) index into bond_materials; gravity (3,) m/s^2; fluid: the fluid
     around the particles (``fluid_array``; drag and buoyancy, physics/field_fluid.py);
     frame: a rotating frame of reference (``frame_array``; physics/field_frame.py);
+    flow (nx, ny, nz, 3) m/s and flow_box (origin (3,) m, spacing (3,) m; spacing 0: no
+    grid): the fluid's velocity given on a grid (``read_flow_grid``), added to its own;
     periodic (3,) bool with box_low/box_high (3,) m the periodic cell (also the domain
     outside which a particle means a blown-up run, along non-periodic axes where finite);
     damping: local (non-viscous) damping coefficient in [0, 1), 0 for none.
@@ -167,6 +169,8 @@ class Model:
     gravity: np.ndarray = field(default_factory=lambda: np.zeros(3))
     fluid: np.ndarray = field(default_factory=lambda: fluid_array())
     frame: np.ndarray = field(default_factory=lambda: np.zeros(FRAME_COLUMNS))
+    flow: np.ndarray = field(default_factory=lambda: np.zeros((1, 1, 1, 3)))
+    flow_box: np.ndarray = field(default_factory=lambda: np.zeros(6))
     periodic: np.ndarray = field(default_factory=lambda: np.zeros(3, dtype=bool))
     box_low: np.ndarray = field(default_factory=lambda: np.full(3, -np.inf))
     box_high: np.ndarray = field(default_factory=lambda: np.full(3, np.inf))
@@ -178,6 +182,25 @@ class Model:
                 f"{len(self.materials)} materials, {len(self.bond_materials)} bond materials, "
                 f"{int(np.count_nonzero(self.fixed))} fixed, periodic {periodic}, "
                 f"gravity {self.gravity.tolist()} m/s^2, damping {self.damping:g})")
+
+    def set_flow(self, velocity, origin, spacing):
+        """Give the fluid a velocity field on a grid: velocity (nx, ny, nz, 3) m/s at the
+        nodes origin + (i, j, k) spacing (m), interpolated trilinearly (physics/
+        field_fluid.py: flow_velocity). ValueError names a bad argument."""
+        velocity = np.ascontiguousarray(velocity, dtype=np.float64)
+        if velocity.ndim != 4 or velocity.shape[3] != 3 or velocity.size == 0:
+            raise ValueError(f"flow velocity: expected an (nx, ny, nz, 3) array, got shape "
+                             f"{velocity.shape}")
+        if not np.all(np.isfinite(velocity)):
+            raise ValueError("flow velocity: not all finite")
+        origin = np.asarray(origin, dtype=np.float64)
+        spacing = np.asarray(spacing, dtype=np.float64)
+        if origin.shape != (3,) or not np.all(np.isfinite(origin)):
+            raise ValueError(f"flow origin: expected 3 finite numbers, got {origin!r}")
+        if spacing.shape != (3,) or not np.all(np.isfinite(spacing) & (spacing > 0)):
+            raise ValueError(f"flow spacing: expected 3 numbers > 0, got {spacing!r}")
+        self.flow = velocity
+        self.flow_box = np.concatenate([origin, spacing])
 
     @property
     def has_fluid(self) -> bool:

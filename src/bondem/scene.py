@@ -119,6 +119,7 @@ FLUID_KEYS = {
     "buoyancy": ("bool", None, None, None, None, None),
     "voidage": ("number", 1.0, 0.0, 1.0, False, True),
     "spin": ("vector3", [0.0, 0.0, 0.0], -INF, INF, False, False),
+    "velocity_file": ("str", None, None, None, None, None),
 }
 
 
@@ -355,6 +356,7 @@ def _build(data, text, path):
     if fluid["buoyancy"] is None:   # a fluid with a density buoys its particles
         fluid["buoyancy"] = fluid["density"] > 0.0
     frame = _check_table(data.get("frame", {}), FRAME_KEYS, "frame", path)
+    flow_file = fluid.pop("velocity_file")
     try:
         fluid_values = fluid_array(**fluid)
     except ValueError as error:
@@ -406,6 +408,8 @@ def _build(data, text, path):
             frame=frame_array(**frame))
     except ValueError as error:
         raise InputError(str(error), file=path, key=_guess_key(str(error)))
+    if flow_file is not None:
+        _read_flow(model, path.parent / flow_file, path)
     for name, outside in (("box_low", position < model.box_low),
                           ("box_high", position > model.box_high)):
         rows = np.flatnonzero(outside.any(axis=1))
@@ -462,6 +466,33 @@ def _build(data, text, path):
                         "walls": walls}, warnings=warnings)
     _check_time_step(scene, path, save_every_given)
     return scene
+
+
+def _read_flow(model, file, scene_path):
+    """The fluid's velocity grid from an HDF5 file: dataset ``velocity`` (nx, ny, nz, 3)
+    m/s at the nodes ``origin`` + (i, j, k) ``spacing`` (attributes, m); InputError
+    naming the file and what is wrong."""
+    import h5py
+    key = "fluid.velocity_file"
+    if not file.is_file():
+        raise InputError(f"no such file {str(file)!r}", file=scene_path, key=key)
+    try:
+        with h5py.File(file, "r") as f:
+            if "velocity" not in f:
+                raise InputError("no dataset 'velocity' (nx, ny, nz, 3) m/s", file=file,
+                                 key=key)
+            velocity = f["velocity"][()]
+            origin = f["velocity"].attrs.get("origin", f.attrs.get("origin"))
+            spacing = f["velocity"].attrs.get("spacing", f.attrs.get("spacing"))
+    except OSError as error:
+        raise InputError(f"not an HDF5 file ({error})", file=file, key=key) from None
+    for name, value in (("origin", origin), ("spacing", spacing)):
+        if value is None:
+            raise InputError(f"no attribute {name!r} (3 numbers, m)", file=file, key=key)
+    try:
+        model.set_flow(velocity, origin, spacing)
+    except ValueError as error:
+        raise InputError(str(error), file=file, key=key) from None
 
 
 def _guess_key(message):

@@ -307,15 +307,15 @@ def gather_bond_loads(index, loads, force, moment, assign=False):
 
 
 @numba.njit(**_serial)
-def integrate_range(first, last, particles, bodies, force, moment, gravity, fluid, frame,
-                    damping, kick_dt, drift_dt, box, track_energy, energy):
+def integrate_range(first, last, particles, bodies, force, moment, fields, damping,
+                    kick_dt, drift_dt, box, track_energy, energy):
     """``loops.integrate_particle`` for particles first to last - 1; returns the status
     of the last one that blew up (STATUS_OK if none)."""
     status = STATUS_OK
     for p in range(first, last):
         work, lost, code = integrate_particle(p, row3(force, p), row3(moment, p), particles,
-                                              bodies, gravity, fluid, frame, damping,
-                                              kick_dt, drift_dt, box, track_energy)
+                                              bodies, fields, damping, kick_dt,
+                                              drift_dt, box, track_energy)
         if track_energy:
             energy[p, 0] = work
             energy[p, 1] = lost
@@ -325,11 +325,11 @@ def integrate_range(first, last, particles, bodies, force, moment, gravity, flui
 
 
 @numba.njit(**_jit)
-def integrate(particles, bodies, force, moment, gravity, fluid, frame, damping, kick_dt,
-              drift_dt, box, status, track_energy, energy):
+def integrate(particles, bodies, force, moment, fields, damping, kick_dt, drift_dt, box,
+              status, track_energy, energy):
     """``loops.integrate_particle`` for every particle with its loads force (N), moment
-    (N m), gravity (m/s^2), the fluid (physics/field_fluid.py) and the rotating frame
-    (physics/field_frame.py). Sets status[0] when a
+    (N m) and the body-force ``fields`` (``loops.Fields``: gravity, the fluid, the
+    rotating frame). Sets status[0] when a
     particle blows up. If track_energy, energy (N,2) receives each particle's (work of
     gravity, the fluid and external loads, energy removed by damping) in J over this
     kick."""
@@ -339,14 +339,14 @@ def integrate(particles, bodies, force, moment, gravity, fluid, frame, damping, 
     n = particles.position.shape[0]
     for c in prange(chunks(n)):
         code = integrate_range(c * CHUNK, min(n, (c + 1) * CHUNK), particles, bodies, force,
-                               moment, gravity, fluid, frame, damping, kick_dt, drift_dt,
-                               box, track_energy, energy)
+                               moment, fields, damping, kick_dt, drift_dt, box,
+                               track_energy, energy)
         if code != STATUS_OK:
             status[0] = code
 
 
 @numba.njit(**_serial)
-def field_forces(position, velocity, radius, mass, fixed, gravity, fluid, frame, out):
+def field_forces(position, velocity, radius, mass, fixed, fields, out):
     """out[p] = the fields' force on particle p (N): the fluid's drag and buoyancy and the
     rotating frame's centrifugal and Coriolis forces (loops.integrate_particle's), zero
     for fixed particles."""
@@ -356,15 +356,16 @@ def field_forces(position, velocity, radius, mass, fixed, gravity, fluid, frame,
             continue
         x = row3(position, p)
         v = row3(velocity, p)
-        store3(out, p, add(fluid_force(fluid, radius[p], mass[p], x, v, gravity),
-                           frame_force(frame, mass[p], x, v)))
+        store3(out, p, add(fluid_force(fields.fluid, fields.flow, fields.flow_box,
+                                       radius[p], mass[p], x, v, fields.gravity),
+                           frame_force(fields.frame, mass[p], x, v)))
 
 
 def field_force_array(model, state):
     """(N,3) N: the fields' force on each particle in ``state`` (``field_forces``)."""
     out = np.zeros((model.n_particles, 3))
     field_forces(state.position, state.velocity, model.radius, model.mass, model.fixed,
-                 model.gravity, model.fluid, model.frame, out)
+                 fields(model), out)
     return out
 
 
@@ -438,6 +439,13 @@ def box(model, put=lambda a: a):
     """The model's domain as a ``loops.Box`` (low, high, length in m; periodic flags)."""
     return loops.Box(put(model.box_low), put(model.box_high), put(model.box_length),
                      put(model.periodic))
+
+
+def fields(model, put=lambda a: a):
+    """The model's body-force fields as a ``loops.Fields`` (gravity, fluid, flow grid,
+    rotating frame)."""
+    return loops.Fields(put(model.gravity), put(model.fluid), put(model.flow),
+                        put(model.flow_box), put(model.frame))
 
 
 def bodies(model, put=lambda a: a):
@@ -568,9 +576,9 @@ class Integrator:
         track = (model.damping > 0.0 or bool(np.any(model.gravity)) or model.has_fluid
                  or bool(np.any(model.frame)) or bool(model.external_force.any())
                  or bool(model.external_moment.any()))
-        integrate(particles(state), bodies(model), force, moment, model.gravity,
-                  model.fluid, model.frame, model.damping, kick_dt, drift_dt, box(model),
-                  self.status, track, self.energy)
+        integrate(particles(state), bodies(model), force, moment, fields(model),
+                  model.damping, kick_dt, drift_dt, box(model), self.status, track,
+                  self.energy)
         if track:
             # a sum in a fixed order: the same bits whatever the thread count.
             work, dissipated = column_sums(self.energy)

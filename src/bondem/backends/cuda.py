@@ -30,7 +30,7 @@ from ..integrate import step_plan
 from ..physics import bond_models
 from ..status import STATUS_OK, blow_up
 from . import loops
-from .cpu import bodies, bond_state, bond_tuples, box, has_model_state, particles
+from .cpu import bodies, bond_state, bond_tuples, box, fields, has_model_state, particles
 from .cuda_device import THREADS, K, blocks as _blocks
 add = K.add
 row3 = K.row3
@@ -69,9 +69,8 @@ def gather_bond_loads_kernel(index, loads, force, moment, assign):
 
 
 @cuda.jit
-def integrate_kernel(index, loads, use_loads, particles, bodies, force, moment, gravity,
-                     fluid, frame, damping, kick_dt, drift_dt, box, status, work,
-                     dissipated):
+def integrate_kernel(index, loads, use_loads, particles, bodies, force, moment, fields,
+                     damping, kick_dt, drift_dt, box, status, work, dissipated):
     """``loops.integrate_particle`` for every particle, with its bond loads gathered here
     (``loops.bond_ends_sum``) plus, when ``use_loads``, the other laws' loads in force (N)
     and moment (N m). Fusing the gather saves a launch and the force arrays' write and
@@ -84,8 +83,8 @@ def integrate_kernel(index, loads, use_loads, particles, bodies, force, moment, 
         if use_loads:
             f = add(f, row3(force, p))
             m = add(m, row3(moment, p))
-        gained, lost, code = integrate_particle(p, f, m, particles, bodies, gravity, fluid,
-                                                frame, damping, kick_dt, drift_dt, box, True)
+        gained, lost, code = integrate_particle(p, f, m, particles, bodies, fields, damping,
+                                                kick_dt, drift_dt, box, True)
         work[p] += gained
         dissipated[p] += lost
         if code != STATUS_OK:
@@ -154,8 +153,7 @@ class GpuBackend:
         self.bodies = bodies(model, put)
         self.box = box(model, put)
         self.gravity = put(model.gravity)
-        self.fluid = put(model.fluid)
-        self.frame = put(model.frame)
+        self.fields = fields(model, put)
         # the domain's arrays the contact law's kernels take directly
         self.periodic, self.box_length = self.box.periodic, self.box.length
         self.status = put(np.zeros(1, dtype=np.int64))
@@ -380,8 +378,7 @@ class IntegratorGpu:
         g = self.backend_object
         index, loads = self._no_bonds if bonds is None else (bonds.index, bonds.loads)
         integrate_kernel[_blocks(model.n_particles), THREADS](
-            index, loads, use_loads, particles(g.device), g.bodies, force, moment, g.gravity,
-            g.fluid, g.frame, model.damping, kick_dt, drift_dt, g.box, g.status,
-            g.device.work,
+            index, loads, use_loads, particles(g.device), g.bodies, force, moment, g.fields,
+            model.damping, kick_dt, drift_dt, g.box, g.status, g.device.work,
             g.device.dissipated)
         return STATUS_OK

@@ -45,6 +45,10 @@ from ..physics._registry import (PAIR_BETA, PAIR_E_STAR, PAIR_FRICTION,  # noqa:
 # run silently). Units: SI throughout (m, m/s, rad/s, kg, kg m^2, N, N m, J, Pa).
 Particles = namedtuple("Particles", "position velocity angular_velocity")
 Bodies = namedtuple("Bodies", "mass inertia fixed external_force external_moment radius")
+# The body-force fields: gravity (3,) m/s^2, the fluid (physics/field_fluid.py's FLUID_*
+# columns), its flow grid (nx, ny, nz, 3) m/s and box (FLOW_*), the rotating frame
+# (physics/field_frame.py's FRAME_* columns)
+Fields = namedtuple("Fields", "gravity fluid flow flow_box frame")
 Box = namedtuple("Box", "low high length periodic")
 # strength: each bond's strength factor (Model.bond_strength_factors; 1 without scatter)
 Bonds = namedtuple("Bonds", "pairs diameter initial_length material strength")
@@ -368,13 +372,13 @@ def bond_energy(b, bonds, materials, state, position, box):
 # -- particles ----------------------------------------------------------------------------
 
 @body
-def integrate_particle(p, load_f, load_m, particles, bodies, gravity, fluid, frame,
-                       damping, kick_dt, drift_dt, box, track_energy):
+def integrate_particle(p, load_f, load_m, particles, bodies, fields, damping, kick_dt,
+                       drift_dt, box, track_energy):
     """Semi-implicit Euler for particle p: v += F/m kick_dt; x += v drift_dt;
-    w += M/I kick_dt, with its loads load_f (N), load_m (N m) and gravity, the fluid's
-    drag and buoyancy (``fluid``: physics/field_fluid.py's columns), a rotating frame's
-    centrifugal and Coriolis forces and its torque on the spin (``frame``: physics/
-    field_frame.py's; all at the state before the kick), external loads and local
+    w += M/I kick_dt, with its loads load_f (N), load_m (N m) and the ``fields``: gravity,
+    the fluid's drag and buoyancy (physics/field_fluid.py), a rotating frame's
+    centrifugal and Coriolis forces and its torque on the spin (physics/field_frame.py;
+    all at the state before the kick), external loads and local
     damping (Cundall:
     damping |F_k| against the sign of v_k, |M_k| against w_k, per component). Fixed
     particles keep their velocity. Returns (work of gravity, the fields and external
@@ -390,10 +394,12 @@ def integrate_particle(p, load_f, load_m, particles, bodies, gravity, fluid, fra
     if not bodies.fixed[p]:
         mass = bodies.mass[p]
         inertia = bodies.inertia[p]
-        carried = add(fluid_force(fluid, bodies.radius[p], mass, row3(particles.position, p),
-                                  row3(v, p), gravity),
-                      frame_force(frame, mass, row3(particles.position, p), row3(v, p)))
-        turned = frame_moment(frame, inertia, row3(w, p))
+        gravity = fields.gravity
+        here = row3(particles.position, p)
+        carried = add(fluid_force(fields.fluid, fields.flow, fields.flow_box,
+                                  bodies.radius[p], mass, here, row3(v, p), gravity),
+                      frame_force(fields.frame, mass, here, row3(v, p)))
+        turned = frame_moment(fields.frame, inertia, row3(w, p))
         for k in range(3):
             applied = mass * gravity[k] + bodies.external_force[p, k] + carried[k]
             applied_m = bodies.external_moment[p, k] + turned[k]

@@ -1,8 +1,9 @@
 """A fluid around the particles: drag and buoyancy (body forces on each particle).
 
 The fluid has a density rho_f (kg/m^3), a dynamic viscosity mu (Pa s), a velocity field
-u(x) = u_0 + W x x (m/s: a uniform flow u_0 plus a rigid rotation at W rad/s about an axis
-through the origin, as a liquid turning with its drum) and a voidage eps (-, the local
+u(x) = u_0 + W x x + u_grid(x) (m/s: a uniform flow u_0, a rigid rotation at W rad/s about
+an axis through the origin, as a liquid turning with its drum, and a field given on a
+grid, interpolated trilinearly) and a voidage eps (-, the local
 fluid fraction; 1 for a lone particle). A particle of diameter d (m) at x moving at v
 feels, with the slip s = u(x) - v and the particle Reynolds number
 Re = rho_f eps |s| d / mu:
@@ -60,10 +61,61 @@ def drag_coefficient(law, re):
     return 17.0 / re ** 0.6
 
 
+# the flow grid's box (Model.flow_box): origin (3,) m, spacing (3,) m (0: no grid)
+FLOW_ORIGIN, FLOW_SPACING = 0, 3
+
+
 @physics
-def fluid_force(fluid, radius, mass, x, v, gravity):
+def flow_cell(n, s):
+    """(node index, weight of the next node) along one axis of n nodes at grid
+    coordinate s (x - origin) / spacing, the nearest face's node outside the grid."""
+    if n == 1 or s <= 0.0:
+        return 0, 0.0
+    if s >= n - 1:
+        return n - 2, 1.0
+    i = int(math.floor(s))
+    return i, s - i
+
+
+@physics
+def flow_velocity(flow, flow_box, x):
+    """The flow grid's velocity (m/s, 3-tuple) at x (m): trilinear interpolation of the
+    node values flow (nx, ny, nz, 3) m/s on the nodes origin + (i, j, k) spacing
+    (flow_box: FLOW_ORIGIN, FLOW_SPACING); outside the grid, the nearest face's values.
+    Zero when the spacing is 0 (no grid)."""
+    if flow_box[FLOW_SPACING] == 0.0:
+        return (0.0, 0.0, 0.0)
+    nx, ny, nz = flow.shape[0], flow.shape[1], flow.shape[2]
+    i0, fx = flow_cell(nx, (x[0] - flow_box[FLOW_ORIGIN]) / flow_box[FLOW_SPACING])
+    j0, fy = flow_cell(ny, (x[1] - flow_box[FLOW_ORIGIN + 1]) / flow_box[FLOW_SPACING + 1])
+    k0, fz = flow_cell(nz, (x[2] - flow_box[FLOW_ORIGIN + 2]) / flow_box[FLOW_SPACING + 2])
+    i1 = i0 + 1 if nx > 1 else i0
+    j1 = j0 + 1 if ny > 1 else j0
+    k1 = k0 + 1 if nz > 1 else k0
+    ux = 0.0
+    uy = 0.0
+    uz = 0.0
+    for c in range(3):
+        c00 = flow[i0, j0, k0, c] * (1.0 - fx) + flow[i1, j0, k0, c] * fx
+        c10 = flow[i0, j1, k0, c] * (1.0 - fx) + flow[i1, j1, k0, c] * fx
+        c01 = flow[i0, j0, k1, c] * (1.0 - fx) + flow[i1, j0, k1, c] * fx
+        c11 = flow[i0, j1, k1, c] * (1.0 - fx) + flow[i1, j1, k1, c] * fx
+        value = ((c00 * (1.0 - fy) + c10 * fy) * (1.0 - fz)
+                 + (c01 * (1.0 - fy) + c11 * fy) * fz)
+        if c == 0:
+            ux = value
+        elif c == 1:
+            uy = value
+        else:
+            uz = value
+    return (ux, uy, uz)
+
+
+@physics
+def fluid_force(fluid, flow, flow_box, radius, mass, x, v, gravity):
     """Drag plus buoyancy (N, 3-tuple) on a particle of radius (m) and mass (kg) at x (m)
-    moving at v (m/s) in the fluid ``fluid`` (FLUID_* columns), gravity (m/s^2)."""
+    moving at v (m/s) in the fluid ``fluid`` (FLUID_* columns) whose velocity adds the
+    flow grid's (``flow_velocity``), gravity (m/s^2)."""
     law = int(fluid[FLUID_DRAG])
     rho = fluid[FLUID_DENSITY]
     fx = 0.0
@@ -81,9 +133,10 @@ def fluid_force(fluid, radius, mass, x, v, gravity):
     wx = fluid[FLUID_SPIN]
     wy = fluid[FLUID_SPIN + 1]
     wz = fluid[FLUID_SPIN + 2]
-    sx = fluid[FLUID_VELOCITY] + wy * x[2] - wz * x[1] - v[0]
-    sy = fluid[FLUID_VELOCITY + 1] + wz * x[0] - wx * x[2] - v[1]
-    sz = fluid[FLUID_VELOCITY + 2] + wx * x[1] - wy * x[0] - v[2]
+    grid = flow_velocity(flow, flow_box, x)
+    sx = fluid[FLUID_VELOCITY] + wy * x[2] - wz * x[1] + grid[0] - v[0]
+    sy = fluid[FLUID_VELOCITY + 1] + wz * x[0] - wx * x[2] + grid[1] - v[1]
+    sz = fluid[FLUID_VELOCITY + 2] + wx * x[1] - wy * x[0] + grid[2] - v[2]
     if law == 5:
         # MUSEN's centrifugal casting: x's part across the spin axis, |W|^2 times the
         # mass less the liquid it displaces
