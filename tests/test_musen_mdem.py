@@ -442,3 +442,21 @@ def test_bad_generator_lines_name_the_job_and_key(tmp_path, line):
     assert result.exit_code == 2, result.output
     assert "job 2" in result.output and line.split()[0] in result.output
     assert not (folder / "work").exists()
+
+
+@pytest.mark.parametrize("line, message", [
+    ("PACK_GEN_POROSITY 1 1.5", "porosity in (0, 1)"),
+    ("PACK_GEN_VELOCITY 1 0.0 -0.1", "velocity 3 numbers"),
+    ("PACK_GEN_MIXTURE 1 sand", "'sand' is not in the file"),
+    ("PACK_GEN_POROSITY 1 0.05", "package generator"),   # more than the packer can place
+])
+def test_bad_package_generator_lines_name_the_job(tmp_path, line, message):
+    folder = tmp_path / "packing"
+    folder.mkdir()
+    (folder / "packing.mdem").write_bytes((DATA / "packing" / "packing.mdem").read_bytes())
+    script = (DATA / "packing" / "script.txt").read_text()
+    (folder / "script.txt").write_text(script.replace("PACK_GEN_POROSITY 1 0.6", line))
+    result = CliRunner().invoke(main, ["run", str(folder / "script.txt")])
+    assert result.exit_code == 2, result.output
+    assert "job 1" in result.output and message in result.output
+    assert not (folder / "work" / "fall").exists()

@@ -224,14 +224,23 @@ def package_job(job):
                 g["mixture"] = _named(mixtures, " ".join(value), job, key)
             elif key == "PACK_GEN_POROSITY":
                 g["porosity"] = float(value[0])
+                if not 0.0 < g["porosity"] < 1.0:
+                    raise ValueError(value[0])
             elif key == "PACK_GEN_OVERLAP":
                 g["max_overlap"] = float(value[0])
+                if not g["max_overlap"] > 0.0:
+                    raise ValueError(value[0])
             elif key == "PACK_GEN_VELOCITY":
                 g["velocity"] = tuple(float(v) for v in value[:3])
+                if len(g["velocity"]) != 3:
+                    raise ValueError(rest)
             elif key == "PACK_GEN_INSIDE":
                 g["inside_geometry"] = bool(int(float(value[0])))
+        except InputError:
+            raise
         except (IndexError, ValueError):
-            raise InputError(f"job {job.number}: expected {key} INDEX VALUE, got "
+            raise InputError(f"job {job.number}: expected {key} INDEX VALUE (porosity in "
+                             "(0, 1), overlap > 0 m, velocity 3 numbers m/s), got "
                              f"{rest!r}", key=key) from None
     return generators
 
@@ -303,6 +312,10 @@ def run_script(path, *, workers=1, echo=print):
                         count, notes = generate_package(scene, generator)
                     except InputError as error:
                         raise InputError(f"job {job.number}: {error.reason}",
+                                         file=job.source) from None
+                    except (ValueError, RuntimeError) as error:   # the packer's limits
+                        raise InputError(f"job {job.number}: package generator "
+                                         f"{generator['name']!r}: {error}",
                                          file=job.source) from None
                     made += count
                     for note in notes:
