@@ -20,6 +20,7 @@ from bondem.physics.field_fluid import drag_coefficient
 from bondem.scene import load_scene
 
 GRAVITY = (0.0, 0.0, -9.81)
+NO_GRID = (np.zeros((1, 1, 1, 3)), np.zeros(6))   # no flow grid (Model's default)
 
 
 def settling(rho_p, d, fluid, gravity=GRAVITY):
@@ -139,7 +140,8 @@ def test_di_felice_is_dallavalles_drag_in_a_lone_particle_and_grows_in_a_bed():
     for eps in (1.0, 0.6):
         fluid = fluid_array(density=1000.0, viscosity=1e-3, velocity=(0.1, 0.0, 0.0),
                             drag="di_felice", voidage=eps)
-        force = fluid_force(fluid, 5e-4, 1e-6, (1e-3, 0.0, 0.0), (0.0, 0.0, 0.0), GRAVITY)
+        force = fluid_force(fluid, *NO_GRID, 5e-4, 1e-6, (1e-3, 0.0, 0.0), (0.0, 0.0, 0.0),
+                            GRAVITY)
         re = 1000.0 * eps * 0.1 * 1e-3 / 1e-3
         chi = 3.7 - 0.65 * math.exp(-0.5 * (1.5 - math.log10(re)) ** 2)
         expected = (0.5 * 1000.0 * drag_coefficient(3, re) * math.pi / 4 * 1e-6 * 0.01
@@ -148,11 +150,11 @@ def test_di_felice_is_dallavalles_drag_in_a_lone_particle_and_grows_in_a_bed():
         assert force[1] == 0.0 and force[2] == 0.0
     # the voidage factor eps^(2 - chi) > 1 for chi ~ 3.7: a bed drags harder
     dense = fluid_force(fluid_array(density=1000.0, viscosity=1e-3, velocity=(0.1, 0, 0),
-                                    drag="di_felice", voidage=0.6), 5e-4, 1e-6, (0, 0, 0),
-                       (0, 0, 0), GRAVITY)
+                                    drag="di_felice", voidage=0.6), *NO_GRID, 5e-4, 1e-6,
+                       (0, 0, 0), (0, 0, 0), GRAVITY)
     lone = fluid_force(fluid_array(density=1000.0, viscosity=1e-3, velocity=(0.1, 0, 0),
-                                   drag="di_felice"), 5e-4, 1e-6, (0, 0, 0), (0, 0, 0),
-                      GRAVITY)
+                                   drag="di_felice"), *NO_GRID, 5e-4, 1e-6, (0, 0, 0),
+                      (0, 0, 0), GRAVITY)
     assert dense[0] > 2.0 * lone[0]
 
 
@@ -361,8 +363,8 @@ def test_the_centrifugal_law_against_its_formula_off_the_axis():
     across = x - np.dot(x, axis) * axis
     expected = (6 * np.pi * mu * r * (np.cross(spin, x) - v)
                 + (mass - rho * 4 / 3 * np.pi * r ** 3) * np.dot(spin, spin) * across)
-    np.testing.assert_allclose(fluid_force(fluid, r, mass, tuple(x), tuple(v), GRAVITY),
-                               expected, rtol=1e-12)
+    np.testing.assert_allclose(fluid_force(fluid, *NO_GRID, r, mass, tuple(x), tuple(v),
+                                           GRAVITY), expected, rtol=1e-12)
 
 
 def test_the_fields_force_is_saved_and_exported(tmp_path):
