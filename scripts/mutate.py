@@ -44,6 +44,7 @@ MODULES = {
     "src/bondem/timestep.py": ["tests/test_model.py", "tests/test_bond_kelvin.py"],
     "src/bondem/io/csv_files.py": ["tests/test_bad_files.py", "tests/test_generate_io.py"],
     "src/bondem/calibrate.py": ["tests/test_calibrate.py"],
+    "src/bondem/io/protowire.py": ["tests/test_protowire.py"],
 }
 COPIED = ["tests/", "examples/", "docs/", "README.md", "benchmarks/", "scripts/"]
 
