@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError
-from .protowire import WireError, decode, encode
+from .protowire import WireError, decode, encode, varint
 
 SIGNATURE = 0x12345678
 FORMAT_VERSION = 2
@@ -582,9 +582,14 @@ def import_mdem(path, out_dir, *, end_time=None, musen_version=None):
     time point, its materials, models and simulator settings) as a bondem scene in
     ``out_dir``, in MUSEN-compatible mode for the release the file's models say
     (``musen_version`` overrides it); returns (scene path, notes)."""
-    from .musen_text import to_bondem
     mdem = MdemFile(path)
     mdem.check()
+    return _import_scene(mdem, out_dir, end_time, musen_version)
+
+
+def _import_scene(mdem, out_dir, end_time=None, musen_version=None):
+    """``import_mdem`` of an open, checked file."""
+    from .musen_text import to_bondem
     release = musen_version or musen_release(mdem)
     script = script_of(mdem)
     try:
@@ -644,8 +649,9 @@ def import_mdem_results(path, out_dir, *, musen_version=None):
     from ..io.results import ResultsWriter
     from ..scene import load_scene
     from .musen_text import wall_groups
-    scene_path, notes = import_mdem(path, out_dir, musen_version=musen_version)
     mdem = MdemFile(path)
+    mdem.check()
+    scene_path, notes = _import_scene(mdem, out_dir, musen_version=musen_version)
     musen = scene_of(mdem)
     scene = load_scene(scene_path)
     sim = scene.make_simulation()
@@ -887,7 +893,7 @@ def write_mdem(path, storage, time_points):
         blocks.append(current)
     offset = 0
     for block in blocks:
-        body = b"".join(b"\x12" + _length(p) + p for _, p in block)
+        body = b"".join(b"\x12" + varint(len(p)) + p for _, p in block)
         packed = zlib.compress(body, 1)
         descriptors.append({"start_time": block[0][0] if block else 0.0,
                             "offset_in_file": offset, "size": len(packed),
@@ -918,16 +924,6 @@ def write_mdem(path, storage, time_points):
                   + struct.pack(f"<{BLOCKS_PER_THREAD}Q",
                                 *offsets, *[0] * (BLOCKS_PER_THREAD - len(offsets))))
     Path(path).write_bytes(header + heads + b"".join(chunks))
-
-
-def _length(data):
-    out = bytearray()
-    n = len(data)
-    while n >= 0x80:
-        out.append(n & 0x7F | 0x80)
-        n >>= 7
-    out.append(n)
-    return bytes(out)
 
 
 def export_mdem(results_path, out_file, every=1):

@@ -145,12 +145,19 @@ def decode(buf, message, tables):
     return out
 
 
-def _put_varint(parts, value):
+def varint(value):
+    """The bytes of ``value`` as a varint (negative values as 64-bit two's complement)."""
     value &= (1 << 64) - 1
+    out = bytearray()
     while value >= 0x80:
-        parts.append(bytes((value & 0x7F | 0x80,)))
+        out.append(value & 0x7F | 0x80)
         value >>= 7
-    parts.append(bytes((value,)))
+    out.append(value)
+    return bytes(out)
+
+
+def _put_varint(parts, value):
+    parts.append(varint(value))
 
 
 def encode(data, message, tables):
