@@ -460,3 +460,29 @@ def test_bad_package_generator_lines_name_the_job(tmp_path, line, message):
     assert result.exit_code == 2, result.output
     assert "job 1" in result.output and message in result.output
     assert not (folder / "work" / "fall").exists()
+
+
+def test_the_bond_generator_takes_the_pairs_whose_surfaces_lie_within_its_range():
+    """MUSEN's rule: a bond between two spheres whose surfaces are min to max apart, no
+    thicker than either; pairs just inside the range's ends are bonded, pairs just
+    outside are not."""
+    from bondem.io.musen_text import (BOND_GENERATOR, MusenObject, MusenScene,
+                                      generate_bonds)
+    scene = MusenScene()
+    gaps = [0.9e-4, 1.1e-4, 2.9e-4, 3.1e-4]     # between sphere pairs along x
+    x = 0.0
+    for k, gap in enumerate(gaps):
+        scene.objects[2 * k] = MusenObject(2 * k, 1, [5e-4, 5e-4], "a",
+                                           coordinates=(x, 0.0, 0.0), time=0.0)
+        scene.objects[2 * k + 1] = MusenObject(2 * k + 1, 1, [4e-4, 4e-4], "a",
+                                               coordinates=(x + 9e-4 + gap, 0.0, 0.0),
+                                               time=0.0)
+        x += 0.01
+    made = generate_bonds(scene, [dict(BOND_GENERATOR, compound="b", min_distance=1e-4,
+                                       max_distance=3e-4, diameter=1e-3)])
+    bonds = [o for o in scene.objects.values() if o.type == 9]
+    assert made == 2 and sorted((o.geometry[0], o.geometry[1]) for o in bonds) == [
+        (2.0, 3.0), (4.0, 5.0)]
+    assert all(o.geometry[2] == 8e-4 for o in bonds)   # capped by the smaller sphere
+    assert [o.geometry[3] for o in bonds] == pytest.approx([9e-4 + 1.1e-4, 9e-4 + 2.9e-4],
+                                                           rel=1e-12)
