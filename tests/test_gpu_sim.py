@@ -140,6 +140,15 @@ def test_adhesive_contacts_match_cpu_under_simulator():
     assert out.count("worst relative difference") == 5
 
 
+def test_clumps_match_cpu_under_simulator():
+    """Two rigid clumps among bonded clusters, loose spheres, a plane and a moving mesh
+    wall, with damping, the GPU run restarted half-way: the clump kernel runs the CPU's
+    body, so the clumps' positions, quaternions and momenta and every particle equal the
+    CPU's to 1e-12."""
+    out = run_case("clumps_match_cpu")
+    assert "clump_orientation" in out
+
+
 def test_contact_list_rebuilds_match_cpu_under_simulator():
     """Linear contacts with a small skin, x periodic (a contact across the boundary): the
     lists are rebuilt every few steps (on the host, springs carried), the GPU run is

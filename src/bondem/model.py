@@ -152,6 +152,12 @@ class Model:
     periodic (3,) bool with box_low/box_high (3,) m the periodic cell (also the domain
     outside which a particle means a blown-up run, along non-periodic axes where finite);
     damping: local (non-viscous) damping coefficient in [0, 1), 0 for none.
+    Clumps (rigid grains of several spheres, ``bondem.clumps``; empty arrays when there
+    are none): clump_of (N,) the clump of each particle, -1 for a free sphere;
+    clump_offset (N,3) m each member's centre in its clump's body frame (the principal
+    axes, origin at the clump's centre of mass); clump_mass (C,) kg; clump_inertia (C,3)
+    kg m^2 the principal moments. A member's mass and inertia above are its share of the
+    clump's (what contacts and time steps see); the clump moves as one rigid body.
     """
     radius: np.ndarray
     mass: np.ndarray
@@ -175,6 +181,10 @@ class Model:
     box_low: np.ndarray = field(default_factory=lambda: np.full(3, -np.inf))
     box_high: np.ndarray = field(default_factory=lambda: np.full(3, np.inf))
     damping: float = 0.0
+    clump_of: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=INDEX))
+    clump_offset: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    clump_mass: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    clump_inertia: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
 
     def __repr__(self):
         periodic = "".join(a for a, p in zip("xyz", self.periodic) if p) or "none"
@@ -214,6 +224,28 @@ class Model:
     @property
     def n_bonds(self) -> int:
         return self.bond_pairs.shape[0]
+
+    @property
+    def n_clumps(self) -> int:
+        """Number of clumps (rigid grains of several spheres)."""
+        return self.clump_mass.shape[0]
+
+    def clump_members(self):
+        """(offsets (C+1,), members) int64: clump c's member particles are
+        members[offsets[c]:offsets[c+1]], ascending."""
+        of = self.clump_of
+        members = np.flatnonzero(of >= 0).astype(INDEX)
+        members = members[np.argsort(of[members], kind="stable")]
+        offsets = np.zeros(self.n_clumps + 1, dtype=INDEX)
+        np.cumsum(np.bincount(of[members], minlength=self.n_clumps), out=offsets[1:])
+        return offsets, members
+
+    def integrated(self) -> np.ndarray:
+        """(N,) bool: particles whose velocity is prescribed or set by their clump
+        (fixed, or clump members), which the per-particle update does not kick."""
+        if self.n_clumps == 0:
+            return self.fixed
+        return self.fixed | (self.clump_of >= 0)
 
     @property
     def box_length(self) -> np.ndarray:
@@ -290,6 +322,10 @@ class State:
     history and counters (contacts, walls) as arrays. bond_previous_length (B,) m: |x_j -
     x_i| of the last step, which MUSEN's rotation needs (``musen_compat``); None in states
     made before it existed: ``Simulation`` then sets it to the initial lengths.
+    Clumps (C of them; empty without): clump_position (C,3) m their centres of mass;
+    clump_orientation (C,4) unit quaternions (q0, q1, q2, q3) from body to lab frame;
+    clump_velocity (C,3) m/s; clump_angular_momentum (C,3) N m s about the centre, in the
+    lab frame. Their members' rows of position, velocity and angular_velocity follow.
     """
     time: float
     step: int
@@ -309,6 +345,10 @@ class State:
     dissipated_damping: float = 0.0
     bond_previous_length: np.ndarray | None = None
     extra: dict = field(default_factory=dict)
+    clump_position: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    clump_orientation: np.ndarray = field(default_factory=lambda: np.zeros((0, 4)))
+    clump_velocity: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
+    clump_angular_momentum: np.ndarray = field(default_factory=lambda: np.zeros((0, 3)))
 
     def __repr__(self):
         intact = int(np.count_nonzero(self.bond_active))

@@ -68,6 +68,9 @@ class Simulation:
                 values = {k: getattr(material, k) for k in bond_models.bond_material_schema()}
                 for key, message in bond_models.check(values, musen_compat=True):
                     raise ValueError(f"bond material {material.name!r}: {message}")
+        if model.n_clumps and np.any(model.frame):
+            raise ValueError("a rotating frame ([frame]) does not act on clumps yet; "
+                             "turn the walls instead")
         if state.bond_previous_length is None:
             # A state from before this array existed: its bonds start at their L0.
             state.bond_previous_length = model.bond_initial_length.copy()
@@ -223,12 +226,22 @@ class Simulation:
             raise
 
     def kinetic_energy(self):
-        """(translational, rotational) kinetic energy in J at the current velocities."""
+        """(translational, rotational) kinetic energy in J at the current velocities:
+        the free spheres' and the clumps' (``clumps.clump_kinetic_energy``)."""
         m = self.model
-        translational = 0.5 * float(np.sum(m.mass * np.einsum("ij,ij->i", self.state.velocity,
-                                                                 self.state.velocity)))
-        rotational = 0.5 * float(np.sum(m.inertia * np.einsum(
+        mass, inertia = m.mass, m.inertia
+        if m.n_clumps:
+            free = m.clump_of < 0
+            mass, inertia = np.where(free, mass, 0.0), np.where(free, inertia, 0.0)
+        translational = 0.5 * float(np.sum(mass * np.einsum("ij,ij->i", self.state.velocity,
+                                                               self.state.velocity)))
+        rotational = 0.5 * float(np.sum(inertia * np.einsum(
             "ij,ij->i", self.state.angular_velocity, self.state.angular_velocity)))
+        if m.n_clumps:
+            from .clumps import clump_kinetic_energy
+            t, r = clump_kinetic_energy(m, self.state)
+            translational += t
+            rotational += r
         return translational, rotational
 
     def bond_energy(self):

@@ -2,7 +2,9 @@
 
 Particles are nodes, intact bonds are edges; a fragment is a connected component
 (scipy.sparse.csgraph.connected_components). A particle with no intact bond is a fragment
-of its own. Fragment ids are ordered by decreasing mass (0 is the largest fragment), so
+of its own. The members of a clump (a rigid grain, bondem.clumps) are always one piece:
+they are joined by edges that never break, and a fragment's count is its grains (clumps
+and free spheres), not its spheres. Fragment ids are ordered by decreasing mass (0 is the largest fragment), so
 that ids are stable enough from frame to frame to colour fragments in ParaView.
 """
 from __future__ import annotations
@@ -17,12 +19,24 @@ from scipy.sparse.csgraph import connected_components
 from .results import Results
 
 
-def fragment_labels(pairs, active, n, mass=None):
+def _clump_edges(clump_of):
+    """Edges (E,2) that chain each clump's members together."""
+    if clump_of is None:
+        return np.zeros((0, 2), dtype=np.int64)
+    clump_of = np.asarray(clump_of, dtype=np.int64)
+    members = np.flatnonzero(clump_of >= 0)
+    members = members[np.argsort(clump_of[members], kind="stable")]
+    same = clump_of[members[1:]] == clump_of[members[:-1]]
+    return np.column_stack([members[:-1][same], members[1:][same]])
+
+
+def fragment_labels(pairs, active, n, mass=None, clump_of=None):
     """Fragments of ``n`` particles joined by the ``active`` bonds among ``pairs``.
 
     pairs: (B,2) particle indices; active: (B,) bool, intact bonds; n: particle count;
     mass: (N,) kg, optional, orders the ids by decreasing fragment mass (by particle
-    count without it; ties by the smallest particle index).
+    count without it; ties by the smallest particle index); clump_of: (N,) each
+    particle's clump (-1 free), whose members are one piece whatever the bonds.
     Returns (n_fragments, labels (N,) int64 fragment id of every particle).
     """
     pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
@@ -32,7 +46,7 @@ def fragment_labels(pairs, active, n, mass=None):
                          "(one per bond)")
     if n == 0:
         return 0, np.zeros(0, dtype=np.int64)
-    edges = pairs[active]
+    edges = np.vstack([pairs[active], _clump_edges(clump_of)])
     graph = coo_matrix((np.ones(len(edges), dtype=np.int8), (edges[:, 0], edges[:, 1])),
                        shape=(n, n))
     count, labels = connected_components(graph, directed=False)
@@ -46,12 +60,21 @@ def fragment_labels(pairs, active, n, mass=None):
     return int(count), rank[labels]
 
 
-def fragment_sizes(labels, mass):
-    """Per-fragment (particle counts, masses in kg), both (n_fragments,), largest mass
-    first. labels: (N,) fragment ids 0..n_fragments-1; mass: (N,) kg."""
+def fragment_sizes(labels, mass, clump_of=None):
+    """Per-fragment (grain counts, masses in kg), both (n_fragments,), largest mass
+    first. labels: (N,) fragment ids 0..n_fragments-1; mass: (N,) kg; clump_of: (N,)
+    each particle's clump (-1 free): a clump counts as one grain (else each particle)."""
     labels = np.asarray(labels, dtype=np.int64)
     mass = np.asarray(mass, dtype=np.float64)
-    counts = np.bincount(labels)
+    grain = np.ones(labels.shape[0])
+    if clump_of is not None:
+        clump_of = np.asarray(clump_of, dtype=np.int64)
+        inside = clump_of >= 0
+        # one member of each clump counts it
+        _, first = np.unique(clump_of[inside], return_index=True)
+        grain[inside] = 0.0
+        grain[np.flatnonzero(inside)[first]] = 1.0
+    counts = np.bincount(labels, weights=grain).astype(np.int64)
     masses = np.bincount(labels, weights=mass, minlength=counts.shape[0])
     order = np.lexsort((-counts, -masses))
     return counts[order], masses[order]
@@ -82,12 +105,13 @@ def fragment_series(results):
     "largest_count": (F,) particles in the largest fragment}.
     """
     pairs, mass, n = results.pairs, results.mass, results.n_particles
+    clump_of = results.clump_of
     out = {"time": results.time, "fragments": [], "fragments_multi": [],
            "largest_fraction": [], "largest_count": []}
     frames = (frame for _, block in results.iter_active() for frame in block)
     for frame_active in frames:
-        count, labels = fragment_labels(pairs, frame_active, n, mass)
-        counts, masses = fragment_sizes(labels, mass)
+        count, labels = fragment_labels(pairs, frame_active, n, mass, clump_of)
+        counts, masses = fragment_sizes(labels, mass, clump_of)
         out["fragments"].append(count)
         out["fragments_multi"].append(int(np.count_nonzero(counts > 1)))
         # over the sum of fragment masses: exactly 1 for an intact body
@@ -102,10 +126,10 @@ def fragment_series(results):
 def frame_fragments(results, frame=-1):
     """Fragments of one frame: {"time": s, "labels": (N,), "counts": (K,), "masses": (K,)
     kg, "total_mass": kg}, fragments by decreasing mass."""
-    mass = results.mass
+    mass, clump_of = results.mass, results.clump_of
     _, labels = fragment_labels(results.pairs, results.active(frame), results.n_particles,
-                                mass)
-    counts, masses = fragment_sizes(labels, mass)
+                                mass, clump_of)
+    counts, masses = fragment_sizes(labels, mass, clump_of)
     return {"time": float(results.time[results.frame_index(frame)]), "labels": labels,
             "counts": counts, "masses": masses, "total_mass": float(masses.sum())}
 
@@ -127,11 +151,13 @@ def write_fragment_ids(path):
     path = Path(path)
     with Results(path) as results:
         pairs, mass, n = results.pairs, results.mass, results.n_particles
+        clump_of = results.clump_of
         time = results.time
         labels = np.zeros((len(time), n), dtype=np.int32)
         for start, block in results.iter_active():
             for k, frame_active in enumerate(block):
-                labels[start + k] = fragment_labels(pairs, frame_active, n, mass)[1]
+                labels[start + k] = fragment_labels(pairs, frame_active, n, mass,
+                                                    clump_of)[1]
     try:
         target = h5py.File(path, "r+")
         sidecar = False

@@ -151,6 +151,14 @@ class Results:
         return self.radius ** 3
 
     @property
+    def clump_of(self):
+        """Each particle's clump (N,) int64, -1 for a free sphere; None in a file without
+        clumps."""
+        if "particles/clump" not in self.file:
+            return None
+        return np.asarray(self._dataset("particles/clump")[()], dtype=np.int64)
+
+    @property
     def pairs(self):
         """Bond particle indices (B,2)."""
         return np.asarray(self._dataset("bonds/pairs")[()], dtype=np.int64).reshape(-1, 2)

@@ -26,6 +26,7 @@ L = loops.compile_loops(numba.njit(cache=False, inline="always"), numba.njit(cac
 advance_bond = L.advance_bond
 bond_ends_sum = L.bond_ends_sum
 integrate_particle = L.integrate_particle
+integrate_clump = L.integrate_clump
 bond_energy = L.bond_energy
 minimum_image = L.minimum_image
 row3 = L.row3
@@ -346,6 +347,40 @@ def integrate(particles, bodies, force, moment, fields, damping, kick_dt, drift_
 
 
 @numba.njit(**_serial)
+def integrate_clump_range(first, last, force, moment, clumps, clump_state, particles,
+                          bodies, fields, damping, kick_dt, drift_dt, box, track_energy,
+                          energy):
+    """``loops.integrate_clump`` for clumps first to last - 1; returns the status of the
+    last one that blew up (STATUS_OK if none)."""
+    status = STATUS_OK
+    for c in range(first, last):
+        work, lost, code = integrate_clump(c, force, moment, clumps, clump_state, particles,
+                                           bodies, fields, damping, kick_dt, drift_dt, box,
+                                           track_energy)
+        if track_energy:
+            energy[c, 0] = work
+            energy[c, 1] = lost
+        if code != STATUS_OK:
+            status = code
+    return status
+
+
+@numba.njit(**_jit)
+def integrate_clumps(force, moment, clumps, clump_state, particles, bodies, fields, damping,
+                     kick_dt, drift_dt, box, status, track_energy, energy):
+    """``loops.integrate_clump`` for every clump, after ``integrate`` (which leaves the
+    members alone): their loads force (N), moment (N m) move the clumps, which then place
+    their members. Sets status[0] when a clump blows up; energy (C,2) as ``integrate``'s."""
+    n = clump_state.position.shape[0]
+    for c in prange(chunks(n)):
+        code = integrate_clump_range(c * CHUNK, min(n, (c + 1) * CHUNK), force, moment,
+                                     clumps, clump_state, particles, bodies, fields, damping,
+                                     kick_dt, drift_dt, box, track_energy, energy)
+        if code != STATUS_OK:
+            status[0] = code
+
+
+@numba.njit(**_serial)
 def field_forces(position, velocity, radius, mass, fixed, fields, out):
     """out[p] = the fields' force on particle p (N): the fluid's drag and buoyancy and the
     rotating frame's centrifugal and Coriolis forces (loops.integrate_particle's), zero
@@ -450,9 +485,25 @@ def fields(model, put=lambda a: a):
 
 def bodies(model, put=lambda a: a):
     """The model's per-particle constants as a ``loops.Bodies`` (kg, kg m^2, N, N m)."""
-    return loops.Bodies(put(model.mass), put(model.inertia), put(model.fixed),
+    return loops.Bodies(put(model.mass), put(model.inertia), put(model.integrated()),
                         put(model.external_force), put(model.external_moment),
                         put(model.radius))
+
+
+def clumps(model, put=lambda a: a):
+    """The model's clumps as a ``loops.Clumps`` (one unused row when there are none)."""
+    offsets, members = model.clump_members()
+    offset = model.clump_offset if model.n_clumps else np.zeros((1, 3))
+    fixed = model.fixed[members[offsets[:-1]]] if model.n_clumps else np.zeros(1, bool)
+    return loops.Clumps(put(offsets), put(members if members.size else np.zeros(1, np.int64)),
+                        put(np.ascontiguousarray(offset)), put(model.clump_mass),
+                        put(model.clump_inertia), put(np.ascontiguousarray(fixed)))
+
+
+def clump_state(state):
+    """The state's clump arrays as a ``loops.ClumpState`` (views, updated in place)."""
+    return loops.ClumpState(state.clump_position, state.clump_orientation,
+                            state.clump_velocity, state.clump_angular_momentum)
 
 
 class ElasticBonds:
@@ -550,6 +601,8 @@ class Integrator:
     def __init__(self, model):
         self.status = np.zeros(1, dtype=np.int64)
         self.energy = np.zeros((model.n_particles, 2))
+        self.clumps = clumps(model) if model.n_clumps else None
+        self.clump_energy = np.zeros((model.n_clumps, 2))
 
     @contextlib.contextmanager
     def thread_limit(self, model):
@@ -579,9 +632,17 @@ class Integrator:
         integrate(particles(state), bodies(model), force, moment, fields(model),
                   model.damping, kick_dt, drift_dt, box(model), self.status, track,
                   self.energy)
+        if self.clumps is not None:
+            integrate_clumps(force, moment, self.clumps, clump_state(state), particles(state),
+                             bodies(model), fields(model), model.damping, kick_dt, drift_dt,
+                             box(model), self.status, track, self.clump_energy)
         if track:
             # a sum in a fixed order: the same bits whatever the thread count.
             work, dissipated = column_sums(self.energy)
             state.work_external += float(work)
             state.dissipated_damping += float(dissipated)
+            if self.clumps is not None:
+                work, dissipated = column_sums(self.clump_energy)
+                state.work_external += float(work)
+                state.dissipated_damping += float(dissipated)
         return int(self.status[0])

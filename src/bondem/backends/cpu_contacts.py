@@ -426,6 +426,11 @@ class ContactLaw:
             # more than a quarter (else it counts first, as this first one did)
             longest = int(np.bincount(pairs[:, 0]).max()) if pairs.shape[0] else 0
             self._row_room = longest + max(4, longest // 4)
+            if model.n_clumps and pairs.shape[0]:
+                # members of one clump never touch: it is rigid
+                clump = model.clump_of[pairs]
+                pairs = np.ascontiguousarray(
+                    pairs[(clump[:, 0] < 0) | (clump[:, 0] != clump[:, 1])])
         else:
             pairs = empty2
         pair_history, wall_history = self.history()

@@ -30,7 +30,8 @@ from ..integrate import step_plan
 from ..physics import bond_models
 from ..status import STATUS_OK, blow_up
 from . import loops
-from .cpu import bodies, bond_state, bond_tuples, box, fields, has_model_state, particles
+from .cpu import (bodies, bond_state, bond_tuples, box, clump_state, clumps, fields,
+                  has_model_state, particles)
 from .cuda_device import THREADS, K, blocks as _blocks
 add = K.add
 row3 = K.row3
@@ -38,6 +39,7 @@ advance_bond = K.advance_bond
 bond_ends_sum = K.bond_ends_sum
 bond_energy = K.bond_energy
 integrate_particle = K.integrate_particle
+integrate_clump = K.integrate_clump
 minimum_image = K.minimum_image
 
 
@@ -70,23 +72,46 @@ def gather_bond_loads_kernel(index, loads, force, moment, assign):
 
 @cuda.jit
 def integrate_kernel(index, loads, use_loads, particles, bodies, force, moment, fields,
-                     damping, kick_dt, drift_dt, box, status, work, dissipated):
+                     damping, kick_dt, drift_dt, box, status, work, dissipated, store):
     """``loops.integrate_particle`` for every particle, with its bond loads gathered here
     (``loops.bond_ends_sum``) plus, when ``use_loads``, the other laws' loads in force (N)
     and moment (N m). Fusing the gather saves a launch and the force arrays' write and
     read (96 B per particle) when the bonds are the only law. Adds each particle's work
     of gravity, the fields and external loads and its damping loss (J) to ``work[p]`` and
     ``dissipated[p]``, summed on the host when the state is copied back; sets status[0]
-    on a NaN or a particle out of the domain."""
+    on a NaN or a particle out of the domain. store: keep each particle's total loads in
+    force and moment (for the clumps)."""
     for p in range(cuda.grid(1), particles.position.shape[0], cuda.gridsize(1)):
         f, m = bond_ends_sum(p, index, loads, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
         if use_loads:
             f = add(f, row3(force, p))
             m = add(m, row3(moment, p))
+        if store:
+            # the clumps read their members' loads (clump_kernel, after this one)
+            for k in range(3):
+                force[p, k] = f[k]
+                moment[p, k] = m[k]
         gained, lost, code = integrate_particle(p, f, m, particles, bodies, fields, damping,
                                                 kick_dt, drift_dt, box, True)
         work[p] += gained
         dissipated[p] += lost
+        if code != STATUS_OK:
+            status[0] = code
+
+
+@cuda.jit
+def clump_kernel(force, moment, clumps, clump_state, particles, bodies, fields, damping,
+                 kick_dt, drift_dt, box, status, work, dissipated):
+    """``loops.integrate_clump`` for every clump, after ``integrate_kernel`` stored the
+    members' loads; its work and damping loss (J) go to its first member's slots of
+    ``work`` and ``dissipated`` (which the member itself leaves at zero)."""
+    for c in range(cuda.grid(1), clump_state.position.shape[0], cuda.gridsize(1)):
+        gained, lost, code = integrate_clump(c, force, moment, clumps, clump_state,
+                                             particles, bodies, fields, damping, kick_dt,
+                                             drift_dt, box, True)
+        first = clumps.members[clumps.offsets[c]]
+        work[first] += gained
+        dissipated[first] += lost
         if code != STATUS_OK:
             status[0] = code
 
@@ -107,6 +132,14 @@ STATE_ARRAYS = ("position", "velocity", "angular_velocity", "bond_active", "bond
                 "bond_previous_length",
                 "bond_tangential_force", "bond_normal_moment", "bond_tangential_moment",
                 "bond_break_time", "bond_break_mode", "bond_break_energy")
+# ... and those of the clumps, when there are any
+CLUMP_ARRAYS = ("clump_position", "clump_orientation", "clump_velocity",
+                "clump_angular_momentum")
+
+
+def state_arrays(state):
+    """Names of the state's arrays that live on the device."""
+    return STATE_ARRAYS + (CLUMP_ARRAYS if state.clump_position.shape[0] else ())
 
 
 def require_device(name="gpu"):
@@ -128,7 +161,7 @@ class DeviceState:
     per-particle energy counters ``work`` and ``dissipated`` (J) since the last copy back."""
 
     def __init__(self, state):
-        for name in STATE_ARRAYS:
+        for name in state_arrays(state):
             setattr(self, name, cuda.to_device(np.ascontiguousarray(getattr(state, name))))
         n = state.position.shape[0]
         self.work = cuda.to_device(np.zeros(n))
@@ -180,7 +213,7 @@ class GpuBackend:
 
         Raises SimulationBlowUp if a kernel flagged a NaN or a particle out of the domain
         since the last check (the state is copied first, so it shows the blow-up)."""
-        for name in STATE_ARRAYS:
+        for name in state_arrays(state):
             getattr(self.device, name).copy_to_host(getattr(state, name))
         state.work_external += float(self.device.work.copy_to_host().sum())
         state.dissipated_damping += float(self.device.dissipated.copy_to_host().sum())
@@ -362,6 +395,8 @@ class IntegratorGpu:
     def __init__(self, backend):
         self.backend_object = backend
         n = backend.model.n_particles
+        self.clumps = (clumps(backend.model, cuda.to_device) if backend.model.n_clumps
+                       else None)
         # An empty bond index, for steps without a fused bond law.
         self._no_bonds = (loops.BondIndex(cuda.to_device(np.zeros(n + 1, dtype=np.int64)),
                                           cuda.to_device(np.zeros(1, dtype=np.int64))),
@@ -380,5 +415,10 @@ class IntegratorGpu:
         integrate_kernel[_blocks(model.n_particles), THREADS](
             index, loads, use_loads, particles(g.device), g.bodies, force, moment, g.fields,
             model.damping, kick_dt, drift_dt, g.box, g.status, g.device.work,
-            g.device.dissipated)
+            g.device.dissipated, self.clumps is not None)
+        if self.clumps is not None:
+            clump_kernel[_blocks(model.n_clumps), THREADS](
+                force, moment, self.clumps, clump_state(g.device), particles(g.device),
+                g.bodies, g.fields, model.damping, kick_dt, drift_dt, g.box, g.status,
+                g.device.work, g.device.dissipated)
         return STATUS_OK

@@ -50,6 +50,11 @@ Bodies = namedtuple("Bodies", "mass inertia fixed external_force external_moment
 # (physics/field_frame.py's FRAME_* columns)
 Fields = namedtuple("Fields", "gravity fluid flow flow_box frame")
 Box = namedtuple("Box", "low high length periodic")
+# Clumps (Model.clump_*): members of clump c are members[offsets[c]:offsets[c+1]]; offset
+# (N,3) m each member's place in its clump's body frame; mass (C,) kg; inertia (C,3)
+# kg m^2 the principal moments; fixed (C,) bool: motion prescribed. ClumpState: State.clump_* (m, unit quaternion, m/s, N m s).
+Clumps = namedtuple("Clumps", "offsets members offset mass inertia fixed")
+ClumpState = namedtuple("ClumpState", "position orientation velocity angular_momentum")
 # strength: each bond's strength factor (Model.bond_strength_factors; 1 without scatter)
 Bonds = namedtuple("Bonds", "pairs diameter initial_length material strength")
 # One array per bond material key (Model.bond_material_table: breakage as criterion codes,
@@ -430,6 +435,118 @@ def integrate_particle(p, load_f, load_m, particles, bodies, fields, damping, ki
         if not (math.isfinite(x) and math.isfinite(v[p, k]) and math.isfinite(w[p, k])):
             status = STATUS_NOT_FINITE
         particles.position[p, k] = x
+    return work, lost, status
+
+
+@body
+def row4(a, i):
+    """Row i of an (n, 4) array as a 4-tuple."""
+    return (a[i, 0], a[i, 1], a[i, 2], a[i, 3])
+
+
+@body
+def integrate_clump(c, force, moment, clumps, clump_state, particles, bodies, fields,
+                    damping, kick_dt, drift_dt, box, track_energy):
+    """The leapfrog of rigid clump c (physics/rigid_body.py): its members' loads force (N)
+    and moment (N m), their external loads and the fluid's force on each (at its own
+    place and velocity) summed into the clump's force and its torque about the centre of
+    mass, lever arms R(q) d from the clump's orientation at the start of the step; gravity
+    on the clump's mass; local damping per component against the signs of V and of the
+    angular velocity. Kick: V += F/M kick_dt, L += T kick_dt (lab frame); drift:
+    X += V drift_dt, q by NO_SQUISH over drift_dt. Then each member p is placed at
+    X + R(q) d_p (wrapped into a periodic box) with velocity V + w x R(q) d_p and angular
+    velocity w = R I^-1 R^T L. Returns (work of gravity, fields and external loads, energy
+    removed by damping) in J over this kick (0 unless track_energy) and a status as
+    ``integrate_particle``'s. A fixed clump keeps its V and L (no kick), and moves."""
+    first = clumps.offsets[c]
+    last = clumps.offsets[c + 1]
+    mass = clumps.mass[c]
+    inertia = row3(clumps.inertia, c)
+    q = row4(clump_state.orientation, c)
+    centre = row3(clump_state.position, c)
+    velocity = row3(clump_state.velocity, c)
+    spin = body_angular_velocity(q, row3(clump_state.angular_momentum, c), inertia)
+    gravity = fields.gravity
+    applied = (mass * gravity[0], mass * gravity[1], mass * gravity[2])
+    load = (0.0, 0.0, 0.0)
+    torque = (0.0, 0.0, 0.0)
+    applied_m = (0.0, 0.0, 0.0)
+    for k in range(first, last):
+        p = clumps.members[k]
+        arm = quaternion_rotate(q, row3(clumps.offset, p))
+        here = add(centre, arm)
+        moving = add(velocity, cross(spin, arm))
+        outside = add(row3(bodies.external_force, p),
+                      fluid_force(fields.fluid, fields.flow, fields.flow_box,
+                                  bodies.radius[p], bodies.mass[p], here, moving, gravity))
+        f = row3(force, p)
+        load = add(load, f)
+        torque = add(torque, add(row3(moment, p), cross(arm, f)))
+        applied = add(applied, outside)
+        applied_m = add(applied_m, add(row3(bodies.external_moment, p), cross(arm, outside)))
+    torque = add(torque, applied_m)
+    damp_m = (0.0, 0.0, 0.0)
+    if damping > 0.0:
+        damp_m = (-damping * abs(torque[0]) * sign(spin[0]),
+                  -damping * abs(torque[1]) * sign(spin[1]),
+                  -damping * abs(torque[2]) * sign(spin[2]))
+    work = 0.0
+    lost = 0.0
+    v = clump_state.velocity
+    momentum = clump_state.angular_momentum
+    fixed = clumps.fixed[c]
+    for k in range(3):
+        if fixed:
+            break
+        f = load[k] + applied[k]
+        damp_f = 0.0
+        if damping > 0.0:
+            damp_f = -damping * abs(f) * sign(v[c, k])
+        v_old = v[c, k]
+        v[c, k] = v_old + (f + damp_f) / mass * kick_dt
+        momentum[c, k] += (torque[k] + damp_m[k]) * kick_dt
+        if track_energy:
+            v_mean = 0.5 * (v_old + v[c, k])
+            work += applied[k] * v_mean * kick_dt
+            lost -= damp_f * v_mean * kick_dt
+    if track_energy and not fixed:
+        # the torques' work with the mean of the old and new angular velocities
+        spin_mean = scale(add(spin, body_angular_velocity(q, row3(momentum, c), inertia)),
+                          0.5)
+        work += dot(applied_m, spin_mean) * kick_dt
+        lost -= dot(damp_m, spin_mean) * kick_dt
+    status = STATUS_OK
+    for k in range(3):
+        x = clump_state.position[c, k] + v[c, k] * drift_dt
+        if box.periodic[k]:
+            length = box.high[k] - box.low[k]
+            x -= length * math.floor((x - box.low[k]) / length)
+        if not (math.isfinite(x) and math.isfinite(v[c, k]) and math.isfinite(momentum[c, k])):
+            status = STATUS_NOT_FINITE
+        clump_state.position[c, k] = x
+    if drift_dt != 0.0:
+        q = free_rotation(q, row3(momentum, c), inertia, drift_dt)
+        for k in range(4):
+            clump_state.orientation[c, k] = q[k]
+    centre = row3(clump_state.position, c)
+    velocity = row3(v, c)
+    spin = body_angular_velocity(q, row3(momentum, c), inertia)
+    for k in range(first, last):
+        p = clumps.members[k]
+        arm = quaternion_rotate(q, row3(clumps.offset, p))
+        moving = add(velocity, cross(spin, arm))
+        for a in range(3):
+            x = centre[a] + arm[a]
+            if box.periodic[a]:
+                length = box.high[a] - box.low[a]
+                x -= length * math.floor((x - box.low[a]) / length)
+            elif x < box.low[a] or x > box.high[a]:
+                status = STATUS_OUT_OF_DOMAIN
+            if not math.isfinite(x):
+                status = STATUS_NOT_FINITE
+            particles.position[p, a] = x
+            particles.velocity[p, a] = moving[a]
+            particles.angular_velocity[p, a] = spin[a]
     return work, lost, status
 
 

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import json
 import os
-from dataclasses import fields
+from dataclasses import MISSING, fields
 from pathlib import Path
 
 import numpy as np
@@ -81,7 +81,8 @@ def read_checkpoint(path):
                 continue
             if f.name in meta["scalars"]:
                 kwargs[f.name] = data[f"scalar/{f.name}"].item()
-            elif f"state/{f.name}" not in data and f.default is None:
+            elif f"state/{f.name}" not in data and (f.default is None or
+                                                    f.default_factory is not MISSING):
                 continue  # optional array absent from older checkpoints: its default
             else:
                 kwargs[f.name] = np.ascontiguousarray(data[f"state/{f.name}"])

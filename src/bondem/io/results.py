@@ -56,6 +56,9 @@ UNITS = {
     "particles/field_force": "N",
     "contacts/end": "1", "contact_rows/i": "1", "contact_rows/j": "1",
     "contact_rows/force": "N",
+    "particles/clump": "1", "clumps/mass": "kg", "clumps/inertia": "kg m^2",
+    "clumps/position": "m", "clumps/orientation": "1", "clumps/velocity": "m/s",
+    "clumps/angular_momentum": "N m s",
 }
 ROWS = "contact_rows/"   # the touching contacts of every frame, one after the other
 
@@ -233,6 +236,10 @@ class ResultsWriter:
             "particles/field_force": (_field_forces(sim.model, state)
                                       if _has_fields(sim.model) else None),
             "bonds/active": state.bond_active,
+            "clumps/position": state.clump_position,
+            "clumps/orientation": state.clump_orientation,
+            "clumps/velocity": state.clump_velocity,
+            "clumps/angular_momentum": state.clump_angular_momentum,
             "bonds/force": bond_forces(sim.model, state),
             "bonds/normal_moment": _intact_only(state.bond_normal_moment, state.bond_active),
             "bonds/tangential_moment": _intact_only(state.bond_tangential_moment,
@@ -366,6 +373,11 @@ def _create_layout(f, sim, *, scene_text, backend, scene_name, material_names,
     constant("particles/radius", model.radius)
     constant("particles/material", model.material.astype(np.int32))
     constant("particles/mass", model.mass)
+    if model.n_clumps:
+        # each particle's clump (-1: a free sphere), the clumps' mass and principal moments
+        constant("particles/clump", model.clump_of)
+        constant("clumps/mass", model.clump_mass)
+        constant("clumps/inertia", model.clump_inertia)
     constant("bonds/pairs", model.bond_pairs)
     constant("bonds/diameter", model.bond_diameter)
     constant("bonds/initial_length", model.bond_initial_length)
@@ -394,6 +406,10 @@ def _create_layout(f, sim, *, scene_text, backend, scene_name, material_names,
         frames(f"particles/{name}", (n, 3))
     if _has_fields(model):
         frames("particles/field_force", (n, 3))
+    if model.n_clumps:
+        for name, columns in (("position", 3), ("orientation", 4), ("velocity", 3),
+                              ("angular_momentum", 3)):
+            frames(f"clumps/{name}", (model.n_clumps, columns))
     frames("bonds/active", (b,), dtype=np.bool_)
     for name in ("force", "normal_moment", "tangential_moment"):
         frames(f"bonds/{name}", (b, 3))

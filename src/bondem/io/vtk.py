@@ -11,7 +11,9 @@ angular_velocity (rad/s), force (N, the load of the last force evaluation, when 
 results file has /particles/force) and force_magnitude (N), field_force (N, a fluid's and a
 rotating frame's, when the results have it), material, and fragment (the
 fragment id: from /particles/fragment, the analysis' sidecar ``<stem>.fragments.h5``, or
-computed here from the intact bonds; 0 is the heaviest fragment).
+computed here from the intact bonds and the clumps; 0 is the heaviest fragment), and
+with clumps "clump" (each member's clump, -1 for a free sphere: the members are the
+particles, so ParaView's sphere glyphs draw each clump's true shape).
 
 Bonds: one cell per bond. An intact bond is a line between its particles; a broken bond
 is a vertex at its break position (the midpoint of its particles in the last frame where
@@ -144,8 +146,9 @@ def bond_stresses(position, pairs, diameter, force, normal_moment, tangential_mo
 
 
 def particles_polydata(position, radius, velocity, angular_velocity, material, fragment=None,
-                       force=None, field_force=None):
-    """Particles as vertices with their point data (see the module docstring)."""
+                       force=None, field_force=None, clump=None):
+    """Particles as vertices with their point data (see the module docstring); clump:
+    each particle's clump (-1 free), shown as "clump" (colour by it: the grains)."""
     n = position.shape[0]
     poly = _PolyData(position)
     poly.set_cells("Verts", np.arange(n), np.ones(n))
@@ -161,6 +164,8 @@ def particles_polydata(position, radius, velocity, angular_velocity, material, f
         poly.point_data.append(("field_force", np.asarray(field_force, np.float64)))
     if fragment is not None:
         poly.point_data.append(("fragment", np.asarray(fragment, np.int64)))
+    if clump is not None:
+        poly.point_data.append(("clump", np.asarray(clump, np.int64)))
     return poly
 
 
@@ -303,6 +308,7 @@ def export_vtk(results_path, out_dir=None, *, every=1) -> Path:
         radius = f["particles/radius"][()]
         material = f["particles/material"][()]
         mass = f["particles/mass"][()] if "particles/mass" in f else None
+        clump = f["particles/clump"][()].astype(np.int64) if "particles/clump" in f else None
         pairs = f["bonds/pairs"][()].astype(np.int64).reshape(-1, 2)
         diameter = f["bonds/diameter"][()]
         bond_material = f["bonds/material"][()] if "bonds/material" in f else None
@@ -336,12 +342,12 @@ def export_vtk(results_path, out_dir=None, *, every=1) -> Path:
             if fragment is not None:
                 frag = fragment[k] if fragment.ndim == 2 else fragment[()]
             else:
-                frag = fragment_labels(pairs, active, n, mass)[1]
+                frag = fragment_labels(pairs, active, n, mass, clump)[1]
             particles = particles_polydata(
                 position, radius, f["particles/velocity"][k],
                 f["particles/angular_velocity"][k], material, frag,
                 f["particles/force"][k] if has_force else None,
-                f["particles/field_force"][k] if has_field else None)
+                f["particles/field_force"][k] if has_field else None, clump)
             name = f"particles_{k:06d}.vtp"
             particles.write(out_dir / name)
             entries.append((times[k], 0, name))
