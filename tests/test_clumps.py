@@ -351,3 +351,167 @@ def test_bonded_clumps_bend_by_m_l_over_e_i_about_the_bond_centre():
     # no shear force at rest: the bond's centre stays put, so B's bonded member (a lever
     # arm L0/2 from it) moved by theta L0 / 2 across the axis
     assert sim.state.position[2, 1] == pytest.approx(theta * L0 / 2.0, rel=5e-3)
+
+
+# -- an agglomerate of clumps: generator, bit-identity, results, fragments -----------------
+
+def agglomerate(seed=2):
+    """An agglomerate of bonded L-trimers (compact packing, bonds within 0.1 r) falling
+    at 2 m/s onto a plane, with gravity, contacts and damping. Returns (model, state,
+    walls)."""
+    from bondem.clumps import ClumpTemplate, bonds_between_clumps, pack_clumps
+    from bondem.generate import Sphere
+    r = 1e-4
+    template = ClumpTemplate([[0, 0, 0], [1.6 * r, 0, 0], [0, 1.6 * r, 0]], [r, r, 0.8 * r],
+                             name="L")
+    glass = Material(name="glass", density=RHO, young_modulus=5e8, poisson_ratio=0.25,
+                     restitution=0.5, friction=0.4)
+    binder = BondMaterial(name="binder", young_modulus=5e8, poisson_ratio=0.25,
+                          normal_strength=5e6, tangential_strength=5e6)
+    packed = pack_clumps(Sphere(center=(0.0, 0.0, 0.62e-3), radius=0.6e-3), template, RHO,
+                         solids_fraction=0.4, seed=seed, compact=0.6)
+    bonds, diameter = bonds_between_clumps(packed["position"], packed["radius"],
+                                           packed["clump_of"], 0.1 * r, diameter_ratio=0.5)
+    n = packed["radius"].size
+    model, state = make_system(packed["position"], packed["radius"], glass,
+                               velocity=np.tile([0.3, 0.0, -2.0], (n, 1)), bonds=bonds,
+                               bond_diameter=diameter, bond_material=binder,
+                               gravity=(0.0, 0.0, -9.81), damping=0.02)
+    model, state = make_clumps(model, state, packed["clump_of"], mass=packed["mass"],
+                               inertia=packed["inertia"], centre=packed["centre"])
+    return model, state, [PlaneWall((0.0, 0.0, 0.0), (0.0, 0.0, 1.0), glass)]
+
+
+def test_packed_clumps_do_not_overlap_and_bond_only_across_clumps():
+    model, state, _ = agglomerate()
+    assert model.n_clumps >= 20
+    x, r, of = state.position, model.radius, model.clump_of
+    gap = (np.linalg.norm(x[:, None] - x[None, :], axis=2) - r[:, None] - r[None, :])
+    other = of[:, None] != of[None, :]
+    assert gap[other].min() > -1e-3 * r.min()   # max_overlap
+    ends = of[model.bond_pairs]
+    assert model.n_bonds > model.n_clumps and np.all(ends[:, 0] != ends[:, 1])
+    # each clump has the template's shape: its members' distances are the template's
+    for c in range(3):
+        members = np.flatnonzero(of == c)
+        d = np.linalg.norm(x[members[1]] - x[members[0]])
+        assert d == pytest.approx(1.6e-4, rel=1e-12)
+    # the masses are the template's union: its spheres less the two lenses where the
+    # corner sphere overlaps the others (pairwise only: the two lenses do not meet)
+    def lens(a, b, d):
+        return np.pi * (a + b - d) ** 2 * (d * d + 2 * d * b - 3 * b * b + 2 * d * a
+                                           + 6 * a * b - 3 * a * a) / (12 * d)
+
+    r = 1e-4
+    union = (2 * sphere_mass(r) + sphere_mass(0.8 * r)
+             - RHO * (lens(r, r, 1.6 * r) + lens(r, 0.8 * r, 1.6 * r)))
+    assert model.clump_mass == pytest.approx(np.full(model.n_clumps, union), rel=1e-4)
+
+
+RUN_AGGLOMERATE = """
+import sys
+sys.path.insert(0, {tests!r})
+import numpy as np
+from bondem.backends import cpu
+from bondem.contacts import ContactSettings
+from bondem import Simulation
+from test_clumps import agglomerate
+cpu.SERIAL_BELOW = 0   # the parallel loops even for this small system
+model, state, walls = agglomerate()
+sim = Simulation(model, state, contact=ContactSettings(), walls=walls, time_step=1e-7)
+sim.step(1500)
+np.savez({out!r}, **{{k.replace('/', '_'): v for k, v in sim.state.arrays().items()}})
+"""
+
+
+def test_clumps_same_bits_with_one_and_two_threads(tmp_path):
+    import os
+    import pathlib
+    import subprocess
+    import sys
+    tests = str(pathlib.Path(__file__).parent)
+    results = []
+    for threads in (1, 2):
+        out = str(tmp_path / f"run{threads}.npz")
+        env = dict(os.environ, NUMBA_NUM_THREADS=str(threads))
+        subprocess.run([sys.executable, "-c", RUN_AGGLOMERATE.format(tests=tests, out=out)],
+                       env=env, check=True, timeout=600)
+        results.append(np.load(out))
+    one, two = results
+    assert one.files == two.files and "clump_orientation" in one.files
+    assert np.any(~one["bond_active"]), "the impact must break bonds"
+    for name in one.files:
+        np.testing.assert_array_equal(one[name], two[name], err_msg=name, strict=True)
+
+
+def test_clumps_resume_from_a_checkpoint_bit_identical(tmp_path):
+    from bondem.io.checkpoint import read_checkpoint, write_checkpoint
+    runs = []
+    for split in (False, True):
+        model, state, walls = agglomerate()
+        sim = Simulation(model, state, contact=ContactSettings(), walls=walls,
+                         time_step=1e-7)
+        sim.step(600)
+        if split:
+            write_checkpoint(tmp_path / "c.npz", sim.state, frames=0)
+            state = read_checkpoint(tmp_path / "c.npz")[0]
+            sim = Simulation(model, state, contact=ContactSettings(), walls=walls,
+                             time_step=1e-7)
+        sim.step(600)
+        runs.append(sim.state.arrays())
+    assert runs[0].keys() == runs[1].keys()
+    for name, value in runs[0].items():
+        np.testing.assert_array_equal(value, runs[1][name], err_msg=name, strict=True)
+
+
+def test_clump_results_paraview_and_fragments(tmp_path):
+    from bondem.analysis.fragments import fragment_labels, fragment_sizes
+    from bondem.analysis.results import Results
+    from bondem.io.results import ResultsWriter
+    from bondem.io.vtk import export_vtk
+    model, state, walls = agglomerate()
+    sim = Simulation(model, state, contact=ContactSettings(), walls=walls, time_step=1e-7)
+    with ResultsWriter(tmp_path / "r.h5", sim) as writer:
+        writer.append(sim)
+        sim.run(until=4e-4)
+        writer.append(sim)
+    with Results(tmp_path / "r.h5") as results:
+        clump_of = results.clump_of
+        assert np.array_equal(clump_of, model.clump_of)
+        assert np.array_equal(results.file["clumps/orientation"][1],
+                              sim.state.clump_orientation)
+        active = results.active(-1)
+    assert np.any(~active)
+    count, labels = fragment_labels(model.bond_pairs, active, model.n_particles, model.mass,
+                                    clump_of)
+    # no clump is split between fragments, and grains are counted once
+    for c in range(model.n_clumps):
+        assert np.unique(labels[clump_of == c]).size == 1
+    counts, masses = fragment_sizes(labels, model.mass, clump_of)
+    assert counts.sum() == model.n_clumps
+    assert masses.sum() == pytest.approx(model.clump_mass.sum(), rel=1e-12)
+    # without the clumps every member with no intact bond would be a fragment of its own
+    plain = fragment_labels(model.bond_pairs, active, model.n_particles, model.mass)[0]
+    assert plain > count
+    pvd = export_vtk(tmp_path / "r.h5")
+    text = (pvd.parent / "particles_000001.vtp").read_text(errors="replace")
+    assert 'Name="clump"' in text
+
+
+# -- input errors ---------------------------------------------------------------------------
+
+def test_clump_input_errors_name_the_clump():
+    position = L_SHAPE
+    bond = BondMaterial(young_modulus=1e8, poisson_ratio=0.3, name="b")
+    model, state = make_system(position, L_RADII, GLASS, bonds=[[0, 1]], bond_diameter=1e-4,
+                               bond_material=bond)
+    with pytest.raises(ValueError, match="bond 0 joins particles \\[0, 1\\] of the same clump"):
+        make_clumps(model, state, [0, 0, 0])
+    model, state = make_system(position, L_RADII, GLASS)
+    with pytest.raises(ValueError, match="clump 1 has 1 member"):
+        make_clumps(model, state, [0, 0, 1])
+    model, state = make_system(position, L_RADII, GLASS, fixed=[True, False, False])
+    with pytest.raises(ValueError, match="clump 0: some of its members are fixed"):
+        make_clumps(model, state, [0, 0, 0])
+    with pytest.raises(ValueError, match="resolution"):
+        mass_properties([[0, 0, 0], [R, 0, 0]], [R, R], RHO, resolution=4)
