@@ -515,3 +515,100 @@ def test_clump_input_errors_name_the_clump():
         make_clumps(model, state, [0, 0, 0])
     with pytest.raises(ValueError, match="resolution"):
         mass_properties([[0, 0, 0], [R, 0, 0]], [R, R], RHO, resolution=4)
+
+
+# -- scenes ----------------------------------------------------------------------------------
+
+EXAMPLE = __import__("pathlib").Path(__file__).resolve().parents[1] / "examples" / \
+    "clump_agglomerate.toml"
+
+
+def test_example_clump_agglomerate_runs_and_breaks_into_clump_fragments(tmp_path):
+    from click.testing import CliRunner
+    from bondem.analysis.fragments import frame_fragments
+    from bondem.analysis.results import Results
+    from bondem.cli import main
+    from bondem.scene import load_scene
+    scene = load_scene(EXAMPLE)
+    model = scene.model
+    assert model.n_clumps >= 30 and model.n_bonds > model.n_clumps
+    # the template's union at the material's density (the lens volumes, as above)
+    assert model.clump_mass[0] == pytest.approx(model.clump_mass.mean(), rel=1e-14)
+    # the generator's velocity reaches the clumps
+    assert scene.state.clump_velocity == pytest.approx(
+        np.tile([0.0, 0.0, -2.0], (model.n_clumps, 1)), rel=1e-14)
+    result = CliRunner().invoke(main, ["run", str(EXAMPLE), "--out", str(tmp_path),
+                                       "--no-progress", "--set", "simulation.end_time=1e-4"])
+    assert result.exit_code == 0, result.output
+    with Results(tmp_path / "results.h5") as results:
+        data = frame_fragments(results)
+        assert results.file["clumps/position"].shape == (results.n_frames, model.n_clumps, 3)
+    # it broke, into pieces made of whole clumps
+    assert np.any(~results_active(tmp_path / "results.h5"))
+    assert 1 < data["counts"].size and data["counts"].sum() == model.n_clumps
+
+
+def results_active(path):
+    from bondem.analysis.results import Results
+    with Results(path) as results:
+        return results.active(-1)
+
+
+PARTICLES_WITH_CLUMPS = """x,y,z,radius,material,clump
+0.0,0.0,0.0,1e-3,glass,0
+2e-3,0.0,0.0,1e-3,glass,0
+4.1e-3,0.0,0.0,1e-3,glass,1
+6.1e-3,0.0,0.0,1e-3,glass,1
+0.0,3e-3,0.0,1e-3,glass,-1
+"""
+
+
+def clump_csv_scene(folder, particles=PARTICLES_WITH_CLUMPS):
+    from scenetools import SCENE
+    text = SCENE.format(end_time=1e-4, save_every=1e-5, strength=1e9)
+    text = text.replace('file = "bonds.csv"', 'max_gap = 2e-4\ndiameter_ratio = 0.5\n'
+                        'material = "binder"')
+    (folder / "scene.toml").write_text(text)
+    (folder / "particles.csv").write_text(particles)
+    return folder / "scene.toml"
+
+
+def test_scene_particle_file_clump_column(tmp_path):
+    from bondem.scene import load_scene
+    scene = load_scene(clump_csv_scene(tmp_path))
+    model = scene.model
+    assert model.n_clumps == 2
+    assert model.clump_of.tolist() == [0, 0, 1, 1, -1]
+    # the generated bonds join the two clumps (gap 1e-4), none within one
+    assert model.bond_pairs.tolist() == [[1, 2]]
+    assert model.clump_mass == pytest.approx([2 * sphere_mass(1e-3)] * 2, rel=1e-14)
+
+
+@pytest.mark.parametrize("particles,key,message", [
+    (PARTICLES_WITH_CLUMPS.replace("glass,-1", "glass,2"), "particles.file.clump",
+     "particles.csv line 6: clump 2 has one particle"),
+    (PARTICLES_WITH_CLUMPS.replace("glass,-1", "glass,x"), "particles.file",
+     "line 6: 'x'; allowed: a clump index >= 0, or -1"),
+    (PARTICLES_WITH_CLUMPS.replace("glass,1\n6", "glass,3\n6"), "particles.file.clump",
+     "clump 2 has no particle"),
+])
+def test_scene_clump_errors_name_file_line_and_key(tmp_path, particles, key, message):
+    from bondem.errors import InputError
+    from bondem.scene import load_scene
+    with pytest.raises(InputError) as error:
+        load_scene(clump_csv_scene(tmp_path, particles))
+    assert message in str(error.value)
+    assert error.value.key == key
+
+
+def test_scene_clump_generator_errors(tmp_path):
+    from bondem.errors import InputError
+    from bondem.scene import load_scene
+    text = EXAMPLE.read_text()
+    for edit, key in (("compact = 0.6", "compact = 0.3"),
+                      ("solids_fraction = 0.4", "particle_radius = 1e-4"),
+                      ("radii = [1e-4, 1e-4, 0.8e-4]", "radii = [1e-4, -1e-4, 0.8e-4]")):
+        (tmp_path / "s.toml").write_text(text.replace(edit, key))
+        with pytest.raises(InputError) as error:
+            load_scene(tmp_path / "s.toml")
+        assert error.value.key.startswith("particles.generator"), (key, error.value)

@@ -383,10 +383,11 @@ def _build(data, text, path):
     material_names = list(materials)
     bond_material_names = list(bond_materials)
 
-    position, radius, material_index, velocity, angular_velocity, fixed, particles, where = \
-        _particles(data["particles"], material_names, path)
+    position, radius, material_index, velocity, angular_velocity, fixed, particles, where, \
+        clumps = _particles(data["particles"], material_names, path)
     bonds, bond_diameter, bond_material_index = _bonds(
-        data.get("bonds"), position, radius, bond_material_names, path)
+        data.get("bonds"), position, radius, bond_material_names, path,
+        None if clumps is None else clumps["clump_of"])
     particle_key = "particles.file" if particles["file"] is not None else "particles.generator"
     if bonds.shape[0] and not bond_material_objects:
         raise InputError("bonds are given but no [bond_materials] table", file=path,
@@ -408,6 +409,8 @@ def _build(data, text, path):
             frame=frame_array(**frame))
     except ValueError as error:
         raise InputError(str(error), file=path, key=_guess_key(str(error)))
+    if clumps is not None and np.any(clumps["clump_of"] >= 0):
+        model, state = _make_clumps(model, state, clumps, particles, where, path)
     if flow_file is not None:
         _read_flow(model, path.parent / flow_file, path)
     for name, outside in (("box_low", position < model.box_low),
@@ -444,7 +447,8 @@ def _build(data, text, path):
                              f"{cutoff:.4g} m; allowed box_high - box_low >= "
                              f"{2.0 * cutoff:.4g} m", file=path, key="simulation.box_high")
     warnings = _check_overlaps(position, radius, bonds, where, "contact" in options,
-                               sim["bonded_contacts"], path, particle_key)
+                               sim["bonded_contacts"], path, particle_key,
+                               None if clumps is None else clumps["clump_of"])
     warnings += _check_plausible(position, radius, bonds, options.get("walls", []), where,
                                  path, particle_key)
     for name, values in materials.items():
@@ -712,7 +716,15 @@ def _particles(table, material_names, path):
                             if "wx" in columns else np.zeros_like(position))
         fixed = columns.get("fixed")
         where = [f"{file.name} line {line}" for line in columns["line"].tolist()]
+        clumps = {"clump_of": columns["clump"]} if "clump" in columns else None
+    elif isinstance(p["generator"], dict) and "clump" in p["generator"]:
+        position, radius, names, clumps = _clump_generator(p["generator"], path)
+        velocity = np.zeros_like(position)
+        angular_velocity = np.zeros_like(position)
+        fixed = None
+        where = None
     else:
+        clumps = None
         position, radius, names = particles_from_generator(p["generator"], str(path))
         position = np.asarray(position, dtype=np.float64)
         radius = np.broadcast_to(np.asarray(radius, dtype=np.float64), position.shape[:1]).copy()
@@ -737,7 +749,67 @@ def _particles(table, material_names, path):
                      "particles.offset" if any(p["offset"]) else source)
     velocity = velocity + np.array(p["velocity"])
     angular_velocity = angular_velocity + np.array(p["angular_velocity"])
-    return position, radius, index, velocity, angular_velocity, fixed, p, where
+    if clumps is not None and "centre" in clumps:
+        clumps["centre"] = clumps["centre"] + np.array(p["offset"])
+    return position, radius, index, velocity, angular_velocity, fixed, p, where, clumps
+
+
+CLUMP_GENERATOR_KEYS = {"clump", "compact"}
+
+
+def _clump_generator(table, path):
+    """``[particles.generator]`` with ``clump = {centres = [[x, y, z], ...], radii =
+    [...]}`` (m) and ``compact`` in [0.5, 1] (default 1): copies of that clump packed in
+    the generator's volume (``clumps.pack_clumps``). Returns (position, radius, material
+    names, clumps: clump_of and the per-clump mass, centre and inertia at density 1)."""
+    from .clumps import ClumpTemplate, pack_clumps
+    from .generate import _GENERATOR_KEYS, volume_from_table
+    prefix = "particles.generator"
+    allowed = (_GENERATOR_KEYS - {"particle_radius", "size_distribution"}) | \
+        CLUMP_GENERATOR_KEYS
+    for key in table:
+        if key not in allowed:
+            why = (" (a clump generator packs the clump given; its radii are the "
+                   "clump's)" if key in ("particle_radius", "size_distribution") else "")
+            raise InputError(unknown_key(key, sorted(allowed)) + why, file=path,
+                             key=f"{prefix}.{key}")
+    shape = table["clump"]
+    if not isinstance(shape, dict) or set(shape) != {"centres", "radii"}:
+        raise InputError("expected a table {centres = [[x, y, z], ...], radii = [...]} (m)",
+                         file=path, key=f"{prefix}.clump")
+    try:
+        template = ClumpTemplate(shape["centres"], shape["radii"])
+    except (ValueError, TypeError) as error:
+        raise InputError(str(error).replace("clump template 'clump': ", ""), file=path,
+                         key=f"{prefix}.clump") from None
+    compact = table.get("compact", 1.0)
+    if not _is_number(compact) or not 0.5 <= compact <= 1.0:
+        raise InputError(f"{compact!r}; allowed range [0.5, 1]", file=path,
+                         key=f"{prefix}.compact")
+    volume = volume_from_table(table, str(path), prefix)
+    fraction = table.get("solids_fraction", 0.5)
+    seed = table.get("seed", 0)
+    overlap = table.get("max_overlap", 1e-3)
+    for key, value, low, high in (("solids_fraction", fraction, 0.0, 0.66),
+                                  ("max_overlap", overlap, 0.0, 0.05)):
+        if not _is_number(value) or not low < value <= high:
+            raise InputError(f"{value!r}; allowed range ({low:g}, {high:g}]", file=path,
+                             key=f"{prefix}.{key}")
+    if not isinstance(seed, int) or isinstance(seed, bool) or seed < 0:
+        raise InputError(f"{seed!r}; allowed: an integer >= 0", file=path,
+                         key=f"{prefix}.seed")
+    material = table.get("material")
+    if not isinstance(material, str) or not material:
+        raise InputError(f"{material!r}; give the name of a particle material", file=path,
+                         key=f"{prefix}.material")
+    try:
+        packed = pack_clumps(volume, template, 1.0, solids_fraction=fraction, seed=seed,
+                             compact=float(compact), max_overlap=overlap)
+    except (ValueError, RuntimeError) as error:
+        raise InputError(str(error), file=path, key=prefix) from None
+    n = packed["radius"].size
+    clumps = {k: packed[k] for k in ("clump_of", "mass", "centre", "inertia")}
+    return packed["position"], packed["radius"], np.full(n, material, dtype=object), clumps
 
 
 FAR_IN_RADII = 1e7   # |x| / r_min beyond which float64 keeps < 2e-9 of a radius
@@ -779,7 +851,8 @@ COINCIDENT = 1e-6      # centres closer than this times the smallest radius: the
 DEEP_OVERLAP = 0.25    # overlap / smaller radius above which a contact starts violently
 
 
-def _check_overlaps(position, radius, bonds, where, contacts, bonded_contacts, path, key):
+def _check_overlaps(position, radius, bonds, where, contacts, bonded_contacts, path, key,
+                    clump_of=None):
     """InputError for two particles at the same place (a repeated row); with contacts, the
     warnings (list of str) for unbonded pairs overlapping by more than DEEP_OVERLAP of the
     smaller radius, which Hertz contacts push apart at high speed. ``where``: the CSV
@@ -806,6 +879,11 @@ def _check_overlaps(position, radius, bonds, where, contacts, bonded_contacts, p
             p = np.sort(p, axis=1)
             return p[:, 0] * np.int64(n) + p[:, 1]
         pairs = pairs[~np.isin(keys(pairs), keys(bonds))]
+        if not pairs.size:
+            return []
+    if clump_of is not None:   # a clump's members never touch each other
+        ends = clump_of[pairs]
+        pairs = pairs[(ends[:, 0] < 0) | (ends[:, 0] != ends[:, 1])]
         if not pairs.size:
             return []
     i, j = pairs[:, 0], pairs[:, 1]
@@ -871,7 +949,37 @@ def _check_plausible(position, radius, bonds, walls, where, path, key):
     return out
 
 
-def _bonds(table, position, radius, bond_material_names, path):
+def _make_clumps(model, state, clumps, particles, where, path):
+    """The scene's clumps (``clumps.make_clumps``): from the particle file's clump
+    column, or the clump generator's (its masses and inertias at density 1 scaled by
+    the material's)."""
+    from .clumps import make_clumps
+    key = "particles.file" if particles["file"] is not None else "particles.generator"
+    clump_of = clumps["clump_of"]
+    extra = {}
+    if "mass" in clumps:
+        density = model.materials[int(model.material[0])].density
+        extra = dict(mass=clumps["mass"] * density, inertia=clumps["inertia"] * density,
+                     centre=clumps["centre"])
+    else:
+        sizes = np.bincount(clump_of[clump_of >= 0])
+        if np.any(sizes == 0):
+            missing = int(np.flatnonzero(sizes == 0)[0])
+            raise InputError(f"clump {missing} has no particle; number the clumps 0, 1, 2, "
+                             "... without gaps", file=path, key=f"{key}.clump")
+        if np.any(sizes == 1):
+            lone = int(np.flatnonzero(sizes == 1)[0])
+            row = int(np.flatnonzero(clump_of == lone)[0])
+            at = f"{where[row]}: " if where else ""
+            raise InputError(f"{at}clump {lone} has one particle; a clump needs at least 2 "
+                             "(give a free sphere clump -1)", file=path, key=f"{key}.clump")
+    try:
+        return make_clumps(model, state, clump_of, **extra)
+    except ValueError as error:
+        raise InputError(str(error), file=path, key=f"{key}.clump") from None
+
+
+def _bonds(table, position, radius, bond_material_names, path, clump_of=None):
     n = position.shape[0]
     empty = (np.zeros((0, 2), dtype=np.int64), np.zeros(0), np.zeros(0, dtype=np.int32))
     if table is None:
@@ -900,10 +1008,18 @@ def _bonds(table, position, radius, bond_material_names, path):
         if (b["diameter"] is None) == (b["diameter_ratio"] is None):
             raise InputError("give exactly one of bonds.diameter or bonds.diameter_ratio",
                              file=path, key="bonds.diameter")
-        pairs, diameter = bonds_from_gap(position, radius, b["max_gap"],
-                                         diameter=b["diameter"],
-                                         diameter_ratio=b["diameter_ratio"],
-                                         max_per_particle=b["max_per_particle"])
+        if clump_of is not None:
+            # not within a clump: it is rigid
+            from .clumps import bonds_between_clumps
+            pairs, diameter = bonds_between_clumps(position, radius, clump_of, b["max_gap"],
+                                                   diameter=b["diameter"],
+                                                   diameter_ratio=b["diameter_ratio"],
+                                                   max_per_particle=b["max_per_particle"])
+        else:
+            pairs, diameter = bonds_from_gap(position, radius, b["max_gap"],
+                                             diameter=b["diameter"],
+                                             diameter_ratio=b["diameter_ratio"],
+                                             max_per_particle=b["max_per_particle"])
         pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
         diameter = np.asarray(diameter, dtype=np.float64).reshape(-1)
         names = [b["material"]] * pairs.shape[0]

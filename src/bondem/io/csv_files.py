@@ -23,6 +23,7 @@ PARTICLE_COLUMNS = ("x", "y", "z", "radius", "material")
 VELOCITY_COLUMNS = ("vx", "vy", "vz")
 ANGULAR_COLUMNS = ("wx", "wy", "wz")
 FIXED_COLUMNS = ("fixed",)
+CLUMP_COLUMNS = ("clump",)
 BOND_COLUMNS = ("i", "j", "diameter", "material")
 
 
@@ -81,7 +82,7 @@ def _read(path, required, optional_groups, kinds):
     for name, values in columns.items():
         if kinds[name] == "name":
             out[name] = np.array(values, dtype=object)
-        elif kinds[name] == "index":
+        elif kinds[name] in ("index", "clump"):
             out[name] = np.array(values, dtype=np.int64)
         elif kinds[name] == "flag":
             out[name] = np.array(values, dtype=np.bool_)
@@ -101,6 +102,18 @@ def _cell(text, kind, path, line, column):
             raise InputError(f"line {line}: {text!r}; allowed: 0 or 1", file=str(path),
                              key=column)
         return int(text)
+    if kind == "clump":
+        # a clump index, -1 (or empty) for a free sphere
+        if not text:
+            return -1
+        try:
+            value = int(text)
+        except ValueError:
+            value = None
+        if value is None or not -1 <= value < 2 ** 62:
+            raise InputError(f"line {line}: {text!r}; allowed: a clump index >= 0, or -1 "
+                             "(or empty) for a free sphere", file=str(path), key=column)
+        return value
     if kind == "index":
         try:
             value = int(text)
@@ -126,11 +139,12 @@ def _cell(text, kind, path, line, column):
 
 def read_particles(path):
     """Read particles.csv. Returns a dict of arrays: x, y, z, radius (m), material (names,
-    object array), and vx, vy, vz (m/s), wx, wy, wz (rad/s), fixed (bool) when present."""
+    object array), and vx, vy, vz (m/s), wx, wy, wz (rad/s), fixed (bool), clump (int64:
+    the particle's clump, -1 for a free sphere) when present."""
     kinds = {name: "float" for name in ("x", "y", "z") + VELOCITY_COLUMNS + ANGULAR_COLUMNS}
-    kinds.update(radius="positive", material="name", fixed="flag")
-    data = _read(path, PARTICLE_COLUMNS, (VELOCITY_COLUMNS, ANGULAR_COLUMNS, FIXED_COLUMNS),
-                 kinds)
+    kinds.update(radius="positive", material="name", fixed="flag", clump="clump")
+    data = _read(path, PARTICLE_COLUMNS, (VELOCITY_COLUMNS, ANGULAR_COLUMNS, FIXED_COLUMNS,
+                                          CLUMP_COLUMNS), kinds)
     if data["x"].size == 0:
         raise InputError("no particle rows", file=str(path))
     return data
