@@ -150,8 +150,8 @@ def test_free_clump_follows_eulers_equations():
         q = sim.state.clump_orientation[0]
         body = rotation_matrix(q).T @ sim.state.angular_velocity[0]
         worst = max(worst, np.linalg.norm(body - w) / np.linalg.norm(w0))
-    # second order: (w dt)^2 ~ 4e-7 per unit time over ~10 turns
-    assert worst < 1e-4
+    # second order: measured 3.2e-8
+    assert worst < 1e-6
     # and it does move: the body-frame spin is far from its start
     assert np.linalg.norm(truth[-1] - w0) > 0.3 * np.linalg.norm(w0)
 
@@ -221,7 +221,7 @@ def test_flat_clump_slides_on_an_incline_only_above_its_friction_angle(angle, fr
     theta = np.radians(angle)
     if np.tan(theta) > friction:
         assert a == pytest.approx(9.81 * (np.sin(theta) - friction * np.cos(theta)),
-                                  rel=0.02)
+                                  rel=1e-4)
     else:
         assert abs(a) < 0.01 * 9.81 * np.sin(theta)
         assert np.linalg.norm(sim.state.clump_velocity[0]) < 1e-4
@@ -243,7 +243,7 @@ def test_clump_rolls_down_an_incline_as_a_rigid_body():
     theta = np.radians(20.0)
     # (a sphere's 5/7 g sin would be 3 % lower; sliding gives 0.14 g, no friction 0.34 g)
     assert a == pytest.approx(9.81 * np.sin(theta) / (1.0 + inertia / (mass * R * R)),
-                              rel=0.01)
+                              rel=1e-3)
     # rolling: the spin about the line matches the speed, w R = v
     spin = sim.state.angular_velocity[0] @ np.cross(np.array([-np.sin(theta), 0.0,
                                                               np.cos(theta)]), downhill)
@@ -309,7 +309,7 @@ def test_bonded_clumps_in_tension_stretch_by_f_l_over_e_a():
     sim = settle(bonded_clumps(force=(force, 0.0, 0.0)))
     area = np.pi * BOND_RADIUS ** 2
     stretch = sim.state.position[2, 0] - sim.state.position[1, 0] - L0
-    assert stretch == pytest.approx(force * L0 / (BOND_E * area), rel=2e-3)
+    assert stretch == pytest.approx(force * L0 / (BOND_E * area), rel=1e-4)
     # the fixed clump did not move, B did not turn (the force acts on the bond's axis)
     assert sim.state.position[1] == pytest.approx([-R, 0.0, 0.0], abs=1e-18)
     assert np.abs(sim.state.clump_angular_momentum[1]).max() < 1e-14
@@ -331,7 +331,7 @@ def test_bonded_clumps_twist_by_t_l_over_g_j():
     shear = BOND_E / (2.0 * (1.0 + BOND_NU))
     polar = np.pi * BOND_RADIUS ** 4 / 2.0
     assert angle_about(sim, q0, (1, 0, 0)) == pytest.approx(torque * L0 / (shear * polar),
-                                                            rel=2e-3)
+                                                            rel=2e-4)
     # B turned about the bond's axis, not about its own centre (which is off the axis):
     # the bonded member stayed, up to the twist's second order
     off_axis = np.linalg.norm(sim.state.clump_position[1, 1:])
@@ -347,10 +347,10 @@ def test_bonded_clumps_bend_by_m_l_over_e_i_about_the_bond_centre():
     settle(sim)
     inertia = np.pi * BOND_RADIUS ** 4 / 4.0
     theta = torque * L0 / (BOND_E * inertia)
-    assert angle_about(sim, q0, (0, 0, 1)) == pytest.approx(theta, rel=2e-3)
+    assert angle_about(sim, q0, (0, 0, 1)) == pytest.approx(theta, rel=1e-4)
     # no shear force at rest: the bond's centre stays put, so B's bonded member (a lever
     # arm L0/2 from it) moved by theta L0 / 2 across the axis
-    assert sim.state.position[2, 1] == pytest.approx(theta * L0 / 2.0, rel=5e-3)
+    assert sim.state.position[2, 1] == pytest.approx(theta * L0 / 2.0, rel=1e-4)
 
 
 # -- an agglomerate of clumps: generator, bit-identity, results, fragments -----------------
@@ -612,3 +612,61 @@ def test_scene_clump_generator_errors(tmp_path):
         with pytest.raises(InputError) as error:
             load_scene(tmp_path / "s.toml")
         assert error.value.key.startswith("particles.generator"), (key, error.value)
+
+
+def test_reordered_clumps_run_the_same():
+    # renumbering the particles (the bench's Morton order) carries the clump arrays
+    from bondem.reorder import reorder_system
+    model, state, walls = agglomerate()
+    order = np.random.default_rng(4).permutation(model.n_particles)
+    runs = []
+    for m, s in ((model, state.copy()), reorder_system(model, state.copy(), order)):
+        sim = Simulation(m, s, contact=ContactSettings(), walls=walls, time_step=1e-7)
+        sim.step(300)
+        runs.append(sim.state)
+    np.testing.assert_allclose(runs[1].clump_position, runs[0].clump_position, rtol=0,
+                               atol=1e-15)
+    np.testing.assert_allclose(runs[1].position, runs[0].position[order], rtol=0, atol=1e-15)
+
+
+# -- MUSEN's multispheres ---------------------------------------------------------------------
+
+def test_clumps_travel_through_musen_as_multispheres(tmp_path):
+    """examples/clump_agglomerate.toml run for 2 us, exported with ``bondem export musen``
+    (clumps as .mdem multispheres) and run by the real cmusen 1.74.2
+    (tests/data/musen_mdem/clumps/agg_script.txt): MUSEN read the multispheres and wrote
+    them back into its result, whose import gives the scene's clumps and bonds again."""
+    from bondem.io.musen_mdem import import_mdem
+    from bondem.scene import load_scene
+    data = __import__("pathlib").Path(__file__).parent / "data" / "musen_mdem" / "clumps"
+    path, notes = import_mdem(data / "agg_result.mdem", tmp_path)
+    assert any("36 multisphere(s) imported as rigid clumps" in n for n in notes)
+    imported = load_scene(path).model
+    original = load_scene(EXAMPLE).model
+    assert np.array_equal(imported.clump_of, original.clump_of)
+    assert imported.n_bonds == original.n_bonds
+    # MUSEN's run moved the spheres as free particles (it never calls MoveMultispheres),
+    # so the clumps' shapes come back from its result up to 2 us of free motion: their
+    # mass properties match the generator's to the integral's accuracy
+    assert imported.clump_mass == pytest.approx(original.clump_mass, rel=1e-3)
+
+
+def test_export_musen_writes_the_clumps_as_multispheres(tmp_path):
+    from click.testing import CliRunner
+    from bondem.cli import main
+    from bondem.io.musen_mdem import MdemFile
+    runner = CliRunner()
+    result = runner.invoke(main, ["run", str(EXAMPLE), "--out", str(tmp_path), "--no-progress",
+                                  "--set", "simulation.end_time=5e-7",
+                                  "--set", "simulation.save_every=5e-7"])
+    assert result.exit_code == 0, result.output
+    result = runner.invoke(main, ["export", "musen", str(tmp_path / "results.h5"), "--out",
+                                  str(tmp_path / "agg.mdem")])
+    assert result.exit_code == 0, result.output
+    assert "36 clumps written as multispheres" in result.output
+    mdem = MdemFile(tmp_path / "agg.mdem")
+    mdem.check()
+    groups = [m["id"] for m in mdem.info["multispheres"]]
+    from bondem.scene import load_scene
+    clump_of = load_scene(EXAMPLE).model.clump_of
+    assert groups == [np.flatnonzero(clump_of == c).tolist() for c in range(36)]

@@ -299,20 +299,17 @@ def make_clumps(model, state, clump_of, *, resolution=256, mass=None, inertia=No
 def set_clump_motion(model, state, clump, velocity=None, angular_velocity=None):
     """Give clump ``clump`` a velocity (3,) m/s and/or angular velocity (3,) rad/s (lab
     frame) and its members the rigid motion that goes with them (in place)."""
-    from .backends.cpu import L
-    q = tuple(state.clump_orientation[clump])
-    inertia = tuple(model.clump_inertia[clump])
+    axes = rotation_matrix(state.clump_orientation[clump])
+    inertia = model.clump_inertia[clump]
     if velocity is not None:
         state.clump_velocity[clump] = np.asarray(velocity, dtype=np.float64)
     if angular_velocity is not None:
-        axes = rotation_matrix(q)
         w = np.asarray(angular_velocity, dtype=np.float64)
-        state.clump_angular_momentum[clump] = axes @ (model.clump_inertia[clump] * (axes.T @ w))
-    w = np.array(L.body_angular_velocity(q, tuple(state.clump_angular_momentum[clump]),
-                                         inertia))
+        state.clump_angular_momentum[clump] = axes @ (inertia * (axes.T @ w))
+    w = axes @ ((axes.T @ state.clump_angular_momentum[clump]) / inertia)
     v = state.clump_velocity[clump]
     for p in np.flatnonzero(model.clump_of == clump):
-        arm = rotation_matrix(q) @ model.clump_offset[p]
+        arm = axes @ model.clump_offset[p]
         state.velocity[p] = v + np.cross(w, arm)
         state.angular_velocity[p] = w
 

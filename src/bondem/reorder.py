@@ -79,6 +79,9 @@ def reorder_system(model, state, order):
         bond_diameter=bonds(model.bond_diameter),
         bond_initial_length=bonds(model.bond_initial_length),
         bond_material=bonds(model.bond_material))
+    if model.n_clumps:   # the clumps keep their numbers, their members move with them
+        new_model = replace(new_model, clump_of=particles(model.clump_of),
+                            clump_offset=particles(model.clump_offset))
     extra = {k: (particles(v) if isinstance(v, np.ndarray) and v.ndim and v.shape[0] == n
                  else v) for k, v in state.extra.items()}
     new_state = replace(

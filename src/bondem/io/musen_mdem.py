@@ -87,7 +87,7 @@ TABLES = {
                             8: ("analysis_volume_v0", "bytes", True),
                             24: ("analysis_volume", "ProtoAnalysisVolume", True),
                             9: ("savedTimePoints", "double", True),
-                            10: ("multispheres", "bytes", True),
+                            10: ("multispheres", "ProtoMultisphere", True),
                             11: ("periodic_conditions_min", _V, False),
                             12: ("periodic_conditions_max", _V, False),
                             13: ("periodic_conditions_x", "bool", False),
@@ -153,6 +153,8 @@ TABLES = {
                             10: ("partner_compounds2", "string", True),
                             11: ("activity", "bool", False)},
     "ProtoModuleBondsGenerator": {1: ("generators", "ProtoBondsGenerator", True)},
+    # a multisphere: the ids of its spheres (int32; MUSEN writes ids >= 0)
+    "ProtoMultisphere": {1: ("id", "varint", True)},
     "ProtoTriangle": {1: ("vert1", _V, False), 2: ("vert2", _V, False),
                       3: ("vert3", _V, False)},
     "ProtoAnalysisVolume": {1: ("version", "varint", False),
@@ -487,9 +489,10 @@ def scene_of(mdem):
         if geometry.get("tdVal"):
             scene.unmapped.append(f"geometry {geometry.get('name', '')}: the motion of an "
                                   "old-format geometry is not mapped (the wall is static)")
+    scene.multispheres = [[int(i) for i in m.get("id", [])]
+                          for m in info.get("multispheres", [])]
     for field, what in (("analysis_volume", "analysis volume"),
-                        ("analysis_volume_v0", "analysis volume"),
-                        ("multispheres", "multisphere")):
+                        ("analysis_volume_v0", "analysis volume")):
         if info.get(field):
             scene.unmapped.append(f"{len(info[field])} {what}(s) not mapped")
     return scene
@@ -940,6 +943,17 @@ def export_mdem(results_path, out_file, every=1):
     scene = tomllib.loads(str(data["attrs"]["scene"]))
     keys, notes = simulator_keys(scene, float(data["attrs"]["time_step"]))
     storage, points = mdem_storage(export_lines(data, scene, every), keys)
+    clump_of = data.get("particles/clump")
+    if clump_of is not None:
+        # the clumps as MUSEN's multispheres: the ids of their spheres (a sphere's id is
+        # its particle index, export_lines'); MUSEN 1.74.2 keeps them but moves the
+        # spheres as free particles
+        clump_of = np.asarray(clump_of)
+        storage["info"]["multispheres"] = [
+            {"id": np.flatnonzero(clump_of == c).tolist()}
+            for c in range(int(clump_of.max()) + 1)]
+        notes.append(f"{int(clump_of.max()) + 1} clumps written as multispheres (MUSEN "
+                     "1.74.2's simulator moves their spheres as free particles)")
     out_file = Path(out_file)
     out_file.parent.mkdir(parents=True, exist_ok=True)
     write_mdem(out_file, storage, points)

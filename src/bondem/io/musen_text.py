@@ -109,7 +109,8 @@ class MusenScene:
     """What a MUSEN text file holds: objects by id, compounds {key: {property id:
     value}}, interactions {(key, key): {property id: value}}, domain (6,) m, periodic
     boundaries (enabled, x, y, z, low (3,), high (3,)), geometries [(name, key, motion
-    text, plane ids)], and the lines bondem does not map (``unmapped``)."""
+    text, plane ids)], multispheres [[sphere ids]] (.mdem files only), and the lines
+    bondem does not map (``unmapped``)."""
     objects: dict = field(default_factory=dict)
     compounds: dict = field(default_factory=dict)
     interactions: dict = field(default_factory=dict)
@@ -117,6 +118,7 @@ class MusenScene:
     periodic: tuple | None = None
     geometries: list = field(default_factory=list)
     unmapped: list = field(default_factory=list)
+    multispheres: list = field(default_factory=list)
 
 
 def _numbers(tokens, k, n, path, line):
@@ -362,6 +364,27 @@ def wall_motion(motion, end_time):
     return {"velocity_profile": profile}, None
 
 
+def _clumps_of(multispheres, index, notes):
+    """{sphere id: clump number} of a file's multispheres that hold at least two of its
+    spheres (each sphere in one), with a note of what was imported or left out."""
+    clump, skipped = {}, 0
+    for ids in multispheres:
+        members = [i for i in dict.fromkeys(ids) if i in index and i not in clump]
+        if len(members) < 2:
+            skipped += 1
+            continue
+        number = len(set(clump.values()))
+        clump.update({i: number for i in members})
+    if clump:
+        notes.append(f"{len(set(clump.values()))} multisphere(s) imported as rigid clumps "
+                     "(MUSEN 1.74.2 stores them but its simulator moves their spheres as "
+                     "free particles: drop the clump column of particles.csv to match it)")
+    if skipped:
+        notes.append(f"{skipped} multisphere(s) with fewer than two spheres of the scene "
+                     "left out")
+    return clump
+
+
 def to_bondem(scene: MusenScene, script: dict | None, out_dir, *, end_time=None,
               musen_version=MUSEN_VERSION):
     """Write scene.toml, particles.csv, bonds.csv (and walls_N.stl) in ``out_dir``;
@@ -471,12 +494,16 @@ def to_bondem(scene: MusenScene, script: dict | None, out_dir, *, end_time=None,
             musen["import"](sb, entry)
         bond_materials[key] = entry
 
+    # multispheres as rigid clumps: MUSEN 1.74.2 stores them, but its simulator never
+    # calls MoveMultispheres, so there their spheres move as free particles
+    clump = _clumps_of(scene.multispheres, index, notes)
     # particles and bonds at the first time point
-    rows = ["x,y,z,radius,material,vx,vy,vz,wx,wy,wz"]
+    rows = ["x,y,z,radius,material,vx,vy,vz,wx,wy,wz" + (",clump" if clump else "")]
     for o in spheres:
         rows.append(",".join(repr(float(c)) for c in o.coordinates) + f",{o.geometry[0]!r},"
                     f"{o.compound}," + ",".join(repr(float(c)) for c in o.velocity) + ","
-                    + ",".join(repr(float(c)) for c in o.angular_velocity))
+                    + ",".join(repr(float(c)) for c in o.angular_velocity)
+                    + (f",{clump.get(o.id, -1)}" if clump else ""))
         if o.geometry[1] != o.geometry[0]:
             notes.append(f"sphere {o.id}: contact radius {o.geometry[1]:g} differs from its "
                          "radius; bondem uses the radius")
@@ -484,9 +511,14 @@ def to_bondem(scene: MusenScene, script: dict | None, out_dir, *, end_time=None,
     brows = ["i,j,diameter,material"]
     dropped = 0
     lengths = []
+    inside = 0
     for o in bonds:
         if o.active[1] <= t0:
             dropped += 1
+            continue
+        ends = [clump.get(int(e), -1) for e in o.geometry[:2]] if clump else [-1, -1]
+        if ends[0] >= 0 and ends[0] == ends[1]:
+            inside += 1     # a rigid clump needs no bond (and bondem refuses one)
             continue
         left, right = int(o.geometry[0]), int(o.geometry[1])
         if left not in index or right not in index:
@@ -496,6 +528,9 @@ def to_bondem(scene: MusenScene, script: dict | None, out_dir, *, end_time=None,
         lengths.append((index[left], index[right], o.geometry[3]))
     if dropped:
         notes.append(f"{dropped} solid bonds already broken at t = {t0:g} s: left out")
+    if inside:
+        notes.append(f"{inside} solid bonds within a multisphere: left out (a clump is "
+                     "rigid)")
     (out / "bonds.csv").write_text("\n".join(brows) + "\n")
     positions = np.array([o.coordinates for o in spheres])
     for i, j, l0 in lengths:
