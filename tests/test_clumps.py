@@ -670,3 +670,67 @@ def test_export_musen_writes_the_clumps_as_multispheres(tmp_path):
     from bondem.scene import load_scene
     clump_of = load_scene(EXAMPLE).model.clump_of
     assert groups == [np.flatnonzero(clump_of == c).tolist() for c in range(36)]
+
+
+# -- clump templates from a mesh -------------------------------------------------------------
+
+def ellipsoid_mesh():
+    import trimesh
+    mesh = trimesh.creation.icosphere(subdivisions=2, radius=1.0)
+    mesh.apply_scale([1e-3, 0.6e-3, 0.4e-3])
+    return mesh
+
+
+def test_mesh_filled_with_spheres_inside_it_with_the_stated_quality():
+    from bondem.clumps import ClumpTemplate
+    from bondem.generate import MeshVolume
+    mesh = ellipsoid_mesh()
+    volume = MeshVolume(mesh)
+    coarse = ClumpTemplate.from_mesh(mesh, 4, resolution=24)
+    fine = ClumpTemplate.from_mesh(mesh, 12, resolution=24)
+    assert fine.quality["spheres"] == 12
+    # every sphere lies inside: its centre is at least its radius from the surface
+    depth = volume.signed_distance(fine.centres)
+    assert np.all(depth >= fine.radii * (1.0 - 1e-12))
+    # the volume fraction, checked by sampling: points inside the union over inside the mesh
+    rng = np.random.default_rng(1)
+    low, high = volume.bounds()
+    points = rng.uniform(low, high, (40000, 3))
+    in_mesh = volume.signed_distance(points) > 0.0
+    in_union = np.any(np.linalg.norm(points[:, None] - fine.centres[None], axis=2)
+                      <= fine.radii[None], axis=1)
+    sampled = np.count_nonzero(in_union) / np.count_nonzero(in_mesh)
+    assert fine.quality["volume_fraction"] == pytest.approx(sampled, abs=0.02)
+    # more spheres fill more of it, and spread the mass more like the shape
+    assert 0.4 < coarse.quality["volume_fraction"] < fine.quality["volume_fraction"] < 1.0
+    assert fine.quality["gyration_error"] < coarse.quality["gyration_error"] < 0.5
+    # the ellipsoid's long axis is the clump's: its smallest moment lies along x
+    moments, axes = principal_frame(fine.properties(RHO)[2])
+    assert abs(axes[0, 0]) > 0.99
+
+
+def test_scene_clump_generator_from_an_stl(tmp_path):
+    from bondem.scene import load_scene
+    ellipsoid_mesh().export(tmp_path / "grain.stl")
+    text = EXAMPLE.read_text()
+    start = text.index("clump = {")
+    line = text[start:text.index("\n", start)]
+    text = text.replace(line, 'clump = { file = "grain.stl", spheres = 6, resolution = 16, '
+                        'scale = 0.2 }')
+    (tmp_path / "s.toml").write_text(text)
+    scene = load_scene(tmp_path / "s.toml")
+    model = scene.model
+    assert model.n_clumps >= 5
+    sizes = np.bincount(model.clump_of[model.clump_of >= 0])
+    assert np.all(sizes == 6)
+    # scale 0.2: the grains are 0.4 mm long at most
+    for c in range(3):
+        x = scene.state.position[model.clump_of == c]
+        r = model.radius[model.clump_of == c]
+        extent = np.max(np.linalg.norm(x[:, None] - x[None], axis=2) + r[:, None] + r[None])
+        assert extent <= 0.4e-3 * (1 + 1e-9)
+    (tmp_path / "s.toml").write_text(text.replace("grain.stl", "missing.stl"))
+    from bondem.errors import InputError
+    with pytest.raises(InputError) as error:
+        load_scene(tmp_path / "s.toml")
+    assert error.value.key == "particles.generator.clump.file"

@@ -329,6 +329,9 @@ def clump_kinetic_energy(model, state):
     return translational, rotational
 
 
+CANDIDATES = 64   # nodes tried for each next sphere of ClumpTemplate.from_mesh
+
+
 class ClumpTemplate:
     """The shape of a kind of clump: member centres (M,3) m and radii (M,) m in the
     template's own frame (any origin), and a name. ``properties(density)`` gives its
@@ -353,6 +356,73 @@ class ClumpTemplate:
             self._cache[key] = mass_properties(self.centres, self.radii, key,
                                                resolution=self.resolution)
         return self._cache[key]
+
+    @classmethod
+    def from_mesh(cls, mesh, spheres=10, *, resolution=40, min_radius=0.0, name=None,
+                  scale=1.0):
+        """Fill a closed triangle mesh (an STL path, a trimesh.Trimesh or a
+        ``generate.MeshVolume``; ``scale`` turns an STL's units into m) with at most
+        ``spheres`` inscribed spheres, greedily: on a grid of ``resolution`` nodes along
+        the mesh's longest side, each next sphere is centred at the node not yet covered
+        that lies deepest inside (its radius is that exact distance to the surface, so
+        every sphere lies inside the mesh), until ``spheres`` are placed or the next would
+        be smaller than ``min_radius`` (m). The template's ``quality`` says how well it
+        fills the shape: volume_fraction (the union's volume over the mesh's, <= 1),
+        gyration_error (largest relative difference of the principal radii of gyration,
+        sqrt(I_k / M), from the mesh's: the shape's spread of mass, whatever the density)
+        and spheres. Among the CANDIDATES deepest free nodes the one whose sphere covers
+        most free nodes is taken (the deepest alone leaves the corners empty)."""
+        from .generate import MeshVolume
+        if isinstance(mesh, MeshVolume):
+            volume = mesh
+        elif hasattr(mesh, "is_watertight"):
+            volume = MeshVolume(mesh)
+        else:
+            volume = MeshVolume.from_stl(mesh, scale)
+        if int(spheres) < 2:
+            raise ValueError(f"spheres = {spheres!r}; a clump needs at least 2")
+        if int(resolution) < 8:
+            raise ValueError(f"resolution = {resolution!r}; must be >= 8")
+        low, high = volume.bounds()
+        h = float(np.max(high - low)) / int(resolution)
+        axes = [np.arange(low[k] + 0.5 * h, high[k], h) for k in range(3)]
+        nodes = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, 3)
+        depth = volume.signed_distance(nodes)
+        inside = depth > 0.0
+        nodes, depth = nodes[inside], depth[inside]
+        if nodes.shape[0] == 0:
+            raise ValueError("the mesh is thinner than the grid: raise resolution")
+        covered = np.zeros(nodes.shape[0], dtype=bool)
+        centres, radii = [], []
+        while len(radii) < int(spheres):
+            free = np.flatnonzero(~covered)
+            if free.size == 0:
+                break
+            # among the deepest free nodes, the one whose sphere covers most free ones
+            deepest = free[np.argsort(-depth[free], kind="stable")[:CANDIDATES]]
+            deepest = deepest[depth[deepest] >= min_radius]
+            if deepest.size == 0:
+                break
+            gain = [np.count_nonzero(np.linalg.norm(nodes[free] - nodes[k], axis=1)
+                                     <= depth[k]) for k in deepest]
+            best = deepest[int(np.argmax(gain))]
+            centres.append(nodes[best])
+            radii.append(float(depth[best]))
+            covered |= np.linalg.norm(nodes - nodes[best], axis=1) <= depth[best]
+        if len(radii) < 2:
+            raise ValueError("fewer than 2 spheres fit (min_radius too large, or the shape "
+                             "is a sphere)")
+        template = cls(np.array(centres), np.array(radii), name=name or "mesh")
+        mass, _, tensor = template.properties(1.0)
+        # trimesh's moments are at its mesh's density: scaled to density 1
+        mesh_moments = np.linalg.eigvalsh(np.asarray(volume.mesh.moment_inertia)
+                                          / float(volume.mesh.density))
+        moments = np.linalg.eigvalsh(tensor)
+        gyration = np.sqrt(moments / mass) / np.sqrt(mesh_moments / volume.volume)
+        template.quality = {
+            "spheres": len(radii), "volume_fraction": mass / volume.volume,
+            "gyration_error": float(np.max(np.abs(gyration - 1.0)))}
+        return template
 
     @property
     def bounding_radius(self) -> float:

@@ -774,14 +774,19 @@ def _clump_generator(table, path):
             raise InputError(unknown_key(key, sorted(allowed)) + why, file=path,
                              key=f"{prefix}.{key}")
     shape = table["clump"]
-    if not isinstance(shape, dict) or set(shape) != {"centres", "radii"}:
-        raise InputError("expected a table {centres = [[x, y, z], ...], radii = [...]} (m)",
-                         file=path, key=f"{prefix}.clump")
-    try:
-        template = ClumpTemplate(shape["centres"], shape["radii"])
-    except (ValueError, TypeError) as error:
-        raise InputError(str(error).replace("clump template 'clump': ", ""), file=path,
-                         key=f"{prefix}.clump") from None
+    given = set(shape) if isinstance(shape, dict) else set()
+    if given == {"centres", "radii"}:
+        try:
+            template = ClumpTemplate(shape["centres"], shape["radii"])
+        except (ValueError, TypeError) as error:
+            raise InputError(str(error).replace("clump template 'clump': ", ""), file=path,
+                             key=f"{prefix}.clump") from None
+    elif "file" in given and given <= {"file", "spheres", "scale", "resolution"}:
+        template = _mesh_clump(shape, path, f"{prefix}.clump")
+    else:
+        raise InputError("expected a table {centres = [[x, y, z], ...], radii = [...]} (m) "
+                         "or {file = \"grain.stl\", spheres = n, scale = s, resolution = "
+                         "r} (an STL filled with spheres)", file=path, key=f"{prefix}.clump")
     compact = table.get("compact", 1.0)
     if not _is_number(compact) or not 0.5 <= compact <= 1.0:
         raise InputError(f"{compact!r}; allowed range [0.5, 1]", file=path,
@@ -947,6 +952,32 @@ def _check_plausible(position, radius, bonds, walls, where, path, key):
                        f"{name(min(particles))}); the wall will throw them off. Move the "
                        f"wall or the particles, or: {hint}")
     return out
+
+
+def _mesh_clump(table, path, key):
+    """A clump template filled into an STL (``ClumpTemplate.from_mesh``): file (relative
+    to the scene), spheres (2 to 1000, default 10), scale (to m, default 1), resolution
+    (8 to 200, default 40)."""
+    from .clumps import ClumpTemplate
+    file = path.parent / str(table["file"])
+    if not file.is_file():
+        raise InputError(f"no such file: {file}", file=path, key=f"{key}.file")
+    values = {}
+    for name, default, low, high in (("spheres", 10, 2, 1000), ("resolution", 40, 8, 200)):
+        value = table.get(name, default)
+        if not isinstance(value, int) or isinstance(value, bool) or not low <= value <= high:
+            raise InputError(f"{value!r}; allowed: an integer in [{low}, {high}]", file=path,
+                             key=f"{key}.{name}")
+        values[name] = value
+    scale = table.get("scale", 1.0)
+    if not _is_number(scale) or not scale > 0.0 or not math.isfinite(scale):
+        raise InputError(f"{scale!r}; allowed: a number > 0", file=path, key=f"{key}.scale")
+    try:
+        return ClumpTemplate.from_mesh(file, values["spheres"], scale=float(scale),
+                                       resolution=values["resolution"])
+    except Exception as error:  # noqa: BLE001 - trimesh raises many kinds on a bad file
+        raise InputError(f"cannot fill it with spheres: {error}", file=file,
+                         key=f"{key}.file") from None
 
 
 def _make_clumps(model, state, clumps, particles, where, path):
