@@ -7,7 +7,7 @@ import pytest
 from scipy.integrate import quad, solve_ivp
 
 from bondem import BondMaterial, Material, Simulation
-from bondem.clumps import (clump_kinetic_energy, make_clumps, mass_properties,
+from bondem.clumps import (make_clumps, mass_properties,
                            principal_frame, quaternion_from_matrix, random_orientations,
                            rotation_matrix, set_clump_motion)
 from bondem.contacts import ContactSettings

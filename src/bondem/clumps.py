@@ -192,9 +192,9 @@ def make_clumps(model, state, clump_of, *, resolution=256, mass=None, inertia=No
     inertia tensor are those of the union of its members at their material's density
     (``mass_properties``; one material per clump) unless mass (C,) kg, inertia (C,3,3)
     kg m^2 about the centre and centre (C,3) m are given (centre None: the members'
-    volume-weighted mean, right when they do not overlap). Its velocity is the members' volume-
-    weighted mean velocity and its angular velocity the mean of theirs; each member's
-    velocity becomes the rigid motion's. Its orientation is that of its principal axes
+    volume-weighted mean, right when they do not overlap). Its velocity is the members'
+    volume-weighted mean velocity and its angular velocity the mean of theirs; each
+    member's velocity becomes the rigid motion's. Its orientation is that of its principal axes
     in the lab frame (q0 >= 0). Returns new (model, state); ValueError names a bad
     clump (a bond between members of one clump, mixed materials, a single member).
     """
@@ -243,8 +243,12 @@ def make_clumps(model, state, clump_of, *, resolution=256, mass=None, inertia=No
     momentum = np.zeros((count, 3))
     new_state = state.copy()
     box_length = model.box_length
+    # the members of clump c: grouped[starts[c]:starts[c + 1]] (one sort, not C scans)
+    grouped = np.flatnonzero(clump_of >= 0)
+    grouped = grouped[np.argsort(clump_of[grouped], kind="stable")]
+    starts = np.concatenate([[0], np.cumsum(sizes)])
     for c in range(count):
-        members = np.flatnonzero(clump_of == c)
+        members = grouped[starts[c]:starts[c + 1]]
         if np.any(model.fixed[members] != model.fixed[members[0]]):
             raise ValueError(f"clump {c}: some of its members are fixed and some not; fix "
                              "all of them (the clump's motion is then prescribed) or none")
@@ -321,11 +325,18 @@ def clump_kinetic_energy(model, state):
         return 0.0, 0.0
     v = state.clump_velocity
     translational = 0.5 * float(np.sum(model.clump_mass * np.einsum("ij,ij->i", v, v)))
-    rotational = 0.0
-    for c in range(model.n_clumps):
-        axes = rotation_matrix(state.clump_orientation[c])
-        lb = axes.T @ state.clump_angular_momentum[c]
-        rotational += 0.5 * float(np.sum(lb * lb / model.clump_inertia[c]))
+    q = state.clump_orientation
+    q0, q1, q2, q3 = (q[:, k] for k in range(4))
+    # R^T L, row by row of R (rotation_matrix's entries for every clump at once)
+    rows = np.stack([
+        np.stack([1 - 2 * (q2 * q2 + q3 * q3), 2 * (q1 * q2 - q0 * q3),
+                  2 * (q1 * q3 + q0 * q2)], -1),
+        np.stack([2 * (q1 * q2 + q0 * q3), 1 - 2 * (q1 * q1 + q3 * q3),
+                  2 * (q2 * q3 - q0 * q1)], -1),
+        np.stack([2 * (q1 * q3 - q0 * q2), 2 * (q2 * q3 + q0 * q1),
+                  1 - 2 * (q1 * q1 + q2 * q2)], -1)], axis=1)
+    body = np.einsum("cij,ci->cj", rows, state.clump_angular_momentum)
+    rotational = 0.5 * float(np.sum(body * body / model.clump_inertia))
     return translational, rotational
 
 
