@@ -734,3 +734,31 @@ def test_scene_clump_generator_from_an_stl(tmp_path):
     with pytest.raises(InputError) as error:
         load_scene(tmp_path / "s.toml")
     assert error.value.key == "particles.generator.clump.file"
+
+
+def test_generate_writes_the_clump_generators_members_with_their_clumps(tmp_path):
+    """``bondem generate --from-scene`` of the clump generator: particles.csv with a clump
+    column and bonds.csv across clumps, which a scene reads back into the same clumps."""
+    from click.testing import CliRunner
+    from bondem.cli import main
+    from bondem.io.csv_files import read_bonds, read_particles
+    from bondem.scene import load_scene
+    result = CliRunner().invoke(main, ["generate", "--from-scene", str(EXAMPLE), "--out",
+                                       str(tmp_path)])
+    assert result.exit_code == 0, result.output
+    assert "clumps: 36 of 3 spheres" in result.output
+    particles = read_particles(tmp_path / "particles.csv")
+    bonds = read_bonds(tmp_path / "bonds.csv")
+    original = load_scene(EXAMPLE)
+    assert np.array_equal(particles["clump"], original.model.clump_of)
+    assert np.array_equal(np.column_stack([bonds["i"], bonds["j"]]),
+                          original.model.bond_pairs)
+    text = EXAMPLE.read_text()
+    start = text.index("[particles.generator]")
+    end = text.index("[bonds]")
+    text = (text[:start] + 'file = "particles.csv"\n\n' + text[end:]).replace(
+        "max_gap = 1e-5\ndiameter_ratio = 0.5\nmaterial = \"binder\"", 'file = "bonds.csv"')
+    (tmp_path / "s.toml").write_text(text)
+    again = load_scene(tmp_path / "s.toml")
+    assert np.array_equal(again.model.clump_of, original.model.clump_of)
+    assert again.model.clump_mass == pytest.approx(original.model.clump_mass, rel=1e-4)

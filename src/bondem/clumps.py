@@ -528,22 +528,6 @@ def bonds_between_clumps(position, radius, clump_of, max_gap, **options):
     """``generate.bonds_from_gap`` without the pairs inside one clump: bonds (B,2) and
     diameters (B,) m between members of different clumps (or free spheres) whose surface
     gap is at most ``max_gap`` m (``options``: diameter or diameter_ratio,
-    max_per_particle)."""
-    from .generate import _greedy_cap, bonds_from_gap
-    cap = options.pop("max_per_particle", None)
-    pairs, diameter = bonds_from_gap(position, radius, max_gap, **options)
-    clump_of = np.asarray(clump_of)
-    ends = clump_of[pairs] if pairs.size else np.zeros((0, 2), INDEX)
-    keep = (ends[:, 0] < 0) | (ends[:, 0] != ends[:, 1])
-    pairs, diameter = pairs[keep], diameter[keep]
-    if cap is not None and pairs.size:
-        # the cap after the clumps' own pairs are gone (they would use up places)
-        position = np.asarray(position, dtype=np.float64)
-        radius = np.asarray(radius, dtype=np.float64)
-        gap = (np.linalg.norm(position[pairs[:, 1]] - position[pairs[:, 0]], axis=1)
-               - radius[pairs[:, 0]] - radius[pairs[:, 1]])
-        order = np.lexsort((pairs[:, 1], pairs[:, 0], gap))
-        accepted = order[_greedy_cap(pairs[order], radius.size, int(cap))]
-        accepted.sort()
-        pairs, diameter = pairs[accepted], diameter[accepted]
-    return np.ascontiguousarray(pairs), diameter
+    max_per_particle, which counts only the bonds kept)."""
+    from .generate import bonds_from_gap
+    return bonds_from_gap(position, radius, max_gap, groups=clump_of, **options)

@@ -461,13 +461,15 @@ def max_overlap(position, radius):
 
 # ----------------------------------------------------------------------------- bonds
 def bonds_from_gap(position, radius, max_gap, *, diameter=None, diameter_ratio=None,
-                   max_per_particle=None):
+                   max_per_particle=None, groups=None):
     """Bonds between every pair whose surface gap d_ij - r_i - r_j is at most ``max_gap``.
 
     position: m (N,3); radius: m (N,); max_gap: m (>= 0; overlapping pairs count);
     diameter: bond diameter, m, or diameter_ratio: times the smaller particle's diameter;
     max_per_particle: cap on bonds per particle, the closest gaps kept first (ties by
-    particle indices), so the result is symmetric and deterministic.
+    particle indices), so the result is symmetric and deterministic; groups: (N,) ints,
+    no bond between two particles of one group >= 0 (a clump's members; the cap counts
+    only the bonds kept).
     Returns (pairs (B,2) int64 with i < j, sorted by i then j; diameter (B,) m).
     """
     position = np.ascontiguousarray(position, dtype=np.float64)
@@ -492,6 +494,9 @@ def bonds_from_gap(position, radius, max_gap, *, diameter=None, diameter_ratio=N
     i, j = pairs[:, 0], pairs[:, 1]
     gap = np.linalg.norm(position[j] - position[i], axis=1) - radius[i] - radius[j]
     keep = gap <= max_gap
+    if groups is not None and pairs.size:
+        ends = np.asarray(groups)[pairs]
+        keep &= (ends[:, 0] < 0) | (ends[:, 0] != ends[:, 1])
     pairs, gap = pairs[keep], gap[keep]
     if max_per_particle is not None and pairs.size:
         order = np.lexsort((pairs[:, 1], pairs[:, 0], gap))
@@ -714,9 +719,11 @@ def particles_from_generator(table, file="<scene>", prefix="particles.generator"
 _BOND_KEYS = {"max_gap", "diameter", "diameter_ratio", "material", "max_per_particle"}
 
 
-def bonds_from_table(table, position, radius, file="<scene>", prefix="bonds"):
+def bonds_from_table(table, position, radius, file="<scene>", prefix="bonds",
+                     clump_of=None):
     """Validate a scene's generated-bonds table ``[bonds] max_gap = m, diameter = m |
-    diameter_ratio = -, material = name, max_per_particle = n`` and build the bonds.
+    diameter_ratio = -, material = name, max_per_particle = n`` and build the bonds
+    (clump_of (N,): none within a clump).
     Returns (pairs (B,2) int64, diameter (B,) m, material_names (B,) str)."""
     unknown = sorted(set(table) - _BOND_KEYS)
     if unknown:
@@ -740,5 +747,6 @@ def bonds_from_table(table, position, radius, file="<scene>", prefix="bonds"):
         raise InputError(f"{material!r}; give the name of a bond material", file=file,
                          key=f"{prefix}.material")
     pairs, diameters = bonds_from_gap(position, radius, max_gap, diameter=diameter,
-                                      diameter_ratio=ratio, max_per_particle=cap)
+                                      diameter_ratio=ratio, max_per_particle=cap,
+                                      groups=clump_of)
     return pairs, diameters, np.full(len(pairs), material, dtype=object)

@@ -1039,18 +1039,12 @@ def _bonds(table, position, radius, bond_material_names, path, clump_of=None):
         if (b["diameter"] is None) == (b["diameter_ratio"] is None):
             raise InputError("give exactly one of bonds.diameter or bonds.diameter_ratio",
                              file=path, key="bonds.diameter")
-        if clump_of is not None:
-            # not within a clump: it is rigid
-            from .clumps import bonds_between_clumps
-            pairs, diameter = bonds_between_clumps(position, radius, clump_of, b["max_gap"],
-                                                   diameter=b["diameter"],
-                                                   diameter_ratio=b["diameter_ratio"],
-                                                   max_per_particle=b["max_per_particle"])
-        else:
-            pairs, diameter = bonds_from_gap(position, radius, b["max_gap"],
-                                             diameter=b["diameter"],
-                                             diameter_ratio=b["diameter_ratio"],
-                                             max_per_particle=b["max_per_particle"])
+        # none within a clump: it is rigid
+        pairs, diameter = bonds_from_gap(position, radius, b["max_gap"],
+                                         diameter=b["diameter"],
+                                         diameter_ratio=b["diameter_ratio"],
+                                         max_per_particle=b["max_per_particle"],
+                                         groups=clump_of)
         pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
         diameter = np.asarray(diameter, dtype=np.float64).reshape(-1)
         names = [b["material"]] * pairs.shape[0]

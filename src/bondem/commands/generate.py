@@ -102,17 +102,30 @@ def command(shape, size, height, mesh_file, scale, radius, distribution, std, mi
             raise InputError("bond diameter given without --max-gap", key="--max-gap")
 
     start = time.perf_counter()
-    position, radii, names = particles_from_generator(generator, file)
+    clump_of = None
+    if "clump" in generator:
+        # copies of one clump (scene.py's clump generator): the members, with their clump
+        from ..scene import _clump_generator
+        base = Path(file).parent if file != "<command line>" else Path(".")
+        position, radii, names, clumps = _clump_generator(generator, base / "scene.toml")
+        clump_of = clumps["clump_of"]
+    else:
+        position, radii, names = particles_from_generator(generator, file)
     elapsed = time.perf_counter() - start
     volume = volume_from_table(generator, file).volume
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    write_particles(out / "particles.csv", position, radii, names)
+    write_particles(out / "particles.csv", position, radii, names, clump=clump_of)
+    if clump_of is not None:
+        count = int(clump_of.max()) + 1
+        click.echo(f"clumps: {count} of {radii.size // count} spheres (particles.csv's "
+                   "clump column)")
     click.echo(f"particles: {radii.size}  solids fraction: {fraction_of(radii, volume):.4f}  "
                f"max overlap: {max(overlap_of(position, radii), 0.0):.2e} of the radius  "
                f"time: {elapsed:.1f} s")
     if bonds is not None:
-        pairs, diameter, bond_names = bonds_from_table(bonds, position, radii, file)
+        pairs, diameter, bond_names = bonds_from_table(bonds, position, radii, file,
+                                                       clump_of=clump_of)
         write_bonds(out / "bonds.csv", pairs, diameter, bond_names)
         click.echo(f"bonds: {len(pairs)}  coordination number: "
                    f"{coordination_number(pairs, radii.size):.3f}")

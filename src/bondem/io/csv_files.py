@@ -172,10 +172,11 @@ def read_bonds(path, n_particles=None):
 
 
 def write_particles(path, position, radius, material_names, velocity=None,
-                    angular_velocity=None):
+                    angular_velocity=None, clump=None):
     """Write particles.csv: position (N,3) m, radius (N,) m, material_names (N,) or one
     name; velocity (N,3) m/s and angular_velocity (N,3) rad/s optional (a given angular
-    velocity without velocity writes zero velocities, as the columns come in order)."""
+    velocity without velocity writes zero velocities, as the columns come in order);
+    clump (N,) int optional: each particle's clump, -1 for a free sphere."""
     position = np.asarray(position, dtype=np.float64).reshape(-1, 3)
     n = position.shape[0]
     radius = np.asarray(radius, dtype=np.float64).reshape(n)
@@ -192,6 +193,9 @@ def write_particles(path, position, radius, material_names, velocity=None,
         header += ANGULAR_COLUMNS
     # repr() of a float round-trips exactly
     numbers = [list(map(repr, c.tolist())) for c in columns]
+    if clump is not None:
+        numbers.append([str(int(c)) for c in np.asarray(clump).reshape(n)])
+        header += CLUMP_COLUMNS
     with open(path, "w", newline="", encoding="utf-8") as handle:
         writer = csv.writer(handle, lineterminator="\n")
         writer.writerow(header)
