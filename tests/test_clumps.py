@@ -762,3 +762,11 @@ def test_generate_writes_the_clump_generators_members_with_their_clumps(tmp_path
     again = load_scene(tmp_path / "s.toml")
     assert np.array_equal(again.model.clump_of, original.model.clump_of)
     assert again.model.clump_mass == pytest.approx(original.model.clump_mass, rel=1e-4)
+
+
+def test_info_counts_the_clumps():
+    from click.testing import CliRunner
+    from bondem.cli import main
+    result = CliRunner().invoke(main, ["info", str(EXAMPLE)])
+    assert result.exit_code == 0, result.output
+    assert "clumps:          36 (rigid grains of 108 of the particles)" in result.output

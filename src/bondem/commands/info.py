@@ -40,6 +40,9 @@ def describe(scene, stable_time_step):
     lines = [
         f"scene:           {scene.path}",
         f"particles:       {n}   materials: {materials}",
+        *([f"clumps:          {model.n_clumps} (rigid grains of "
+             f"{int(np.count_nonzero(model.clump_of >= 0))} of the particles)"]
+          if model.n_clumps else []),
         f"bonds:           {b}",
         f"walls:           {len(walls)}   contacts: "
         f"{scene.data['simulation'].get('contact_model', 'none')}",
