@@ -117,7 +117,7 @@ class Case:
 
 CASES: dict = {}
 _MODULES = ("two_particle", "cantilever", "wave", "strength", "bond_models", "rotation",
-            "contact", "adhesion", "clumps",
+            "contact", "adhesion", "clumps", "fields",
             "refdata", "musen_run")
 
 
