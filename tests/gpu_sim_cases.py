@@ -154,14 +154,45 @@ def case_fluid_match_cpu():
     case_bonds_match_cpu(system=fluid_cluster)
 
 
+def case_flow_field_and_coupling_match_cpu():
+    """fluid_cluster with a flow formula of x, y, z and t, a local voidage (a grid through
+    the cluster) and a coupled solver (a linear drag towards a swirl, a moment on the
+    spin, every 4 steps): on the GPU the positions go to the host each step and the
+    solver's loads come back to the device; the run equals the CPU's."""
+    from bondem.coupling import FlowField
+    from bondem.expression import flow_function
+
+    def flow():
+        return FlowField(velocity=flow_function(["0.3 * sin(2000 * t) + 100 * y",
+                                                 "-100 * x", "0.2 * cos(300 * z / 1e-3)"]),
+                         voidage_grid=((-3e-3, -3e-3, -3e-3), (3e-3, 3e-3, 3e-3), (3, 2, 4)),
+                         voidage_floor=0.3)
+
+    calls = []
+
+    def solver(exchange):
+        calls.append(exchange.step)
+        swirl = np.column_stack([-exchange.position[:, 1], exchange.position[:, 0],
+                                 np.zeros(len(exchange.radius))]) * 50.0
+        force = 2e-4 * exchange.radius[:, None] * (swirl - exchange.velocity)
+        return force, -1e-9 * exchange.angular_velocity
+
+    case_bonds_match_cpu(system=fluid_cluster, flow=flow,
+                         prepare=lambda sim: sim.couple(solver, every=4))
+    assert len(calls) == 16 and calls[:2] == [0, 4], calls
+    print("ok: exchanges", len(calls))
+
+
 def case_bonds_match_cpu(steps=30, system=bonded_cluster, musen_compat=False, breaks=True,
-                         laws=lambda backend: [], time_step="auto"):
+                         laws=lambda backend: [], time_step="auto", flow=lambda: None,
+                         prepare=lambda sim: None):
     """GPU (simulator) and CPU runs of the same cluster agree to round-off."""
     runs = {}
     for backend in ("cpu", "gpu"):
         model, state = system()
         sim = bondem.Simulation(model, state, backend=backend, musen_compat=musen_compat,
-                                laws=laws(backend), time_step=time_step)
+                                laws=laws(backend), time_step=time_step, flow=flow())
+        prepare(sim)
         sim.step(steps // 2)
         sim.step(steps - steps // 2)   # two batches: the host copy between them is exact
         runs[backend] = (sim.state, sim.energy_terms())

@@ -20,7 +20,8 @@ from bondem.physics.field_fluid import drag_coefficient
 from bondem.scene import load_scene
 
 GRAVITY = (0.0, 0.0, -9.81)
-NO_GRID = (np.zeros((1, 1, 1, 3)), np.zeros(6))   # no flow grid (Model's default)
+# no flow grid, no per-particle fluid (Model's defaults)
+NO_GRID = (np.zeros((1, 1, 1, 3)), np.zeros(6), (0.0, 0.0, 0.0, 0.0))
 
 
 def settling(rho_p, d, fluid, gravity=GRAVITY):

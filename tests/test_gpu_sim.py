@@ -53,6 +53,14 @@ def test_fluid_forces_match_cpu_under_simulator():
     assert "velocity" in out and "energy work_external" in out
 
 
+def test_flow_field_and_coupling_match_cpu_under_simulator():
+    """A flow formula of x, y, z, t, a local voidage and a coupled solver on the GPU: the
+    per-particle fluid array and the solver's loads go to the device; the run equals the
+    CPU's to 1e-12."""
+    out = run_case("flow_field_and_coupling_match_cpu")
+    assert "ok: exchanges 16" in out and "energy work_external" in out
+
+
 def test_periodic_musen_start_matches_cpu_under_simulator():
     """A bonded ring across a periodic boundary, MUSEN-compatible start-up, 20 steps."""
     run_case("periodic_match_cpu")

@@ -149,6 +149,9 @@ class Model:
     frame: a rotating frame of reference (``frame_array``; physics/field_frame.py);
     flow (nx, ny, nz, 3) m/s and flow_box (origin (3,) m, spacing (3,) m; spacing 0: no
     grid): the fluid's velocity given on a grid (``read_flow_grid``), added to its own;
+    fluid_local (N, 4) or (0, 4) for none: the fluid's velocity (m/s) added at each
+    particle and the voidage (-) around it (0: the fluid's), set each step by a flow
+    field law (coupling.FlowField: an expression of x and t, a local voidage);
     periodic (3,) bool with box_low/box_high (3,) m the periodic cell (also the domain
     outside which a particle means a blown-up run, along non-periodic axes where finite);
     damping: local (non-viscous) damping coefficient in [0, 1), 0 for none.
@@ -177,6 +180,7 @@ class Model:
     frame: np.ndarray = field(default_factory=lambda: np.zeros(FRAME_COLUMNS))
     flow: np.ndarray = field(default_factory=lambda: np.zeros((1, 1, 1, 3)))
     flow_box: np.ndarray = field(default_factory=lambda: np.zeros(6))
+    fluid_local: np.ndarray = field(default_factory=lambda: np.zeros((0, 4)))
     periodic: np.ndarray = field(default_factory=lambda: np.zeros(3, dtype=bool))
     box_low: np.ndarray = field(default_factory=lambda: np.full(3, -np.inf))
     box_high: np.ndarray = field(default_factory=lambda: np.full(3, np.inf))

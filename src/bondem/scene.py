@@ -15,7 +15,9 @@ from pathlib import Path
 
 import numpy as np
 
+from .coupling import FlowField
 from .errors import InputError, decode_text, unknown_key
+from .expression import flow_function
 from .generate import bonds_from_gap, particles_from_generator
 from .io.csv_files import read_bonds, read_particles
 from .model import (BondMaterial, Material, bond_material_schema, fluid_array, frame_array,
@@ -109,6 +111,13 @@ TOP_KEYS = ("simulation", "materials", "bond_materials", "particles", "bonds", "
 FRAME_KEYS = {
     "angular_velocity": ("vector3", [0.0, 0.0, 0.0], -INF, INF, False, False),
     "center": ("vector3", [0.0, 0.0, 0.0], -INF, INF, False, False),
+}
+# fluid.voidage_grid (with voidage = "local"): the cells whose voidage the drag sees
+VOIDAGE_GRID_KEYS = {
+    "low": ("vector3", REQUIRED, -INF, INF, False, False),
+    "high": ("vector3", REQUIRED, -INF, INF, False, False),
+    "cells": ("cells", REQUIRED, None, None, None, None),
+    "floor": ("number", 0.2, 0.0, 1.0, False, True),
 }
 # [fluid]: drag and buoyancy (physics/field_fluid.py, docs/fields.md)
 FLUID_KEYS = {
@@ -325,6 +334,13 @@ def _check_value(value, kind, low, high, inc_low, inc_high, key, path):
             raise InputError(f"value {value!r}: expected true/false or three of them [x, y, z]",
                              file=path, key=key)
         return list(value)
+    if kind == "cells":
+        if (not isinstance(value, list) or len(value) != 3
+                or not all(isinstance(c, int) and not isinstance(c, bool) and c >= 1
+                           for c in value)):
+            raise InputError(f"value {value!r}: expected 3 integers >= 1 [nx, ny, nz]",
+                             file=path, key=key)
+        return list(value)
     if kind == "table":
         if not isinstance(value, dict):
             raise InputError(f"value {value!r}: expected a table", file=path, key=key)
@@ -352,7 +368,8 @@ def _build(data, text, path):
         if key not in data:
             raise InputError("missing required table", file=path, key=key)
     sim = _check_table(data["simulation"], SIMULATION_KEYS, "simulation", path)
-    fluid = _check_table(data.get("fluid", {}), FLUID_KEYS, "fluid", path)
+    fluid_table, flow_field = _flow_field(data.get("fluid", {}), path)
+    fluid = _check_table(fluid_table, FLUID_KEYS, "fluid", path)
     if fluid["buoyancy"] is None:   # a fluid with a density buoys its particles
         fluid["buoyancy"] = fluid["density"] > 0.0
     frame = _check_table(data.get("frame", {}), FRAME_KEYS, "frame", path)
@@ -436,6 +453,8 @@ def _build(data, text, path):
                "force_time_step": sim["force_time_step"], "musen_compat": sim["musen_compat"],
                "musen_version": sim["musen_version"]}
     _contact_and_walls(options, sim, walls, material_objects, material_names, path)
+    if flow_field is not None:
+        options["flow"] = flow_field
     if "contact" in options and any(model.periodic):
         from .contacts import contact_cutoff
         cutoff = contact_cutoff(model.radius, options["contact"].skin)[0]
@@ -470,6 +489,48 @@ def _build(data, text, path):
                         "walls": walls}, warnings=warnings)
     _check_time_step(scene, path, save_every_given)
     return scene
+
+
+def _flow_field(table, path):
+    """The [fluid] table without its formulas and local voidage, and the FlowField they
+    make (None without): ``velocity`` with a formula of x, y, z, t among its three
+    components (expression.py), ``voidage = "local"`` with ``voidage_grid = {low, high,
+    cells, floor}``."""
+    if not isinstance(table, dict):
+        return table, None
+    table = dict(table)
+    velocity = table.get("velocity")
+    function = None
+    if isinstance(velocity, list) and any(isinstance(v, str) for v in velocity):
+        if len(velocity) != 3:
+            raise InputError(f"expected 3 components (numbers or formulas of x, y, z, t), "
+                             f"got {len(velocity)}", file=path, key="fluid.velocity")
+        try:
+            function = flow_function(velocity)
+        except ValueError as error:
+            raise InputError(str(error), file=path, key="fluid.velocity") from None
+        table["velocity"] = [0.0, 0.0, 0.0]
+    grid = table.pop("voidage_grid", None)
+    local = table.get("voidage") == "local"
+    if local:
+        table["voidage"] = 1.0
+        if not isinstance(grid, dict):
+            raise InputError('voidage = "local" needs fluid.voidage_grid = {low = [x, y, z], '
+                             'high = [x, y, z], cells = [nx, ny, nz]} (m, m, integers >= 1)',
+                             file=path, key="fluid.voidage_grid")
+        grid = _check_table(grid, VOIDAGE_GRID_KEYS, "fluid.voidage_grid", path)
+        if any(h <= low for low, h in zip(grid["low"], grid["high"])):
+            raise InputError(f"high {grid['high']} must exceed low {grid['low']} on every "
+                             "axis", file=path, key="fluid.voidage_grid.high")
+    elif grid is not None:
+        raise InputError('a voidage grid needs voidage = "local"', file=path,
+                         key="fluid.voidage_grid")
+    if function is None and not local:
+        return table, None
+    return table, FlowField(velocity=function,
+                            voidage_grid=((grid["low"], grid["high"], grid["cells"])
+                                          if local else None),
+                            voidage_floor=grid["floor"] if local else 0.2)
 
 
 def _read_flow(model, file, scene_path):

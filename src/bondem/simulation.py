@@ -30,12 +30,14 @@ class Simulation:
     backend: "cpu" or "gpu" (CUDA; the state then lives on the device and ``self.state``
     is refreshed at the end of every ``step``/``run`` batch; after editing ``self.state``
     on the host, call ``self.backend.to_device(self.state)``). Contacts and walls run on
-    both backends (GPU: ``backends.cuda_contacts.ContactLawGpu``).
+    both backends (GPU: ``backends.cuda_contacts.ContactLawGpu``); flow: a
+    ``coupling.FlowField`` (the fluid's velocity as a function of position and time, a
+    local voidage; evaluated before each step).
     """
 
     def __init__(self, model, state, *, time_step="auto", safety_factor=0.2,
                  force_time_step=False, musen_compat=False, musen_version=MUSEN_VERSION,
-                 laws=(), contact=None, walls=(), backend="cpu"):
+                 laws=(), contact=None, walls=(), backend="cpu", flow=None):
         self.model = model
         self.state = state
         stable, cause = stable_time_step(model, safety_factor, musen_compat)
@@ -89,6 +91,11 @@ class Simulation:
                 self.contacts.law_module, "MUSEN", {})
             self.contacts.musen_code = musen_contacts
             laws = (self.contacts, *laws)
+        if flow is not None:
+            flow.backend = backend
+            flow.attach(None)   # the GPU backend attaches it again in check_laws
+            laws = (*laws, flow)
+        self.flow = flow
         self.walls = list(walls)
         self._servos = [(k, w.motion) for k, w in enumerate(self.walls)
                         if isinstance(w.motion, Servo)]
@@ -121,13 +128,13 @@ class Simulation:
         ``Exchange`` (positions, velocities, radii, the voidage of ``grid`` = (low, high,
         shape) or None, the time its loads will act) and returns the particles' force
         (N,3) N [and moment (N,3) N m], which act as external loads until the next
-        exchange. CPU backend. Returns the coupling (its ``exchanges`` count)."""
+        exchange. On the GPU the particles come to the host for each exchange. Returns the
+        coupling (its ``exchanges`` count)."""
         from .coupling import FluidCoupling
-        if self.backend_name != "cpu":
-            raise ValueError("couple: the CPU backend only (the GPU keeps its external "
-                             "loads on the device)")
         coupling = FluidCoupling(self.model, solver, every, grid, self.time_step,
                                  self.musen_compat)
+        coupling.backend = self.backend_name
+        self.backend.check_laws([coupling])
         self.laws.append(coupling)
         return coupling
 

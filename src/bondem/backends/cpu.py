@@ -37,6 +37,7 @@ bond_loads_on_particles = L.bond_loads_on_particles
 store3 = L.store3
 add = L.add
 fluid_force = L.fluid_force
+local_fluid = L.local_fluid
 frame_force = L.frame_force
 
 # The same physics for the vectorised bond loop (``advance_bond_block``): inlined into the
@@ -392,7 +393,8 @@ def field_forces(position, velocity, radius, mass, fixed, fields, out):
         x = row3(position, p)
         v = row3(velocity, p)
         store3(out, p, add(fluid_force(fields.fluid, fields.flow, fields.flow_box,
-                                       radius[p], mass[p], x, v, fields.gravity),
+                                       local_fluid(fields.local, p), radius[p], mass[p], x,
+                                       v, fields.gravity),
                            frame_force(fields.frame, mass[p], x, v)))
 
 
@@ -480,7 +482,7 @@ def fields(model, put=lambda a: a):
     """The model's body-force fields as a ``loops.Fields`` (gravity, fluid, flow grid,
     rotating frame)."""
     return loops.Fields(put(model.gravity), put(model.fluid), put(model.flow),
-                        put(model.flow_box), put(model.frame))
+                        put(model.flow_box), put(model.frame), put(model.fluid_local))
 
 
 def bodies(model, put=lambda a: a):

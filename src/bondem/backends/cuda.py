@@ -227,6 +227,22 @@ class GpuBackend:
             self.status.copy_to_device(np.zeros(1, dtype=np.int64))
             raise blow_up(status, state.time, state.step, backend="gpu")
 
+    def set_fluid_local(self, local):
+        """Upload the per-particle fluid (N, 4) (``Model.fluid_local``, set by a flow
+        field law on the host) for the next steps."""
+        current = self.fields.local
+        if current.shape == local.shape:
+            current.copy_to_device(np.ascontiguousarray(local))
+        else:
+            self.fields = self.fields._replace(local=cuda.to_device(
+                np.ascontiguousarray(local)))
+
+    def set_external_loads(self, force, moment):
+        """Upload the particles' external force (N,3) N and moment (N,3) N m (a coupled
+        solver's, set on the host)."""
+        self.bodies.external_force.copy_to_device(np.ascontiguousarray(force))
+        self.bodies.external_moment.copy_to_device(np.ascontiguousarray(moment))
+
     def synchronize(self):
         """Wait until every queued kernel has finished (for timing)."""
         cuda.synchronize()

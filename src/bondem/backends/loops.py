@@ -47,8 +47,9 @@ Particles = namedtuple("Particles", "position velocity angular_velocity")
 Bodies = namedtuple("Bodies", "mass inertia fixed external_force external_moment radius")
 # The body-force fields: gravity (3,) m/s^2, the fluid (physics/field_fluid.py's FLUID_*
 # columns), its flow grid (nx, ny, nz, 3) m/s and box (FLOW_*), the rotating frame
-# (physics/field_frame.py's FRAME_* columns)
-Fields = namedtuple("Fields", "gravity fluid flow flow_box frame")
+# (physics/field_frame.py's FRAME_* columns), the per-particle fluid (N, 4) or (0, 4)
+# (field_fluid.local_fluid: a velocity m/s and a voidage at each particle)
+Fields = namedtuple("Fields", "gravity fluid flow flow_box frame local")
 Box = namedtuple("Box", "low high length periodic")
 # Clumps (Model.clump_*): members of clump c are members[offsets[c]:offsets[c+1]]; offset
 # (N,3) m each member's place in its clump's body frame; mass (C,) kg; inertia (C,3)
@@ -402,7 +403,8 @@ def integrate_particle(p, load_f, load_m, particles, bodies, fields, damping, ki
         gravity = fields.gravity
         here = row3(particles.position, p)
         carried = add(fluid_force(fields.fluid, fields.flow, fields.flow_box,
-                                  bodies.radius[p], mass, here, row3(v, p), gravity),
+                                  local_fluid(fields.local, p), bodies.radius[p], mass,
+                                  here, row3(v, p), gravity),
                       frame_force(fields.frame, mass, here, row3(v, p)))
         turned = frame_moment(fields.frame, inertia, row3(w, p))
         for k in range(3):
@@ -478,7 +480,8 @@ def integrate_clump(c, force, moment, clumps, clump_state, particles, bodies, fi
         moving = add(velocity, cross(spin, arm))
         outside = add(row3(bodies.external_force, p),
                       fluid_force(fields.fluid, fields.flow, fields.flow_box,
-                                  bodies.radius[p], bodies.mass[p], here, moving, gravity))
+                                  local_fluid(fields.local, p), bodies.radius[p],
+                                  bodies.mass[p], here, moving, gravity))
         f = row3(force, p)
         load = add(load, f)
         torque = add(torque, add(row3(moment, p), cross(arm, f)))

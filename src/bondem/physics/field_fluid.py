@@ -112,10 +112,22 @@ def flow_velocity(flow, flow_box, x):
 
 
 @physics
-def fluid_force(fluid, flow, flow_box, radius, mass, x, v, gravity):
+def local_fluid(local, p):
+    """Particle p's row of the per-particle fluid array ``local`` (N, 4): the fluid's
+    velocity added there (m/s, 3) and the voidage around it (-, 0: the fluid's own), as a
+    4-tuple; zeros when the array has no row p (none given)."""
+    if p >= local.shape[0]:
+        return (0.0, 0.0, 0.0, 0.0)
+    return (local[p, 0], local[p, 1], local[p, 2], local[p, 3])
+
+
+@physics
+def fluid_force(fluid, flow, flow_box, local, radius, mass, x, v, gravity):
     """Drag plus buoyancy (N, 3-tuple) on a particle of radius (m) and mass (kg) at x (m)
     moving at v (m/s) in the fluid ``fluid`` (FLUID_* columns) whose velocity adds the
-    flow grid's (``flow_velocity``), gravity (m/s^2)."""
+    flow grid's (``flow_velocity``) and the particle's own ``local`` (``local_fluid``'s
+    4-tuple: a velocity, m/s, and a voidage replacing the fluid's where > 0), gravity
+    (m/s^2)."""
     law = int(fluid[FLUID_DRAG])
     rho = fluid[FLUID_DENSITY]
     fx = 0.0
@@ -129,14 +141,14 @@ def fluid_force(fluid, flow, flow_box, radius, mass, x, v, gravity):
     if law == 0:
         return (fx, fy, fz)
     mu = fluid[FLUID_VISCOSITY]
-    eps = fluid[FLUID_VOIDAGE]
+    eps = fluid[FLUID_VOIDAGE] if local[3] <= 0.0 else local[3]
     wx = fluid[FLUID_SPIN]
     wy = fluid[FLUID_SPIN + 1]
     wz = fluid[FLUID_SPIN + 2]
     grid = flow_velocity(flow, flow_box, x)
-    sx = fluid[FLUID_VELOCITY] + wy * x[2] - wz * x[1] + grid[0] - v[0]
-    sy = fluid[FLUID_VELOCITY + 1] + wz * x[0] - wx * x[2] + grid[1] - v[1]
-    sz = fluid[FLUID_VELOCITY + 2] + wx * x[1] - wy * x[0] + grid[2] - v[2]
+    sx = fluid[FLUID_VELOCITY] + wy * x[2] - wz * x[1] + grid[0] + local[0] - v[0]
+    sy = fluid[FLUID_VELOCITY + 1] + wz * x[0] - wx * x[2] + grid[1] + local[1] - v[1]
+    sz = fluid[FLUID_VELOCITY + 2] + wx * x[1] - wy * x[0] + grid[2] + local[2] - v[2]
     if law == 5:
         # MUSEN's centrifugal casting: x's part across the spin axis, |W|^2 times the
         # mass less the liquid it displaces
