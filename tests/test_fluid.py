@@ -369,15 +369,18 @@ def test_the_centrifugal_law_against_its_formula_off_the_axis():
 
 
 def test_the_fields_force_is_saved_and_exported(tmp_path):
-    """A sphere settling at its Stokes terminal velocity in a run through bondem run:
-    results.h5 holds the fields' force on it, which then balances its weight (the drag
-    and buoyancy of the last frame: (rho_p - rho_f) V g upward), and ParaView's files
-    carry it."""
+    """A sphere settling at its Stokes terminal velocity in a run through bondem run,
+    beside a fixed one twice its size: results.h5 holds the fields' force on it, which
+    then balances its weight (the drag and buoyancy of the last frame: (rho_p - rho_f) V g
+    upward), ParaView's files carry it, and the report and bondem analyze show the
+    fields' total and the share of the moving particles' weight they carry (1; the fixed
+    sphere's weight, 8 times the other's, does not count)."""
     import h5py
     from click.testing import CliRunner
     from bondem.cli import main
     rho_p, rho_f, mu, d = 2650.0, 998.0, 1e-3, 1e-4
-    (tmp_path / "particles.csv").write_text(f"x,y,z,radius,material\n0,0,0,{d / 2},glass\n")
+    (tmp_path / "particles.csv").write_text(
+        f"x,y,z,radius,material,fixed\n0,0,0,{d / 2},glass,0\n0.01,0,0,{d},glass,1\n")
     tau = rho_p * d * d / (18 * mu)
     (tmp_path / "scene.toml").write_text(SCENE.format(
         fluid=f'density = {rho_f}\nviscosity = {mu}\ndrag = "stokes"').replace(
@@ -400,6 +403,18 @@ def test_the_fields_force_is_saved_and_exported(tmp_path):
                                   "--out", str(tmp_path / "vtk")])
     assert result.exit_code == 0, result.output
     assert b'Name="field_force"' in (tmp_path / "vtk" / "particles_000002.vtp").read_bytes()
+    from bondem.analysis.report import write_report
+    from bondem.analysis.summary import summarize
+    numbers = summarize(tmp_path / "run" / "results.h5")
+    assert numbers["weight_carried_by_fields"] == pytest.approx(1.0, rel=1e-6)
+    assert numbers["field_force_total"] == pytest.approx(rho_p * math.pi / 6 * d ** 3 * 9.81,
+                                                         rel=1e-6)
+    assert numbers["field_force_mean"] == pytest.approx(numbers["field_force_total"] / 2,
+                                                        rel=1e-12)
+    report, _ = write_report(tmp_path / "run" / "results.h5")
+    text = report.read_text()
+    assert '<figure id="fields">' in text
+    assert "weight carried by fields" in text
 
 
 def rotating_flow_grid(spin, low, high, shape):

@@ -79,6 +79,28 @@ def plot_energy(balance):
     return fig
 
 
+def plot_fields(series):
+    """The fields' (fluid, rotating frame) total force on the particles per axis and
+    the mean per particle against time; with gravity, the share of the weight carried."""
+    rows = 2 if series["weight_carried"] is not None else 1
+    fig, axes = plt.subplots(rows, 1, figsize=(6, 2.6 + 1.9 * rows), sharex=True,
+                             layout="constrained", squeeze=False)
+    ax = axes[0, 0]
+    t = series["time"] * 1e3
+    for k, axis in enumerate("xyz"):
+        ax.plot(t, series["total"][:, k], lw=1.2, label=f"total {axis}")
+    ax.plot(t, series["mean"], "k--", lw=1, label="mean |F| per particle")
+    ax.set_ylabel("fluid/field force (N)")
+    ax.legend(fontsize=7, ncol=2)
+    if rows == 2:
+        low = axes[1, 0]
+        low.plot(t, series["weight_carried"], color="tab:purple")
+        low.axhline(1.0, color="0.6", lw=0.8, ls=":")
+        low.set_ylabel("weight carried (-)")
+    axes[-1, 0].set_xlabel("time (ms)")
+    return fig
+
+
 def plot_wall(curve):
     """Wall force against displacement (the decrease of the plate gap when two plates
     press the body; time for a wall that stays) with the first breakage and the peak."""
@@ -212,7 +234,8 @@ def plot_bodies(pictures):
 
 def build_figures(results, frames=(0, -1), view="xz", data=None):
     """Every figure that applies to an open ``Results``: {name: (Figure, data)} with
-    names fragments, breakage, energy (if /energy), wall (if walls), size_distribution,
+    names fragments, breakage, energy (if /energy), wall (if walls), fields (if field
+    forces: a fluid or a rotating frame), size_distribution,
     radial (if bonds), bodies (at ``frames``, projected on ``view``)."""
     data = analyze(results) if data is None else data
     figures = {"fragments": (plot_fragments(data["fragments"]), data["fragments"])}
@@ -224,6 +247,8 @@ def build_figures(results, frames=(0, -1), view="xz", data=None):
         figures["energy"] = (plot_energy(data["energy"]), data["energy"])
     if data["wall"] is not None:
         figures["wall"] = (plot_wall(data["wall"]), data["wall"])
+    if data.get("fields") is not None:
+        figures["fields"] = (plot_fields(data["fields"]), data["fields"])
     last = frame_fragments(results, -1)
     masses, cumulative = size_distribution(last["masses"], last["total_mass"])
     particles, number = count_distribution(last["counts"])

@@ -26,6 +26,9 @@ CAPTIONS = {
     "energy": "Energy balance: stored energy against the work done and the losses; the "
               "residual is relative to the initial kinetic energy.",
     "wall": "Force on the walls; the first broken bond and the peak force are marked.",
+    "fields": "The fluid's (drag, buoyancy) and a rotating frame's force on the particles: "
+              "their sum per axis and the mean magnitude per particle; below, the share of "
+              "the moving particles' weight they carry (1: held up by the fluid).",
     "size_distribution": "Fragment sizes at the last frame: cumulative mass distribution "
                          "and number of fragments by particle count.",
 }
@@ -186,7 +189,7 @@ def write_report(path, out=None, frames=(0, -1)):
         scene_text = str(all_attrs.get("scene", ""))
         scene_name = str(all_attrs.get("scene_name", "")) or (
             path.parent.name if path.name == "results.h5" else path.name)
-    order = ("bodies", "fragments", "breakage", "radial", "energy", "wall",
+    order = ("bodies", "fragments", "breakage", "radial", "energy", "wall", "fields",
              "size_distribution")
     images = {}
     for name in order:

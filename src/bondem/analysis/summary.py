@@ -5,6 +5,7 @@ import numpy as np
 
 from .breakage import MODES, broken_series, first_break_time
 from .energy import energy_balance
+from .fields import field_series
 from .fragments import fragment_series
 from .results import Results
 from .walls import wall_curve
@@ -16,7 +17,9 @@ UNITS = {"frames": "frames", "final_time": "s", "particles": "particles",
          "largest_fragment_fraction": "of the total mass", "first_break_time": "s",
          "peak_wall_force": "N", "displacement_at_peak_force": "m",
          "plate_gap_at_peak_force": "m", "plate_force_mismatch": "of the peak force",
-         "energy_balance_error": "of the reference energy", "energy_reference": "J"}
+         "energy_balance_error": "of the reference energy", "energy_reference": "J",
+         "field_force_total": "N", "field_force_mean": "N per particle",
+         "weight_carried_by_fields": "of the moving particles' weight"}
 UNITS.update({f"broken_{name}": "bonds" for name in MODES})
 
 
@@ -31,11 +34,13 @@ def format_number(key, value):
 
 
 def analyze(results):
-    """All analyses of an open ``Results``: {"fragments", "broken", "energy", "wall"}
-    (see ``fragment_series``, ``broken_series``, ``energy_balance``, ``wall_curve``;
-    energy and wall are None when the file has no such data)."""
+    """All analyses of an open ``Results``: {"fragments", "broken", "energy", "wall",
+    "fields"} (see ``fragment_series``, ``broken_series``, ``energy_balance``,
+    ``wall_curve``, ``field_series``; energy, wall and fields are None when the file has
+    no such data)."""
     return {"fragments": fragment_series(results), "broken": broken_series(results),
-            "energy": energy_balance(results), "wall": wall_curve(results)}
+            "energy": energy_balance(results), "wall": wall_curve(results),
+            "fields": field_series(results)}
 
 
 def key_numbers(results, data=None):
@@ -45,7 +50,9 @@ def key_numbers(results, data=None):
     first_break_time (s), peak_wall_force (N), displacement_at_peak_force (m, the
     decrease of the plate gap between two plates), plate_gap_at_peak_force (m),
     plate_force_mismatch (-, up to the peak), energy_balance_error (max |residual| /
-    reference, -), energy_reference (J)."""
+    reference, -), energy_reference (J); with a fluid or a rotating frame, at the last
+    frame: field_force_total (N, |sum of the fields' forces|), field_force_mean (N, per
+    particle) and weight_carried_by_fields (-, ``field_series``)."""
     data = analyze(results) if data is None else data
     fragments, broken = data["fragments"], data["broken"]
     last = -1 if results.n_frames else None
@@ -70,13 +77,20 @@ def key_numbers(results, data=None):
         numbers["plate_force_mismatch"] = wall["force_mismatch"]
     numbers["energy_balance_error"] = energy["max_relative_error"] if energy else None
     numbers["energy_reference"] = energy["reference"] if energy else None
+    fields = data.get("fields")
+    if fields is not None and last is not None:
+        numbers["field_force_total"] = float(np.linalg.norm(fields["total"][-1]))
+        numbers["field_force_mean"] = float(fields["mean"][-1])
+        if fields["weight_carried"] is not None:
+            numbers["weight_carried_by_fields"] = float(fields["weight_carried"][-1])
     return numbers
 
 
 def time_series(data):
     """Columns of one table, one row per frame: time, fragment and breakage counts,
     largest fragment fraction, every energy term, stored/work/losses/residual and the
-    relative error, wall displacement and force. {column: (F,) array}."""
+    relative error, wall displacement and force, the fields' total force (N) and mean per
+    particle and the weight they carry. {column: (F,) array}."""
     fragments, broken = data["fragments"], data["broken"]
     columns = {"time": fragments["time"], "fragments": fragments["fragments"],
                "fragments_multi": fragments["fragments_multi"],
@@ -98,6 +112,13 @@ def time_series(data):
             columns["plate_gap"] = wall["gap"]
             columns["wall_force_loading"] = wall["force_wall"]
             columns["wall_force_partner"] = wall["force_partner"]
+    fields = data.get("fields")
+    if fields is not None:
+        for k, axis in enumerate("xyz"):
+            columns[f"field_force_{axis}"] = fields["total"][:, k]
+        columns["field_force_mean"] = fields["mean"]
+        if fields["weight_carried"] is not None:
+            columns["weight_carried_by_fields"] = fields["weight_carried"]
     return columns
 
 

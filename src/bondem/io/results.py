@@ -18,11 +18,13 @@ Layout (F frames, N particles, B bonds, W walls; every dataset has a ``unit`` at
        meshN/triangles (T,3) for mesh wall N (for the ParaView export)
 /particles/force (F,N,3) N: the particles' loads of the last force evaluation
 /particles/field_force (F,N,3) N: with a fluid or a rotating frame, their force on each
-           particle at the frame's state (drag, buoyancy, centrifugal, Coriolis)
+           particle at the frame's state (drag, buoyancy, centrifugal, Coriolis); with
+           it /particles/fixed (N,) bool
 /energy/<term> (F,) J: Simulation.energy_terms()
 /materials/names, /bond_materials/names
 attrs on /: scene (the scene text), scene_name, bondem_version, backend, time_step (s),
-periodic (3,) bool, box_length (3,) m (periodic cell; 1 along other axes), ...
+periodic (3,) bool, box_length (3,) m (periodic cell; 1 along other axes), gravity (3,)
+m/s^2, ...
 ```
 The file is built whole (every dataset, no frames) under a temporary name and renamed into
 place; each frame then opens it in SWMR mode (``libver="latest"``), appends and closes it.
@@ -53,7 +55,7 @@ UNITS = {
     "bonds/normal_moment": "N m", "bonds/tangential_moment": "N m", "walls/force": "N",
     "walls/torque": "N m", "walls/position": "m", "particles/force": "N",
     "walls/history/time": "s", "walls/history/force": "N", "walls/history/position": "m",
-    "particles/field_force": "N",
+    "particles/field_force": "N", "particles/fixed": "1",
     "contacts/end": "1", "contact_rows/i": "1", "contact_rows/j": "1",
     "contact_rows/force": "N",
     "particles/clump": "1", "clumps/mass": "kg", "clumps/inertia": "kg m^2",
@@ -363,6 +365,7 @@ def _create_layout(f, sim, *, scene_text, backend, scene_name, material_names,
     f.attrs["n_particles"], f.attrs["n_bonds"], f.attrs["n_walls"] = n, b, w
     f.attrs["periodic"] = np.asarray(model.periodic, dtype=np.bool_)
     f.attrs["box_length"] = np.asarray(model.box_length, dtype=np.float64)
+    f.attrs["gravity"] = np.asarray(model.gravity, dtype=np.float64)
     options = dict(compression=compression, shuffle=compression is not None)
 
     def constant(name, data):
@@ -406,6 +409,8 @@ def _create_layout(f, sim, *, scene_text, backend, scene_name, material_names,
         frames(f"particles/{name}", (n, 3))
     if _has_fields(model):
         frames("particles/field_force", (n, 3))
+        # what the report's fluid summary needs: the weight the fields may carry
+        constant("particles/fixed", np.asarray(model.fixed, dtype=np.bool_))
     if model.n_clumps:
         for name, columns in (("position", 3), ("orientation", 4), ("velocity", 3),
                               ("angular_momentum", 3)):
