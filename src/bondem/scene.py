@@ -20,6 +20,7 @@ from .errors import InputError, decode_text, unknown_key
 from .expression import flow_function
 from .generate import bonds_from_gap, particles_from_generator
 from .io.csv_files import read_bonds, read_particles
+from .io.grid_files import read_flow_grid
 from .model import (BondMaterial, Material, bond_material_schema, fluid_array, frame_array,
                     make_system, material_schema)
 from .physics import contact_models
@@ -534,26 +535,13 @@ def _flow_field(table, path):
 
 
 def _read_flow(model, file, scene_path):
-    """The fluid's velocity grid from an HDF5 file: dataset ``velocity`` (nx, ny, nz, 3)
-    m/s at the nodes ``origin`` + (i, j, k) ``spacing`` (attributes, m); InputError
-    naming the file and what is wrong."""
-    import h5py
+    """The fluid's velocity grid from ``file`` (HDF5, VTK image data or legacy VTK
+    structured points: io/grid_files.py) into ``model``; InputError naming the file and
+    what is wrong."""
     key = "fluid.velocity_file"
     if not file.is_file():
         raise InputError(f"no such file {str(file)!r}", file=scene_path, key=key)
-    try:
-        with h5py.File(file, "r") as f:
-            if "velocity" not in f:
-                raise InputError("no dataset 'velocity' (nx, ny, nz, 3) m/s", file=file,
-                                 key=key)
-            velocity = f["velocity"][()]
-            origin = f["velocity"].attrs.get("origin", f.attrs.get("origin"))
-            spacing = f["velocity"].attrs.get("spacing", f.attrs.get("spacing"))
-    except OSError as error:
-        raise InputError(f"not an HDF5 file ({error})", file=file, key=key) from None
-    for name, value in (("origin", origin), ("spacing", spacing)):
-        if value is None:
-            raise InputError(f"no attribute {name!r} (3 numbers, m)", file=file, key=key)
+    velocity, origin, spacing = read_flow_grid(file, key)
     try:
         model.set_flow(velocity, origin, spacing)
     except ValueError as error:
