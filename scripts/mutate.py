@@ -45,6 +45,9 @@ MODULES = {
     "src/bondem/io/csv_files.py": ["tests/test_bad_files.py", "tests/test_generate_io.py"],
     "src/bondem/calibrate.py": ["tests/test_calibrate.py"],
     "src/bondem/io/protowire.py": ["tests/test_protowire.py"],
+    "src/bondem/io/grid_files.py": ["tests/test_grid_files.py"],
+    "src/bondem/expression.py": ["tests/test_expression.py"],
+    "src/bondem/analysis/fields.py": ["tests/test_analysis_fields.py"],
 }
 COPIED = ["tests/", "examples/", "docs/", "README.md", "benchmarks/", "scripts/"]
 
