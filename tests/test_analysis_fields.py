@@ -115,3 +115,37 @@ def test_time_series_and_figure(tmp_path):
     lines = fig.axes[0].get_lines()
     np.testing.assert_allclose(lines[2].get_ydata(), f[:, :, 2].sum(axis=1), rtol=1e-14)
     np.testing.assert_allclose(lines[0].get_xdata(), [0.0, 1.0, 2.5], rtol=1e-14)
+
+
+def test_single_precision_and_integer_flags_are_read_as_double_and_bool(tmp_path):
+    """Another writer's file: float32 forces summed in double (as the float64 sums of
+    the float32 values), the fixed flags stored as 0/1 bytes."""
+    path = make(tmp_path, fixed=None)
+    single = forces().astype(np.float32)
+    with h5py.File(path, "a") as f:
+        del f["particles/field_force"]
+        f["particles/field_force"] = single
+        f["particles/fixed"] = FIXED.astype(np.uint8)
+    with Results(path) as results:
+        series = field_series(results)
+    exact = single.astype(np.float64)
+    np.testing.assert_allclose(series["total"], exact.sum(axis=1), rtol=1e-15, atol=1e-22)
+    weight = MASS[~FIXED].sum() * float(GRAVITY @ GRAVITY)
+    np.testing.assert_allclose(series["weight_carried"],
+                               -(exact.sum(axis=1) @ GRAVITY) / weight, rtol=1e-14)
+
+
+def test_a_file_without_particles(tmp_path):
+    path = tmp_path / "empty.h5"
+    with h5py.File(path, "w") as f:
+        f["time"] = np.array([0.0, 1e-3])
+        f["particles/radius"] = np.zeros(0)
+        f["particles/mass"] = np.zeros(0)
+        f["particles/position"] = np.zeros((2, 0, 3))
+        f["particles/field_force"] = np.zeros((2, 0, 3))
+        f["bonds/pairs"] = np.zeros((0, 2), dtype=np.int64)
+        f["bonds/active"] = np.zeros((2, 0), dtype=bool)
+    with Results(path) as results:
+        series = field_series(results)
+    assert series["mean"].tolist() == [0.0, 0.0] and series["largest"].tolist() == [0.0, 0.0]
+    assert series["total"].tolist() == [[0.0] * 3] * 2

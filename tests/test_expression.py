@@ -73,6 +73,30 @@ def test_operators_comparisons_and_constants():
         Expression(True)
 
 
+def test_messages_list_what_is_allowed_and_edge_inputs():
+    with pytest.raises(ValueError) as error:
+        Expression("u")
+    assert "allowed: x, y, z, t, pi, e and the functions sin, cos, tan, asin" in str(
+        error.value)
+    with pytest.raises(ValueError) as error:
+        Expression("open(x)")
+    assert "allowed: sin, cos, tan, asin, acos, atan, atan2," in str(error.value)
+    with pytest.raises(ValueError) as error:
+        Expression("x[0]")
+    assert ("(numbers, x y z t pi e, + - * / ** %, one comparison, and the listed "
+            "functions only)") in str(error.value)
+    # a division by zero is an inf for the caller to report, not a warning
+    import warnings
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert Expression("1 / x")(x=np.array([0.0, 2.0])).tolist() == [np.inf, 0.5]
+    # integers in, floats out; a comparison with the variable on its right
+    value = Expression("x / 2")(x=np.array([1, 3]))
+    assert value.dtype == np.float64 and value.tolist() == [0.5, 1.5]
+    assert Expression("x")(x=np.array([1, 3])).dtype == np.float64
+    assert Expression("0.5 < x")(x=np.array([0.25, 0.75])).tolist() == [0.0, 1.0]
+
+
 def test_flow_function_gives_three_components_at_each_particle():
     u = flow_function(["2 * x + y", 0.5, "z * t"])
     position = np.array([[0.1, 0.2, 0.3], [-0.4, 0.5, -0.6]])
@@ -80,5 +104,8 @@ def test_flow_function_gives_three_components_at_each_particle():
                                rtol=1e-15)
     assert u.formulas == ["2 * x + y", "0.5", "z * t"]
     assert u(position, 2.0).shape == (2, 3)
+    # positions given as integers (a lattice in mm, say) are not truncated
+    np.testing.assert_array_equal(flow_function(["x * t", "y / 4", "0"])([[1, 2, 3]], 0.5),
+                                  [[0.5, 0.5, 0.0]])
     with pytest.raises(ValueError, match="3 components, got 2"):
         flow_function(["x", "y"])

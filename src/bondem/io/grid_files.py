@@ -269,6 +269,9 @@ def _read_legacy(path, key):
             if word == "DATASET" and words[1].upper() != "STRUCTURED_POINTS":
                 raise InputError(f"DATASET {words[1]}; allowed: STRUCTURED_POINTS",
                                  file=path, key=key)
+            if word in ("DIMENSIONS", "ORIGIN", "SPACING", "ASPECT_RATIO") \
+                    and len(words) != 4:
+                raise ValueError("expected 3 numbers")
             if word == "DIMENSIONS":
                 dims = np.array([int(w) for w in words[1:4]], dtype=np.int64)
             elif word == "ORIGIN":
@@ -292,6 +295,8 @@ def _read_legacy(path, key):
                                              values(int(components) * int(tuples), kind))
             elif word in ("NORMALS",):
                 values(3 * count, words[2])
+        except InputError:
+            raise
         except (IndexError, ValueError, TypeError) as error:
             raise InputError(f"unreadable line {' '.join(words)!r} ({error})", file=path,
                              key=key) from None
