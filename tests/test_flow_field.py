@@ -65,6 +65,8 @@ def test_a_python_function_flow_and_its_bad_answers():
     flow = FlowField(velocity=lambda x, t: np.array([0.0, 0.003, 0.0]))
     sim = bondem.Simulation(model, state, time_step=TAU / 400, force_time_step=True,
                             flow=flow)
+    # the flow is there before the first step (a frame saved at t = 0 shows its drag)
+    np.testing.assert_array_equal(model.fluid_local[:, 1], 0.003)
     sim.run(until=15 * TAU)
     np.testing.assert_allclose(sim.state.velocity[:, 1], 0.003, rtol=1e-6)
     assert model.fluid_local.shape == (2, 4)
@@ -205,6 +207,7 @@ def test_a_scene_flow_formula_and_local_voidage(tmp_path):
     ('drag = "stokes"\nvoidage = "local"\nvoidage_grid = {low = [0, 0, 0], high = [1, 1, 1], '
      'cells = [1, 1, 1], floor = 0}', "fluid.voidage_grid.floor", "(0.0, 1.0]"),
     ('drag = "stokes"\nvoidage = "loose"', "fluid.voidage", "expected a number"),
+    ('velocity = ["z", 0, 0]', "fluid.drag", "acts through the drag; allowed: one of stokes"),
 ])
 def test_bad_flow_formulas_and_voidage_grids_are_named(tmp_path, fluid, key, message):
     (tmp_path / "particles.csv").write_text("x,y,z,radius,material\n0,0,0,1e-4,glass\n")

@@ -373,6 +373,10 @@ def _build(data, text, path):
     fluid = _check_table(fluid_table, FLUID_KEYS, "fluid", path)
     if fluid["buoyancy"] is None:   # a fluid with a density buoys its particles
         fluid["buoyancy"] = fluid["density"] > 0.0
+    if flow_field is not None and fluid["drag"] == "none":
+        raise InputError(f"a velocity formula or a local voidage acts through the drag; "
+                         f"allowed: one of {', '.join(d for d in DRAG_LAWS if d != 'none')}",
+                         file=path, key="fluid.drag")
     frame = _check_table(data.get("frame", {}), FRAME_KEYS, "frame", path)
     flow_file = fluid.pop("velocity_file")
     try:

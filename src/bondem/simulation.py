@@ -73,6 +73,10 @@ class Simulation:
         if model.n_clumps and np.any(model.frame):
             raise ValueError("a rotating frame ([frame]) does not act on clumps yet; "
                              "turn the walls instead")
+        if flow is not None:
+            # the flow's values at the start (a frame saved before the first step shows
+            # them; the device gets the array at its size)
+            model.fluid_local = flow.values(model, state.position, state.time)
         if state.bond_previous_length is None:
             # A state from before this array existed: its bonds start at their L0.
             state.bond_previous_length = model.bond_initial_length.copy()
