@@ -217,3 +217,43 @@ def test_bad_flow_formulas_and_voidage_grids_are_named(tmp_path, fluid, key, mes
     assert error.value.key == key and message in str(error.value)
     assert "scene.toml" in str(error.value)
 
+
+
+def test_a_bonded_cube_turns_with_half_the_shear_rate():
+    """Eight bonded spheres at a cube's corners in a simple shear u = (gamma z, 0, 0),
+    Stokes drag on each. Simple shear is a pure strain plus a rigid rotation at gamma / 2
+    about +y; the strain exerts no torque on a body whose second moment of its drag
+    centres is isotropic, as a cube's is in any orientation. So the cube ends translating
+    with the flow at its centre, gamma z_c, and turning at gamma / 2 about y (to first
+    order in dt / tau: 2e-4 here); in the pure strain (gamma / 2)(z, 0, x) it does not
+    turn (1e-3 of gamma / 2 allowed for both)."""
+    r, mu, gamma = 0.5e-3, 0.8, 40.0
+    corners = np.array([[i, j, k] for i in (0, 1) for j in (0, 1) for k in (0, 1)],
+                       dtype=float) * 2 * r
+    position = corners - corners.mean(axis=0) + [1e-3, -2e-3, 3e-3]
+    bonds = [[a, b] for a in range(8) for b in range(a + 1, 8)
+             if np.isclose(np.linalg.norm(corners[a] - corners[b]), 2 * r)]
+    mass = 1200.0 * 4 / 3 * math.pi * r ** 3
+    tau = mass / (3 * math.pi * mu * 2 * r)
+    for formula, turning in (([f"{gamma} * z", 0, 0], gamma / 2),
+                             ([f"{gamma / 2} * z", 0, f"{gamma / 2} * x"], 0.0)):
+        model, state = make_system(
+            position, np.full(8, r),
+            [Material(name="g", density=1200.0, young_modulus=1e7, poisson_ratio=0.3)],
+            bonds=bonds, bond_diameter=0.6e-3,
+            bond_material=bondem.BondMaterial(name="b", young_modulus=2e9,
+                                              poisson_ratio=0.3),
+            fluid=fluid_array(viscosity=mu, drag="stokes"))
+        sim = bondem.Simulation(model, state, flow=FlowField(velocity=flow_function(formula)))
+        assert sim.time_step < 2e-3 * tau
+        sim.run(until=20 * tau)
+        x, v = sim.state.position, sim.state.velocity
+        c = x.mean(axis=0)
+        # the rigid motion that fits the velocities: v_i = V + W x (x_i - c)
+        rows = [np.hstack([np.eye(3), -np.cross(np.eye(3), x[i] - c)]) for i in range(8)]
+        fit = np.linalg.lstsq(np.vstack(rows), v.ravel(), rcond=None)[0]
+        if turning:   # (in the strain the centre accelerates away, the body lagging)
+            np.testing.assert_allclose(fit[:3], [gamma * c[2], 0.0, 0.0], rtol=1e-8,
+                                       atol=1e-12)
+        assert fit[4] == pytest.approx(turning, abs=1e-3 * gamma / 2)
+        assert abs(fit[3]) < 1e-9 and abs(fit[5]) < 1e-9
