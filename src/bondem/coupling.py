@@ -49,15 +49,22 @@ def voidage_grid(position, radius, low, high, shape):
     cells: 1 - the volume of the spheres (radius in m) whose centre lies in the cell, over
     the cell's volume; centres outside the box are left out. Can be below 0 where spheres
     crowd a cell smaller than they are."""
-    low, high = np.asarray(low, dtype=float), np.asarray(high, dtype=float)
-    shape = tuple(int(s) for s in shape)
-    size = (high - low) / np.array(shape)
-    cell = np.floor((np.asarray(position) - low) / size).astype(np.int64)
-    inside = np.all((cell >= 0) & (cell < np.array(shape)), axis=1)
+    cell, inside, size = grid_cells(position, low, high, shape)
     volume = 4.0 / 3.0 * np.pi * np.asarray(radius, dtype=float) ** 3
-    solid = np.zeros(shape)
+    solid = np.zeros(tuple(int(s) for s in shape))
     np.add.at(solid, tuple(cell[inside].T), volume[inside])
     return 1.0 - solid / float(np.prod(size))
+
+
+def grid_cells(position, low, high, shape):
+    """The cell (i, j, k) of each position (N,3) m in the box low..high (m) cut into
+    ``shape`` cells, (N,3) int64; whether it lies in the box, (N,) bool; the cell size
+    (3,) m."""
+    low, high = np.asarray(low, dtype=float), np.asarray(high, dtype=float)
+    shape = np.array([int(s) for s in shape])
+    size = (high - low) / shape
+    cell = np.floor((np.asarray(position) - low) / size).astype(np.int64)
+    return cell, np.all((cell >= 0) & (cell < shape), axis=1), size
 
 
 def host_particles(device, state, names):
@@ -106,12 +113,12 @@ class FlowField:
         """Run on a GPU ``backend`` (its device state, ``set_fluid_local``)."""
         self._device = backend
 
-    def values(self, model, position, time):
+    def values(self, model, position, time, out=None):
         """(N, 4): the fluid's added velocity (m/s) and the voidage (-) at each particle at
-        ``position`` (N,3) m and ``time`` (s). ValueError if the function gives a shape
-        other than (N,3) or (3,), or a value that is not finite."""
+        ``position`` (N,3) m and ``time`` (s), into ``out`` when given. ValueError if the
+        function gives a shape other than (N,3) or (3,), or a value that is not finite."""
         n = position.shape[0]
-        out = np.zeros((n, 4))
+        out = np.zeros((n, 4)) if out is None else out
         if self.velocity is not None:
             u = np.asarray(self.velocity(position, time), dtype=np.float64)
             if u.shape not in ((n, 3), (3,)):
@@ -126,22 +133,17 @@ class FlowField:
         if self.voidage_grid is not None:
             low, high, cells = self.voidage_grid
             field = voidage_grid(position, model.radius, low, high, cells)
-            size = (high - low) / np.array(cells)
-            cell = np.floor((position - low) / size).astype(np.int64)
-            inside = np.all((cell >= 0) & (cell < np.array(cells)), axis=1)
-            eps = np.ones(n)
-            eps[inside] = field[tuple(cell[inside].T)]
-            out[:, 3] = np.clip(eps, self.voidage_floor, 1.0)
+            cell, inside, _ = grid_cells(position, low, high, cells)
+            out[:, 3] = 1.0
+            out[inside, 3] = field[tuple(cell[inside].T)]
+            np.clip(out[:, 3], self.voidage_floor, 1.0, out=out[:, 3])
         return out
 
     def accumulate(self, model, state, force, moment, increment_dt):
         """Set ``model.fluid_local`` for this step (no loads of its own)."""
         position, = host_particles(self._device, state, ("position",))
-        local = self.values(model, position, state.time)
-        if model.fluid_local.shape != local.shape:
-            model.fluid_local = local
-        else:
-            model.fluid_local[...] = local
+        # the Simulation gave the array its (N, 4) at the start
+        self.values(model, position, state.time, out=model.fluid_local)
         if self._device is not None:
             self._device.set_fluid_local(model.fluid_local)
 

@@ -19,7 +19,7 @@ import bondem
 from bondem.contacts import ContactSettings
 from bondem.model import fluid_array, frame_array
 from bondem.physics.field_fluid import DRAG_LAWS, drag_coefficient
-from bondem.walls import MeshWall
+from bondem.walls import MeshWall, rotation_matrix
 
 from .core import CaseResult, case, compare
 
@@ -81,16 +81,6 @@ def _neutral(p):
                     1e-15, absolute=True, note="buoyancy = weight")]
 
 
-def turn(axis_angle):
-    """The rotation matrix of the rotation vector ``axis_angle`` (rad), Rodrigues."""
-    angle = float(np.linalg.norm(axis_angle))
-    if angle == 0.0:
-        return np.eye(3)
-    k = np.asarray(axis_angle, dtype=float) / angle
-    cross = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
-    return np.eye(3) + math.sin(angle) * cross + (1 - math.cos(angle)) * cross @ cross
-
-
 def drum_runs(d, times):
     """The rotating drum of the module docstring, parameters ``d`` (the TOML's [drum]):
     run once in the bowl's frame and once in the laboratory with the bowl turning. Returns
@@ -134,9 +124,9 @@ def drum_runs(d, times):
         runs.append(rows)
     out = []
     for (t, x, w), (_, x_lab, w_lab) in zip(*runs):
-        back = turn(-omega * t)
+        back = rotation_matrix(-omega, t)
         # the leapfrog's spins are half a step behind the positions
-        back_w = turn(-omega * (t - 0.5 * d["time_step"]))
+        back_w = rotation_matrix(-omega, t - 0.5 * d["time_step"])
         out.append((t, x, (x_lab - center) @ back.T + center, w, w_lab @ back_w.T - omega))
     return out
 
