@@ -140,10 +140,11 @@ def fluid_cluster():
     voidage 0.7, buoyancy) with a random flow grid, seen from a frame turning fast about
     a skew axis: every branch of the fluid and frame forces."""
     model, state = bonded_cluster()
-    model.fluid = bondem.model.fluid_array(density=800.0, viscosity=2e-3,
-                                           velocity=(1.0, 0.5, -0.2), drag="di_felice",
-                                           buoyancy=True, voidage=0.7)
-    model.frame = bondem.model.frame_array((50.0, -100.0, 2000.0), (1e-3, 0.0, -2e-3))
+    model.fields["fluid"] = bondem.model.fluid_array(
+        density=800.0, viscosity=2e-3, velocity=(1.0, 0.5, -0.2), drag="di_felice",
+        buoyancy=True, voidage=0.7)
+    model.fields["frame"] = bondem.model.frame_array((50.0, -100.0, 2000.0),
+                                                     (1e-3, 0.0, -2e-3))
     rng = np.random.default_rng(8)
     model.set_flow(rng.uniform(-0.5, 0.5, (3, 4, 2, 3)), (-1e-3, 0.0, 1e-3),
                    (3e-3, 2e-3, 5e-3))

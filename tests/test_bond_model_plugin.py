@@ -18,6 +18,13 @@ run its law. The test law is Hertz-Mindlin plus a constant attraction ``pull_for
 mixed as the mean) that acts out to a gap ``pull_range`` (m): two clamped unlike spheres
 0.6 of the range apart, four times the default Verlet skin (a fifth of the mean radius),
 are listed and feel exactly the mean of the two pulls; 1.2 of the range apart nothing.
+
+A field model is a scene table and a ``make_system`` keyword, the particle loop adds its
+force and moment, the time step and the energy books see it. The test field is a
+harmonic trap, F = -k (x - c), with a constant torque T: a sphere of mass m released
+from rest oscillates with the period 2 pi sqrt(m / k) (0.5 %, at a hundredth of the
+trap's time scale sqrt(m / k), which it declares), spins up as w = T t / I (t half a step behind the position's), and the
+trap's work books its kinetic energy (to the leapfrog's O(dt^2) error).
 """
 import shutil
 import subprocess
@@ -134,6 +141,48 @@ def pulling_law(n, overlap, v_rel, w_rel, spring, pair, q, r_star, m_star, i_sta
     return add(force, pull), torque, f_t, xi, energy
 '''
 
+FIELD_MODEL = '''
+"""Test field model: a harmonic trap F = -k (x - c) and a constant torque."""
+import numpy as np
+
+from ._registry import physics
+
+NAME = "trap"
+KEYS = {"stiffness": ("number", 0.0, 0.0, float("inf"), True, False),
+        "center": ("vector3", [0.0, 0.0, 0.0], -float("inf"), float("inf"), False, False),
+        "torque": ("vector3", [0.0, 0.0, 0.0], -float("inf"), float("inf"), False, False)}
+ARRAY = "trap_array"
+INPUTS = ()
+FORCE = "trap_force"
+MOMENT = "trap_moment"
+CLUMPS = False
+
+
+def trap_array(stiffness=0.0, center=(0.0, 0.0, 0.0), torque=(0.0, 0.0, 0.0)):
+    if stiffness < 0.0:
+        raise ValueError(f"stiffness = {stiffness}; allowed [0, inf)")
+    return np.array([stiffness, *center, *torque], dtype=np.float64)
+
+
+def active(trap):
+    return bool(np.any(trap[[0, 4, 5, 6]]))
+
+
+def time_scales(trap, mass, radius):
+    return {"trap": float(np.sqrt(mass / trap[0]).min())} if trap[0] > 0.0 else {}
+
+
+@physics
+def trap_force(trap, p, mass, radius, x, v, gravity):
+    k = trap[0]
+    return (-k * (x[0] - trap[1]), -k * (x[1] - trap[2]), -k * (x[2] - trap[3]))
+
+
+@physics
+def trap_moment(trap, inertia, w):
+    return (trap[4], trap[5], trap[6])
+'''
+
 SCRIPT = '''
 import numpy as np
 import bondem
@@ -196,6 +245,31 @@ for fraction in (0.6, 1.2):
 scene = load_scene("contact_scene.toml")
 print("contact_scene", scene.simulation_options["contact"].model,
       scene.model.materials[0].pull_force)
+
+scene = load_scene("trap_scene.toml")
+model, state = scene.model, scene.state
+mass, inertia = model.mass[0], model.inertia[0]
+print("trap_scale", bondem.time_scales(model)["trap"] / np.sqrt(mass / 1e5),
+      bondem.stable_time_step(model)[1])
+dt = 0.01 * np.sqrt(mass / 1e5)
+sim = bondem.Simulation(model, state, time_step=dt)
+signal = []
+for _ in range(2000):
+    sim.step(1)
+    signal.append(state.position[0, 0] - 1e-3)
+s = np.array(signal)
+k = np.flatnonzero((s[:-1] < 0) & (s[1:] >= 0))
+crossings = (k + s[k] / (s[k] - s[k + 1])) * dt
+print("trap_period", (crossings[-1] - crossings[0]) / (len(crossings) - 1)
+      / (2 * np.pi * np.sqrt(mass / 1e5)))
+# the leapfrog's velocities lie half a step behind its positions (a first half kick)
+print("trap_spin", state.angular_velocity[0, 2] / (2e-12 * (state.time - dt / 2) / inertia))
+kinetic = 0.5 * mass * float(np.sum(state.velocity[0] ** 2))
+print("trap_work", state.work_external / (kinetic + 0.5 * inertia
+                                          * float(np.sum(state.angular_velocity[0] ** 2))))
+from bondem.physics.field_trap import trap_array
+model, state = bondem.make_system([[0, 0, 0]], 1e-3, a, trap=trap_array(2.0))
+print("trap_api", model.fields["trap"][0], model.acting_fields)
 '''
 
 SCENE = '''
@@ -234,6 +308,24 @@ pull_force = 3e-6
 file = "particles.csv"
 '''
 
+TRAP_SCENE = '''
+[simulation]
+end_time = 1e-5
+contact_model = "none"
+
+[materials.glass]
+density = 2500.0
+young_modulus = 1e8
+
+[particles]
+file = "one.csv"
+
+[trap]
+stiffness = 1e5
+center = [1e-3, 0.0, 0.0]
+torque = [0.0, 0.0, 2e-12]
+'''
+
 
 @pytest.fixture(scope="module")
 def plugged(tmp_path_factory):
@@ -247,6 +339,9 @@ def plugged(tmp_path_factory):
     (copy / "physics" / "bond_scaled.py").write_text(MODEL)
     (copy / "physics" / "bond_capped.py").write_text(PLASTIC)
     (copy / "physics" / "contact_pulling.py").write_text(CONTACT_MODEL)
+    (copy / "physics" / "field_trap.py").write_text(FIELD_MODEL)
+    (tmp_path / "trap_scene.toml").write_text(textwrap.dedent(TRAP_SCENE))
+    (tmp_path / "one.csv").write_text("x,y,z,radius,material\n2e-3,0,0,1e-3,glass\n")
     (tmp_path / "scene.toml").write_text(textwrap.dedent(SCENE))
     (tmp_path / "contact_scene.toml").write_text(textwrap.dedent(CONTACT_SCENE))
     (tmp_path / "particles.csv").write_text("x,y,z,radius,material\n0,0,0,1e-3,glass\n"
@@ -275,3 +370,14 @@ def test_a_contact_model_file_is_all_a_new_model_needs(plugged):
     assert abs(float(lines["force0.6"]) - 3.5e-6) < 1e-18, lines
     assert lines["force1.2"] in ("unlisted", "0.0"), lines
     assert lines["contact_scene"] == "pulling 3e-06"
+
+
+def test_a_field_model_file_is_all_a_new_field_needs(plugged):
+    lines = plugged
+    scale, cause = lines["trap_scale"].split()
+    assert float(scale) == pytest.approx(1.0, rel=1e-12) and cause == "trap", lines
+    # symplectic Euler at omega dt = 0.01: the period is 2 pi / omega to (omega dt)^2 / 24
+    assert abs(float(lines["trap_period"]) - 1.0) < 5e-3, lines
+    assert float(lines["trap_spin"]) == pytest.approx(1.0, rel=1e-9), lines
+    assert abs(float(lines["trap_work"]) - 1.0) < 1e-3, lines
+    assert lines["trap_api"] == "2.0 ['trap']", lines

@@ -15,10 +15,9 @@ import numpy as np
 from .physics import bond_models, contact_models
 from .physics.bond_elastic import CRITERION_CODES
 from .physics.bond_models import bond_material_schema
-from .physics.field_frame import FRAME_CENTER, FRAME_COLUMNS, FRAME_OMEGA
-from .physics.field_fluid import (DRAG_LAWS, FLUID_BUOYANCY, FLUID_COLUMNS, FLUID_DENSITY,
-                                  FLUID_DRAG, FLUID_SPIN, FLUID_VELOCITY, FLUID_VISCOSITY,
-                                  FLUID_VOIDAGE)
+from .physics import field_models
+from .physics.field_fluid import fluid_array  # noqa: F401  (bondem.model.fluid_array)
+from .physics.field_frame import frame_array  # noqa: F401
 
 INDEX = np.int64
 
@@ -144,9 +143,11 @@ class Model:
     fixed (N,) bool: velocity prescribed, not integrated (zero velocity = clamped);
     external_force (N,3) N and external_moment (N,3) N m: constant loads;
     bond_pairs (B,2) particle indices i, j; bond_diameter (B,) m; bond_initial_length (B,) m;
-    bond_material (B,) index into bond_materials; gravity (3,) m/s^2; fluid: the fluid
-    around the particles (``fluid_array``; drag and buoyancy, physics/field_fluid.py);
-    frame: a rotating frame of reference (``frame_array``; physics/field_frame.py);
+    bond_material (B,) index into bond_materials; gravity (3,) m/s^2; fields: {NAME:
+    parameter array} of every body-force field model (physics/field_models.py), e.g.
+    "fluid": the fluid around the particles (``fluid_array``; drag and buoyancy,
+    physics/field_fluid.py), "frame": a rotating frame of reference (``frame_array``;
+    physics/field_frame.py);
     flow (nx, ny, nz, 3) m/s and flow_box (origin (3,) m, spacing (3,) m; spacing 0: no
     grid): the fluid's velocity given on a grid (``read_flow_grid``), added to its own;
     fluid_local (N, 4) or (0, 4) for none: the fluid's velocity (m/s) added at each
@@ -176,8 +177,7 @@ class Model:
     bond_material: np.ndarray
     bond_materials: list
     gravity: np.ndarray = field(default_factory=lambda: np.zeros(3))
-    fluid: np.ndarray = field(default_factory=lambda: fluid_array())
-    frame: np.ndarray = field(default_factory=lambda: np.zeros(FRAME_COLUMNS))
+    fields: dict = field(default_factory=field_models.defaults)
     flow: np.ndarray = field(default_factory=lambda: np.zeros((1, 1, 1, 3)))
     flow_box: np.ndarray = field(default_factory=lambda: np.zeros(6))
     fluid_local: np.ndarray = field(default_factory=lambda: np.zeros((0, 4)))
@@ -217,9 +217,10 @@ class Model:
         self.flow_box = np.concatenate([origin, spacing])
 
     @property
-    def has_fluid(self) -> bool:
-        """Whether a fluid acts (drag or buoyancy)."""
-        return bool(self.fluid[FLUID_DRAG] != 0.0 or self.fluid[FLUID_BUOYANCY] != 0.0)
+    def acting_fields(self) -> list:
+        """The names of the field models that act (a fluid's drag or buoyancy, a turning
+        frame; gravity is not one of them)."""
+        return field_models.acting(self.fields)
 
     @property
     def n_particles(self) -> int:
@@ -413,54 +414,21 @@ def bond_separation(position, pairs, box_length, periodic):
     return separation
 
 
-def fluid_array(density=0.0, viscosity=0.0, velocity=(0.0, 0.0, 0.0), drag="none",
-                buoyancy=False, voidage=1.0, spin=(0.0, 0.0, 0.0)):
-    """The fluid around the particles as the particle loop takes it (physics/
-    field_fluid.py's FLUID_* columns): density kg/m^3 (>= 0), dynamic viscosity Pa s
-    (> 0 for a drag law), velocity (3,) m/s, drag one of DRAG_LAWS, buoyancy (Archimedes'
-    force, needs the density), voidage in (0, 1], spin (3,) rad/s (the fluid turning
-    about an axis through the origin: u(x) = velocity + spin x x). ValueError names a
-    bad one."""
-    if drag not in DRAG_LAWS:
-        raise ValueError(f"drag = {drag!r}; allowed: {', '.join(DRAG_LAWS)}")
-    velocity = np.asarray(velocity, dtype=np.float64)
-    if velocity.shape != (3,) or not np.all(np.isfinite(velocity)):
-        raise ValueError(f"velocity: expected 3 finite numbers, got {velocity!r}")
-    spin = np.asarray(spin, dtype=np.float64)
-    if spin.shape != (3,) or not np.all(np.isfinite(spin)):
-        raise ValueError(f"spin: expected 3 finite numbers, got {spin!r}")
-    if not (math.isfinite(density) and density >= 0.0):
-        raise ValueError(f"density = {density!r}; allowed [0, inf)")
-    if not (math.isfinite(viscosity) and viscosity >= 0.0):
-        raise ValueError(f"viscosity = {viscosity!r}; allowed [0, inf)")
-    if drag != "none" and viscosity == 0.0:
-        raise ValueError(f"drag = {drag!r} needs viscosity > 0 (Pa s)")
-    if drag not in ("none", "stokes") and density == 0.0:
-        raise ValueError(f"drag = {drag!r} needs density > 0 (kg/m^3)")
-    if not (0.0 < voidage <= 1.0):
-        raise ValueError(f"voidage = {voidage!r}; allowed (0, 1]")
-    out = np.zeros(FLUID_COLUMNS)
-    out[FLUID_DRAG] = DRAG_LAWS[drag]
-    out[FLUID_DENSITY] = density
-    out[FLUID_VISCOSITY] = viscosity
-    out[FLUID_VELOCITY:FLUID_VELOCITY + 3] = velocity
-    out[FLUID_BUOYANCY] = 1.0 if buoyancy else 0.0
-    out[FLUID_VOIDAGE] = voidage
-    out[FLUID_SPIN:FLUID_SPIN + 3] = spin
-    return out
-
-
-def frame_array(angular_velocity=(0.0, 0.0, 0.0), center=(0.0, 0.0, 0.0)):
-    """A rotating frame of reference (physics/field_frame.py's FRAME_* columns): its
-    angular velocity (3,) rad/s about the point center (3,) m. ValueError names a bad
-    one."""
-    out = np.zeros(FRAME_COLUMNS)
-    for name, value, column in (("angular_velocity", angular_velocity, FRAME_OMEGA),
-                                ("center", center, FRAME_CENTER)):
-        value = np.asarray(value, dtype=np.float64)
-        if value.shape != (3,) or not np.all(np.isfinite(value)):
-            raise ValueError(f"{name}: expected 3 finite numbers, got {value!r}")
-        out[column:column + 3] = value
+def _field_arrays(given):
+    """{NAME: parameter array} of every field model: ``given``'s (float64 copies of the
+    default's shape), the default (off) for the others. ValueError names a bad one."""
+    out = field_models.defaults()
+    for name, values in given.items():
+        if name not in out:
+            raise ValueError(f"unexpected keyword {name!r}: neither an argument nor a "
+                             f"field model (field models: {', '.join(out)})")
+        if values is None:
+            continue
+        values = np.array(values, dtype=np.float64)
+        if values.shape != out[name].shape:
+            raise ValueError(f"{name}: expected {out[name].size} numbers (its model's "
+                             f"array), got shape {values.shape}")
+        out[name] = values
     return out
 
 
@@ -468,7 +436,7 @@ def make_system(position, radius, material, *, material_index=None, velocity=Non
                 angular_velocity=None, fixed=None, external_force=None, external_moment=None,
                 bonds=None, bond_diameter=None, bond_material=None, bond_material_index=None,
                 gravity=(0.0, 0.0, 0.0), periodic=(False, False, False), box_low=None,
-                box_high=None, damping=0.0, fluid=None, frame=None):
+                box_high=None, damping=0.0, **fields):
     """Build a validated (Model, State) pair from plain arrays.
 
     position (N,3) m; radius (N,) or scalar m; material: a Material or a list of them
@@ -476,8 +444,9 @@ def make_system(position, radius, material, *, material_index=None, velocity=Non
     angular_velocity (N,3) rad/s; fixed (N,) bool; external_force (N,3) N;
     external_moment (N,3) N m; bonds (B,2) 0-based particle indices; bond_diameter (B,) or
     scalar m; bond_material: a BondMaterial or a list (then bond_material_index (B,));
-    gravity (3,) m/s^2; fluid: ``fluid_array``'s (None: no fluid); frame: ``frame_array``'s
-    (None: an inertial frame); periodic (3,) bool with
+    gravity (3,) m/s^2; fields: a field model's parameter array under its NAME
+    (physics/field_models.py), e.g. fluid=``fluid_array(...)``, frame=``frame_array(...)``
+    (absent or None: the field off); periodic (3,) bool with
     box_low/box_high (3,) m; damping: local
     damping coefficient in [0, 1). Bond initial lengths are the current distances
     (minimum image along periodic axes). Raises ValueError on inconsistent input.
@@ -589,8 +558,7 @@ def make_system(position, radius, material, *, material_index=None, velocity=Non
         materials=materials, bond_pairs=bonds, bond_diameter=bond_diameter,
         bond_initial_length=initial_length, bond_material=bond_material_index,
         bond_materials=bond_materials, gravity=gravity,
-        fluid=fluid_array() if fluid is None else np.asarray(fluid, dtype=np.float64),
-        frame=frame_array() if frame is None else np.asarray(frame, dtype=np.float64),
+        fields=_field_arrays(fields),
         periodic=periodic,
         box_low=box_low, box_high=box_high, damping=float(damping))
     state = State(

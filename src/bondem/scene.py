@@ -21,10 +21,8 @@ from .expression import flow_function
 from .generate import bonds_from_gap, particles_from_generator
 from .io.csv_files import read_bonds, read_particles
 from .io.grid_files import read_flow_grid
-from .model import (BondMaterial, Material, bond_material_schema, fluid_array, frame_array,
-                    make_system, material_schema)
-from .physics import contact_models
-from .physics import bond_models
+from .model import BondMaterial, Material, bond_material_schema, make_system, material_schema
+from .physics import bond_models, contact_models, field_models
 from .physics._registry import REQUIRED as _REQUIRED
 from .physics.contact_hertz_musen import MUSEN_VERSION, MUSEN_VERSIONS
 from .physics.field_fluid import DRAG_LAWS
@@ -106,13 +104,9 @@ MESH_KEYS = {
     "rotation_center": ("vector3", [0.0, 0.0, 0.0], -INF, INF, False, False),
     "velocity_profile": ("profile", None, None, None, None, None),
 }
+# and a table for each field model (physics/field_models.py: [fluid], [frame])
 TOP_KEYS = ("simulation", "materials", "bond_materials", "particles", "bonds", "walls",
-            "fluid", "frame")
-# [frame]: a rotating frame of reference (physics/field_frame.py, docs/fields.md)
-FRAME_KEYS = {
-    "angular_velocity": ("vector3", [0.0, 0.0, 0.0], -INF, INF, False, False),
-    "center": ("vector3", [0.0, 0.0, 0.0], -INF, INF, False, False),
-}
+            *field_models.BY_NAME)
 # fluid.voidage_grid (with voidage = "local"): the cells whose voidage the drag sees
 VOIDAGE_GRID_KEYS = {
     "low": ("vector3", REQUIRED, -INF, INF, False, False),
@@ -120,17 +114,9 @@ VOIDAGE_GRID_KEYS = {
     "cells": ("cells", REQUIRED, None, None, None, None),
     "floor": ("number", 0.2, 0.0, 1.0, False, True),
 }
-# [fluid]: drag and buoyancy (physics/field_fluid.py, docs/fields.md)
-FLUID_KEYS = {
-    "density": ("number", 0.0, 0.0, INF, True, False),
-    "viscosity": ("number", 0.0, 0.0, INF, True, False),
-    "velocity": ("vector3", [0.0, 0.0, 0.0], -INF, INF, False, False),
-    "drag": ("str", "none", tuple(DRAG_LAWS), None, None, None),
-    "buoyancy": ("bool", None, None, None, None, None),
-    "voidage": ("number", 1.0, 0.0, 1.0, False, True),
-    "spin": ("vector3", [0.0, 0.0, 0.0], -INF, INF, False, False),
-    "velocity_file": ("str", None, None, None, None, None),
-}
+# [fluid] beyond its field model's KEYS (physics/field_fluid.py): its velocity on a grid,
+# read from a file (io/grid_files.py)
+FLUID_FILE_KEYS = {"velocity_file": ("str", None, None, None, None, None)}
 
 
 @dataclass
@@ -369,24 +355,20 @@ def _build(data, text, path):
         if key not in data:
             raise InputError("missing required table", file=path, key=key)
     sim = _check_table(data["simulation"], SIMULATION_KEYS, "simulation", path)
-    fluid_table, flow_field = _flow_field(data.get("fluid", {}), path)
-    fluid = _check_table(fluid_table, FLUID_KEYS, "fluid", path)
-    if fluid["buoyancy"] is None:   # a fluid with a density buoys its particles
-        fluid["buoyancy"] = fluid["density"] > 0.0
+    tables = {name: data.get(name, {}) for name in field_models.BY_NAME}
+    tables["fluid"], flow_field = _flow_field(tables["fluid"], path)
+    fluid = _check_table(tables["fluid"], {**field_models.BY_NAME["fluid"].KEYS,
+                                           **FLUID_FILE_KEYS}, "fluid", path)
     if flow_field is not None and fluid["drag"] == "none":
         raise InputError(f"a velocity formula or a local voidage acts through the drag; "
                          f"allowed: one of {', '.join(d for d in DRAG_LAWS if d != 'none')}",
                          file=path, key="fluid.drag")
-    frame = _check_table(data.get("frame", {}), FRAME_KEYS, "frame", path)
     flow_file = fluid.pop("velocity_file")
-    try:
-        fluid_values = fluid_array(**fluid)
-    except ValueError as error:
-        reason = str(error)
-        needed = [k for k in ("viscosity", "density") if f"needs {k}" in reason]
-        raise InputError(reason, file=path,
-                         key=f"fluid.{needed[0] if needed else reason.split()[0].rstrip(':')}"
-                         ) from None
+    field_arrays = {"fluid": _field_array("fluid", fluid, path)}
+    for name, module in field_models.BY_NAME.items():
+        if name not in field_arrays:
+            field_arrays[name] = _field_array(
+                name, _check_table(tables[name], module.KEYS, name, path), path)
     save_every_given = sim["save_every"] is not None
     if not save_every_given:
         sim["save_every"] = sim["end_time"] / 100.0   # rounded up to a step below
@@ -427,8 +409,7 @@ def _build(data, text, path):
             bond_material=bond_material_objects or None,
             bond_material_index=bond_material_index if bonds.shape[0] else None,
             gravity=sim["gravity"], periodic=periodic, box_low=sim["box_low"],
-            box_high=sim["box_high"], damping=sim["damping"], fluid=fluid_values,
-            frame=frame_array(**frame))
+            box_high=sim["box_high"], damping=sim["damping"], **field_arrays)
     except ValueError as error:
         raise InputError(str(error), file=path, key=_guess_key(str(error)))
     if clumps is not None and np.any(clumps["clump_of"] >= 0):
@@ -536,6 +517,20 @@ def _flow_field(table, path):
                             voidage_grid=((grid["low"], grid["high"], grid["cells"])
                                           if local else None),
                             voidage_floor=grid["floor"] if local else 0.2)
+
+
+def _field_array(name, values, path):
+    """Field model ``name``'s parameter array from its checked table ``values``;
+    InputError naming the key its ARRAY objects to (the key a message names first, or
+    one it says is needed)."""
+    module = field_models.BY_NAME[name]
+    try:
+        return field_models.array(module, **values)
+    except ValueError as error:
+        reason = str(error)
+        needed = [k for k in module.KEYS if f"needs {k}" in reason]
+        key = needed[0] if needed else reason.split()[0].rstrip(":")
+        raise InputError(reason, file=path, key=f"{name}.{key}") from None
 
 
 def _read_flow(model, file, scene_path):

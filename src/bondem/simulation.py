@@ -6,7 +6,7 @@ import math
 
 import numpy as np
 
-from .physics import bond_models
+from .physics import bond_models, field_models
 from .physics.contact_hertz_musen import MUSEN_VERSION, musen_code
 
 from .backends import select_backend
@@ -70,9 +70,11 @@ class Simulation:
                 values = {k: getattr(material, k) for k in bond_models.bond_material_schema()}
                 for key, message in bond_models.check(values, musen_compat=True):
                     raise ValueError(f"bond material {material.name!r}: {message}")
-        if model.n_clumps and np.any(model.frame):
-            raise ValueError("a rotating frame ([frame]) does not act on clumps yet; "
-                             "turn the walls instead")
+        for name in model.acting_fields if model.n_clumps else ():
+            if not field_models.BY_NAME[name].CLUMPS:
+                raise ValueError(f"the field [{name}] does not act on clumps yet "
+                                 f"(physics/field_{name}.py)"
+                                 + ("; turn the walls instead" if name == "frame" else ""))
         if flow is not None:
             # the flow's values at the start (a frame saved before the first step shows
             # them; the device gets the array at its size)

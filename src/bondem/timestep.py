@@ -1,8 +1,7 @@
 """Stable time step of a model (SPEC section 1)."""
 import numpy as np
 
-from .physics.field_fluid import FLUID_DRAG, FLUID_VISCOSITY
-from .physics.field_frame import FRAME_OMEGA
+from .physics import field_models
 
 
 def step_count(end_time, time_step):
@@ -14,9 +13,9 @@ def step_count(end_time, time_step):
 
 def time_scales(model, musen_compat=False):
     """Smallest time scale (s) of each kind: {"rayleigh", "bond_axial", "bond_bending"},
-    those of the bond models in use (e.g. "bond_dashpot" of Kelvin bonds), and
-    "fluid_drag", m / (3 pi mu d), when a fluid drags the particles, and
-    "frame_rotation", 1 / |Omega|, in a rotating frame.
+    those of the bond models in use (e.g. "bond_dashpot" of Kelvin bonds) and of the
+    field models that act (physics/field_models.py: "fluid_drag", m / (3 pi mu d), when a
+    fluid drags the particles, "frame_rotation", 1 / |Omega|, in a rotating frame).
 
     Rayleigh: pi r sqrt(rho / G) / (0.1631 nu + 0.8766) per particle. Bonds:
     sqrt(m_red L0 / (E A_b)) and sqrt(I_red L0 / (E I)), with the pair's reduced mass
@@ -48,18 +47,10 @@ def time_scales(model, musen_compat=False):
         for module in model.bond_models_used():
             bonds = np.flatnonzero(codes == module.CODE)
             scales.update(module.time_scales(model, bonds, reduced_mass[bonds], musen_compat))
-    fluid = getattr(model, "fluid", None)
-    if fluid is not None and fluid[FLUID_DRAG] != 0.0 and model.radius.size:
-        # a particle's velocity relaxes to the fluid's in m / (3 pi mu d) under Stokes drag;
-        # faster drag laws relax faster, by the factor their drag exceeds Stokes' at the
-        # Reynolds number they run at (docs/fields.md)
-        scales["fluid_drag"] = float((model.mass / (6.0 * np.pi * fluid[FLUID_VISCOSITY]
-                                                    * model.radius)).min())
-    frame = getattr(model, "frame", None)
-    if frame is not None and np.any(frame[FRAME_OMEGA:FRAME_OMEGA + 3]):
-        # a rotating frame turns by one radian in 1 / |Omega|
-        scales["frame_rotation"] = float(
-            1.0 / np.linalg.norm(frame[FRAME_OMEGA:FRAME_OMEGA + 3]))
+    fields = getattr(model, "fields", None)
+    if fields is not None:
+        # each field model's own limits (time_scales in physics/field_*.py)
+        scales.update(field_models.time_scales(fields, model.mass, model.radius))
     return scales
 
 

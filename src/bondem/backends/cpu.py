@@ -36,9 +36,7 @@ bond_stiffnesses = L.bond_stiffnesses
 bond_loads_on_particles = L.bond_loads_on_particles
 store3 = L.store3
 add = L.add
-fluid_force = L.fluid_force
-local_fluid = L.local_fluid
-frame_force = L.frame_force
+field_force = L.field_force
 
 # The same physics for the vectorised bond loop (``advance_bond_block``): inlined into the
 # loop, without the twist's libm branch (bonds with a large twist are redone by the scalar
@@ -383,19 +381,14 @@ def integrate_clumps(force, moment, clumps, clump_state, particles, bodies, fiel
 
 @numba.njit(**_serial)
 def field_forces(position, velocity, radius, mass, fixed, fields, out):
-    """out[p] = the fields' force on particle p (N): the fluid's drag and buoyancy and the
-    rotating frame's centrifugal and Coriolis forces (loops.integrate_particle's), zero
-    for fixed particles."""
+    """out[p] = the field models' force on particle p (N; loops.field_force, as
+    loops.integrate_particle adds it), zero for fixed particles."""
     for p in range(position.shape[0]):
         if fixed[p]:
             store3(out, p, (0.0, 0.0, 0.0))
             continue
-        x = row3(position, p)
-        v = row3(velocity, p)
-        store3(out, p, add(fluid_force(fields.fluid, fields.flow, fields.flow_box,
-                                       local_fluid(fields.local, p), radius[p], mass[p], x,
-                                       v, fields.gravity),
-                           frame_force(fields.frame, mass[p], x, v)))
+        store3(out, p, field_force(fields, p, mass[p], radius[p], row3(position, p),
+                                   row3(velocity, p)))
 
 
 def field_force_array(model, state):
@@ -479,10 +472,11 @@ def box(model, put=lambda a: a):
 
 
 def fields(model, put=lambda a: a):
-    """The model's body-force fields as a ``loops.Fields`` (gravity, fluid, flow grid,
-    rotating frame)."""
-    return loops.Fields(put(model.gravity), put(model.fluid), put(model.flow),
-                        put(model.flow_box), put(model.frame), put(model.fluid_local))
+    """The model's body-force fields as a ``loops.Fields``: gravity, each field model's
+    parameter array (Model.fields), their INPUTS (Model attributes)."""
+    return loops.Fields(*(put(model.gravity if name == "gravity" else model.fields[name]
+                              if name in model.fields else getattr(model, name))
+                          for name in loops.Fields._fields))
 
 
 def bodies(model, put=lambda a: a):
@@ -626,10 +620,10 @@ class Integrator:
     def advance(self, model, state, force, moment, kick_dt, drift_dt):
         """Kick velocities by kick_dt (s), drift positions by drift_dt (s); return status."""
         self.status[0] = STATUS_OK
-        # Energy bookkeeping only where gravity, a fluid, external loads or damping act.
+        # Energy bookkeeping only where gravity, a field, external loads or damping act.
         # (the external loads are looked at each step: a coupled solver sets them)
-        track = (model.damping > 0.0 or bool(np.any(model.gravity)) or model.has_fluid
-                 or bool(np.any(model.frame)) or bool(model.external_force.any())
+        track = (model.damping > 0.0 or bool(np.any(model.gravity))
+                 or bool(model.acting_fields) or bool(model.external_force.any())
                  or bool(model.external_moment.any()))
         integrate(particles(state), bodies(model), force, moment, fields(model),
                   model.damping, kick_dt, drift_dt, box(model), self.status, track,

@@ -231,7 +231,7 @@ class GpuBackend:
         """Upload the per-particle fluid (N, 4) (``Model.fluid_local``, set by a flow
         field law on the host; the Simulation gives it its size before the device copy is
         made) for the next steps."""
-        self.fields.local.copy_to_device(np.ascontiguousarray(local))
+        self.fields.fluid_local.copy_to_device(np.ascontiguousarray(local))
 
     def set_external_loads(self, force, moment):
         """Upload the particles' external force (N,3) N and moment (N,3) N m (a coupled

@@ -37,7 +37,7 @@ from ..physics.triangle import FACE
 from ..status import STATUS_NOT_FINITE, STATUS_OK, STATUS_OUT_OF_DOMAIN
 from ..walls import PLANE
 
-from ..physics import contact_models
+from ..physics import contact_models, field_models
 from ..physics._registry import (PAIR_BETA, PAIR_E_STAR, PAIR_FRICTION,  # noqa: F401
                                  PAIR_G_STAR, PAIR_MODEL, PAIR_ROLLING, PAIR_STIFFNESS)
 
@@ -45,11 +45,11 @@ from ..physics._registry import (PAIR_BETA, PAIR_E_STAR, PAIR_FRICTION,  # noqa:
 # run silently). Units: SI throughout (m, m/s, rad/s, kg, kg m^2, N, N m, J, Pa).
 Particles = namedtuple("Particles", "position velocity angular_velocity")
 Bodies = namedtuple("Bodies", "mass inertia fixed external_force external_moment radius")
-# The body-force fields: gravity (3,) m/s^2, the fluid (physics/field_fluid.py's FLUID_*
-# columns), its flow grid (nx, ny, nz, 3) m/s and box (FLOW_*), the rotating frame
-# (physics/field_frame.py's FRAME_* columns), the per-particle fluid (N, 4) or (0, 4)
-# (field_fluid.local_fluid: a velocity m/s and a voidage at each particle)
-Fields = namedtuple("Fields", "gravity fluid flow flow_box frame local")
+# The body-force fields (physics/field_models.py's ARRAYS): gravity (3,) m/s^2, each
+# field model's parameter array under its NAME (the fluid's FLUID_* columns, the rotating
+# frame's FRAME_*), then their INPUTS (the fluid's flow grid (nx, ny, nz, 3) m/s and box
+# FLOW_*, its per-particle fluid_local (N, 4) or (0, 4): a velocity m/s and a voidage)
+Fields = namedtuple("Fields", field_models.ARRAYS)
 Box = namedtuple("Box", "low high length periodic")
 # Clumps (Model.clump_*): members of clump c are members[offsets[c]:offsets[c+1]]; offset
 # (N,3) m each member's place in its clump's body frame; mass (C,) kg; inertia (C,3)
@@ -377,14 +377,53 @@ def bond_energy(b, bonds, materials, state, position, box):
 
 # -- particles ----------------------------------------------------------------------------
 
+def _summed(name, signature, terms, doc):
+    """A loop body ``name(signature)`` returning the sum of the 3-tuples ``terms``
+    (expressions; zero for none), added in their order."""
+    lines = [f"def {name}({signature}):"]
+    if not terms:
+        lines.append("    return (0.0, 0.0, 0.0)")
+    else:
+        lines.append(f"    total = {terms[0]}")
+        lines += [f"    total = add(total, {term})" for term in terms[1:]]
+        lines.append("    return total")
+    namespace = {}
+    exec(compile("\n".join(lines), f"<fields: {__name__}>", "exec"), namespace)
+    function = namespace[name]
+    function.__doc__ = doc
+    return function
+
+
+def _field_force_term(module):
+    arrays = ", ".join(f"fields.{name}" for name in (module.NAME, *module.INPUTS))
+    return f"{module.FORCE}({arrays}, p, mass, radius, x, v, fields.gravity)"
+
+
+field_force = body(_summed(
+    "field_force", "fields, p, mass, radius, x, v",
+    [_field_force_term(m) for m in field_models.MODELS],
+    """The field models' force (N, 3-tuple; physics/field_models.py's FORCE) on particle
+    p of mass (kg) and radius (m) at x (m) moving at v (m/s), from the ``fields``."""))
+clump_field_force = body(_summed(
+    "clump_field_force", "fields, p, mass, radius, x, v",
+    [_field_force_term(m) for m in field_models.MODELS if m.CLUMPS],
+    """``field_force`` of the field models that act on clumps' members (CLUMPS)."""))
+field_moment = body(_summed(
+    "field_moment", "fields, inertia, w",
+    [f"{m.MOMENT}(fields.{m.NAME}, inertia, w)" for m in field_models.MODELS
+     if getattr(m, "MOMENT", None)],
+    """The field models' moment (N m, 3-tuple; MOMENT) on a sphere of moment of inertia
+    (kg m^2) spinning at w (rad/s), from the ``fields``."""))
+
+
 @body
 def integrate_particle(p, load_f, load_m, particles, bodies, fields, damping, kick_dt,
                        drift_dt, box, track_energy):
     """Semi-implicit Euler for particle p: v += F/m kick_dt; x += v drift_dt;
     w += M/I kick_dt, with its loads load_f (N), load_m (N m) and the ``fields``: gravity,
-    the fluid's drag and buoyancy (physics/field_fluid.py), a rotating frame's
-    centrifugal and Coriolis forces and its torque on the spin (physics/field_frame.py;
-    all at the state before the kick), external loads and local
+    the field models' forces and moments (``field_force``, ``field_moment``: a fluid's
+    drag and buoyancy, a rotating frame's centrifugal and Coriolis forces and its torque
+    on the spin; all at the state before the kick), external loads and local
     damping (Cundall:
     damping |F_k| against the sign of v_k, |M_k| against w_k, per component). Fixed
     particles keep their velocity. Returns (work of gravity, the fields and external
@@ -402,11 +441,8 @@ def integrate_particle(p, load_f, load_m, particles, bodies, fields, damping, ki
         inertia = bodies.inertia[p]
         gravity = fields.gravity
         here = row3(particles.position, p)
-        carried = add(fluid_force(fields.fluid, fields.flow, fields.flow_box,
-                                  local_fluid(fields.local, p), bodies.radius[p], mass,
-                                  here, row3(v, p), gravity),
-                      frame_force(fields.frame, mass, here, row3(v, p)))
-        turned = frame_moment(fields.frame, inertia, row3(w, p))
+        carried = field_force(fields, p, mass, bodies.radius[p], here, row3(v, p))
+        turned = field_moment(fields, inertia, row3(w, p))
         for k in range(3):
             applied = mass * gravity[k] + bodies.external_force[p, k] + carried[k]
             applied_m = bodies.external_moment[p, k] + turned[k]
@@ -450,8 +486,8 @@ def row4(a, i):
 def integrate_clump(c, force, moment, clumps, clump_state, particles, bodies, fields,
                     damping, kick_dt, drift_dt, box, track_energy):
     """The leapfrog of rigid clump c (physics/rigid_body.py): its members' loads force (N)
-    and moment (N m), their external loads and the fluid's force on each (at its own
-    place and velocity) summed into the clump's force and its torque about the centre of
+    and moment (N m), their external loads and the fields' force on each
+    (``clump_field_force``, at its own place and velocity) summed into the clump's force and its torque about the centre of
     mass, lever arms R(q) d from the clump's orientation at the start of the step; gravity
     on the clump's mass; local damping per component against the signs of V and of the
     angular velocity. Kick: V += F/M kick_dt, L += T kick_dt (lab frame); drift:
@@ -479,9 +515,8 @@ def integrate_clump(c, force, moment, clumps, clump_state, particles, bodies, fi
         here = add(centre, arm)
         moving = add(velocity, cross(spin, arm))
         outside = add(row3(bodies.external_force, p),
-                      fluid_force(fields.fluid, fields.flow, fields.flow_box,
-                                  local_fluid(fields.local, p), bodies.radius[p],
-                                  bodies.mass[p], here, moving, gravity))
+                      clump_field_force(fields, p, bodies.mass[p], bodies.radius[p], here,
+                                        moving))
         f = row3(force, p)
         load = add(load, f)
         torque = add(torque, add(row3(moment, p), cross(arm, f)))

@@ -110,13 +110,12 @@ def bond_forces(model, state):
 
 
 def _has_fields(model):
-    """Whether a fluid or a rotating frame acts on the particles."""
-    return bool(getattr(model, "has_fluid", False)
-                or np.any(getattr(model, "frame", np.zeros(1))))
+    """Whether a field model acts on the particles (a fluid, a rotating frame)."""
+    return bool(getattr(model, "acting_fields", ()))
 
 
 def _field_forces(model, state):
-    """(N,3) N: the fluid's and the rotating frame's force on each particle."""
+    """(N,3) N: the field models' force on each particle (a fluid's, a frame's)."""
     from ..backends.cpu import field_force_array
     return field_force_array(model, state)
 

@@ -7,7 +7,8 @@ from . import bond_elastic_musen  # noqa: F401
 from . import bond_models  # noqa: F401  (imports every other physics/bond_*.py model)
 from . import contact_hertz, contact_hertz_musen, contact_linear, triangle  # noqa: F401
 from . import contact_models  # noqa: F401  (imports every other physics/contact_*.py model)
-from . import field_fluid, field_frame, rigid_body  # noqa: F401
+from . import field_models  # noqa: F401  (imports every physics/field_*.py model)
+from . import rigid_body  # noqa: F401
 from ._registry import compile_physics, physics
 from .. import _kernel_cache
 

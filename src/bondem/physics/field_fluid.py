@@ -31,6 +31,8 @@ loop body takes them as it takes gravity.
 """
 import math
 
+import numpy as np
+
 from ._registry import physics
 
 # columns of the fluid array (Model.fluid)
@@ -39,6 +41,80 @@ FLUID_BUOYANCY, FLUID_VOIDAGE, FLUID_SPIN, FLUID_COLUMNS = 6, 7, 8, 11
 # drag correlations: their names and codes (0: no drag)
 DRAG_LAWS = {"none": 0, "stokes": 1, "schiller_naumann": 2, "di_felice": 3,
              "musen_viscous": 4, "musen_centrifugal": 5}
+
+# The field model's declaration (physics/field_models.py): the scene's [fluid] table (the
+# fluid_array's keywords; the flow grid's file, formulas and local voidage are the
+# scene's and coupling.FlowField's), the Model arrays its force reads beside its own.
+NAME = "fluid"
+INF = float("inf")
+KEYS = {
+    "density": ("number", 0.0, 0.0, INF, True, False),
+    "viscosity": ("number", 0.0, 0.0, INF, True, False),
+    "velocity": ("vector3", [0.0, 0.0, 0.0], -INF, INF, False, False),
+    "drag": ("str", "none", tuple(DRAG_LAWS), None, None, None),
+    "buoyancy": ("bool", None, None, None, None, None),
+    "voidage": ("number", 1.0, 0.0, 1.0, False, True),
+    "spin": ("vector3", [0.0, 0.0, 0.0], -INF, INF, False, False),
+}
+ARRAY = "fluid_array"
+INPUTS = ("flow", "flow_box", "fluid_local")
+FORCE = "fluid_field_force"
+CLUMPS = True
+
+
+def fluid_array(density=0.0, viscosity=0.0, velocity=(0.0, 0.0, 0.0), drag="none",
+                buoyancy=False, voidage=1.0, spin=(0.0, 0.0, 0.0)):
+    """The fluid around the particles as the particle loop takes it (FLUID_* columns):
+    density kg/m^3 (>= 0), dynamic viscosity Pa s (> 0 for a drag law), velocity (3,)
+    m/s, drag one of DRAG_LAWS, buoyancy (Archimedes' force, needs the density; None, the
+    scene's default: on when the density is > 0), voidage in (0, 1], spin (3,) rad/s (the fluid turning
+    about an axis through the origin: u(x) = velocity + spin x x). ValueError names a
+    bad one."""
+    if drag not in DRAG_LAWS:
+        raise ValueError(f"drag = {drag!r}; allowed: {', '.join(DRAG_LAWS)}")
+    velocity = np.asarray(velocity, dtype=np.float64)
+    if velocity.shape != (3,) or not np.all(np.isfinite(velocity)):
+        raise ValueError(f"velocity: expected 3 finite numbers, got {velocity!r}")
+    spin = np.asarray(spin, dtype=np.float64)
+    if spin.shape != (3,) or not np.all(np.isfinite(spin)):
+        raise ValueError(f"spin: expected 3 finite numbers, got {spin!r}")
+    if not (math.isfinite(density) and density >= 0.0):
+        raise ValueError(f"density = {density!r}; allowed [0, inf)")
+    if not (math.isfinite(viscosity) and viscosity >= 0.0):
+        raise ValueError(f"viscosity = {viscosity!r}; allowed [0, inf)")
+    if drag != "none" and viscosity == 0.0:
+        raise ValueError(f"drag = {drag!r} needs viscosity > 0 (Pa s)")
+    if drag not in ("none", "stokes") and density == 0.0:
+        raise ValueError(f"drag = {drag!r} needs density > 0 (kg/m^3)")
+    if not (0.0 < voidage <= 1.0):
+        raise ValueError(f"voidage = {voidage!r}; allowed (0, 1]")
+    if buoyancy is None:
+        buoyancy = density > 0.0
+    out = np.zeros(FLUID_COLUMNS)
+    out[FLUID_DRAG] = DRAG_LAWS[drag]
+    out[FLUID_DENSITY] = density
+    out[FLUID_VISCOSITY] = viscosity
+    out[FLUID_VELOCITY:FLUID_VELOCITY + 3] = velocity
+    out[FLUID_BUOYANCY] = 1.0 if buoyancy else 0.0
+    out[FLUID_VOIDAGE] = voidage
+    out[FLUID_SPIN:FLUID_SPIN + 3] = spin
+    return out
+
+
+def active(fluid):
+    """Whether the fluid ``fluid`` (FLUID_* columns) acts: a drag law or buoyancy."""
+    return bool(fluid[FLUID_DRAG] != 0.0 or fluid[FLUID_BUOYANCY] != 0.0)
+
+
+def time_scales(fluid, mass, radius):
+    """{"fluid_drag": s} when the fluid drags particles of mass (N,) kg and radius (N,) m:
+    a particle's velocity relaxes to the fluid's in m / (3 pi mu d) under Stokes drag;
+    faster drag laws relax faster, by the factor their drag exceeds Stokes' at the
+    Reynolds number they run at (docs/fields.md)."""
+    if fluid[FLUID_DRAG] == 0.0 or not radius.size:
+        return {}
+    return {"fluid_drag": float((mass / (6.0 * np.pi * fluid[FLUID_VISCOSITY]
+                                         * radius)).min())}
 
 
 @physics
@@ -176,3 +252,12 @@ def fluid_force(fluid, flow, flow_box, local, radius, mass, x, v, gravity):
             chi = 3.7 - 0.65 * math.exp(-0.5 * (1.5 - log_re) * (1.5 - log_re))
             c *= eps ** (2.0 - chi)
     return (fx + c * sx, fy + c * sy, fz + c * sz)
+
+
+@physics
+def fluid_field_force(fluid, flow, flow_box, local, p, mass, radius, x, v, gravity):
+    """The field model's FORCE (physics/field_models.py): ``fluid_force`` on particle p
+    of mass (kg) and radius (m) at x (m) moving at v (m/s), with its row of the
+    per-particle fluid ``local`` (N, 4), gravity (m/s^2). N, 3-tuple."""
+    return fluid_force(fluid, flow, flow_box, local_fluid(local, p), radius, mass, x, v,
+                       gravity)

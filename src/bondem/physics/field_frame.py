@@ -11,9 +11,50 @@ of a drum can stand still while the particles tumble. The centrifugal force does
 (it has the potential -m |Omega x (x - c)|^2 / 2), the Coriolis force and the torque none.
 The frame travels as one array (``FRAME_*`` columns) like gravity.
 """
+import numpy as np
+
 from ._registry import physics
 
 FRAME_OMEGA, FRAME_CENTER, FRAME_COLUMNS = 0, 3, 6
+
+# The field model's declaration (physics/field_models.py): the scene's [frame] table.
+NAME = "frame"
+KEYS = {
+    "angular_velocity": ("vector3", [0.0, 0.0, 0.0], -float("inf"), float("inf"), False,
+                         False),
+    "center": ("vector3", [0.0, 0.0, 0.0], -float("inf"), float("inf"), False, False),
+}
+ARRAY = "frame_array"
+INPUTS = ()
+FORCE = "frame_field_force"
+MOMENT = "frame_moment"
+# a clump's spin relative to a turning frame is not modelled (its torque is the spheres')
+CLUMPS = False
+
+
+def frame_array(angular_velocity=(0.0, 0.0, 0.0), center=(0.0, 0.0, 0.0)):
+    """A rotating frame of reference (FRAME_* columns): its angular velocity (3,) rad/s
+    about the point center (3,) m. ValueError names a bad one."""
+    out = np.zeros(FRAME_COLUMNS)
+    for name, value, column in (("angular_velocity", angular_velocity, FRAME_OMEGA),
+                                ("center", center, FRAME_CENTER)):
+        value = np.asarray(value, dtype=np.float64)
+        if value.shape != (3,) or not np.all(np.isfinite(value)):
+            raise ValueError(f"{name}: expected 3 finite numbers, got {value!r}")
+        out[column:column + 3] = value
+    return out
+
+
+def active(frame):
+    """Whether the frame ``frame`` (FRAME_* columns) turns."""
+    return bool(np.any(frame[FRAME_OMEGA:FRAME_OMEGA + 3]))
+
+
+def time_scales(frame, mass, radius):
+    """{"frame_rotation": s} of a turning frame: it turns by one radian in 1 / |Omega|."""
+    if not active(frame):
+        return {}
+    return {"frame_rotation": float(1.0 / np.linalg.norm(frame[FRAME_OMEGA:FRAME_OMEGA + 3]))}
 
 
 @physics
@@ -40,6 +81,13 @@ def frame_force(frame, mass, x, v):
     dy = wz * v[0] - wx * v[2]
     dz = wx * v[1] - wy * v[0]
     return (-mass * (cx + 2.0 * dx), -mass * (cy + 2.0 * dy), -mass * (cz + 2.0 * dz))
+
+
+@physics
+def frame_field_force(frame, p, mass, radius, x, v, gravity):
+    """The field model's FORCE (physics/field_models.py): ``frame_force`` on particle p
+    of mass (kg) at x (m) moving at v (m/s). N, 3-tuple."""
+    return frame_force(frame, mass, x, v)
 
 
 @physics
