@@ -48,6 +48,7 @@ MODULES = {
     "src/bondem/io/grid_files.py": ["tests/test_grid_files.py"],
     "src/bondem/expression.py": ["tests/test_expression.py"],
     "src/bondem/analysis/fields.py": ["tests/test_analysis_fields.py"],
+    "src/bondem/lab/measure.py": ["tests/test_lab_measure.py"],
 }
 COPIED = ["tests/", "examples/", "docs/", "README.md", "benchmarks/", "scripts/"]
 
