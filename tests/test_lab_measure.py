@@ -33,12 +33,36 @@ def test_gauge_groups_take_the_bands_a_tenth_to_a_quarter_from_either_end():
     heights = np.repeat([0.0, 0.3, 0.6, 0.9], 2)
     near, far = measure.gauge_groups(column(heights), axis=1)
     assert near.tolist() == [2, 3] and far.tolist() == [4, 5]
+    # the same in millimetres (a real specimen's size)
+    near, far = measure.gauge_groups(column(heights * 1e-3, offset=(0.0, 2e-3, 0.0)), axis=1)
+    assert near.tolist() == [2, 3] and far.tolist() == [4, 5]
+    # three layers, two: the end layers (a gauge of the whole height, never of none)
+    for layers, top in (([0.0, 0.45, 0.9], [4, 5]), ([0.0, 0.9], [2, 3])):
+        near, far = measure.gauge_groups(column(np.repeat(layers, 2)), axis=1)
+        assert near.tolist() == [0, 1] and far.tolist() == top
+    # one band empty only (the upper end's layers sparse): the layers, both ends
+    heights = np.array([0.0, 0.1, 0.2, 0.3, 0.5, 1.0])
+    near, far = measure.gauge_groups(column(heights), axis=1)
+    assert near.tolist() == [1] and far.tolist() == [4]
+    # the bands are closed: particles exactly at a tenth and a quarter of the height
+    # (a power-of-two height from 0.5 m: exact in binary) belong to them
+    heights = np.array([0.0, 0.2, 0.5, 1.0, 1.5, 1.8, 2.0])
+    near, far = measure.gauge_groups(column(heights, offset=(0.0, 0.5, 0.0)), axis=1,
+                                     fractions=(0.125, 0.25))
+    assert near.tolist() == [2] and far.tolist() == [4]
+    # a band of one particle is a band
+    near, far = measure.gauge_groups(column(heights, offset=(0.0, 0.5, 0.0)), axis=1,
+                                     fractions=(0.0625, 0.125))
+    assert near.tolist() == [1] and far.tolist() == [5]
 
 
 def test_gauge_length_and_middle_band_by_their_definitions():
     heights = np.array([0.0, 0.1, 0.24, 0.26, 0.5, 0.74, 0.76, 1.0]) * 0.6
     position = column(heights, axis=2)
     assert measure.middle_band(position, 2).tolist() == [3, 4, 5]
+    # closed: a quarter and three quarters of a 2 m height from 0.5 m, exactly
+    exact = column(np.array([0.0, 0.5, 1.0, 1.5, 2.0]), axis=2, offset=(0.0, 0.0, 0.5))
+    assert measure.middle_band(exact, 2).tolist() == [1, 2, 3]
     assert measure.middle_band(position, 2, fractions=(0.0, 0.2)).tolist() == [0, 1]
     # fewer than two particles in the band: all of them
     assert measure.middle_band(position, 2, fractions=(0.45, 0.55)).tolist() == list(range(8))
@@ -108,9 +132,41 @@ def test_moduli_without_a_usable_curve_are_nan():
     strain, stress, lateral = curve()
     out = measure.moduli(strain, stress)
     assert math.isnan(out["poisson_ratio"]) and math.isfinite(out["young_modulus_secant"])
-    for bad in (stress[:2], -np.abs(stress), np.r_[stress[:-1], np.nan]):
+    keys = {"young_modulus_secant", "young_modulus_tangent", "poisson_ratio"}
+    # too short, never positive (a peak of zero, reached after a crossing of zero), not
+    # finite
+    for bad in (stress[:2], -np.abs(stress), np.r_[-3.0, -1.0, 0.0, -2.0],
+                np.r_[stress[:-1], np.nan]):
         out = measure.moduli(strain[:bad.size], bad, lateral[:bad.size])
-        assert all(math.isnan(v) for v in out.values()), bad[:3]
+        assert set(out) == keys and all(math.isnan(v) for v in out.values()), bad[:3]
+    # three samples are a curve, stresses below 1 Pa too (a soft gel)
+    out = measure.moduli([0.0, 0.01, 0.02], [0.0, 0.3, 0.6], [0.0, 0.004, 0.008])
+    assert out["young_modulus_secant"] == pytest.approx(30.0, rel=1e-12)
+    assert out["poisson_ratio"] == pytest.approx(0.4, rel=1e-12)
+    # a crossing at zero strain (the stress jumps before the specimen deforms): no secant
+    out = measure.moduli([0.0, 0.0, 1e-3, 2e-3], [0.0, 4e6, 6e6, 8e6], [0.0, 1e-5, 1e-4, 2e-4])
+    assert math.isnan(out["young_modulus_secant"]) and math.isnan(out["poisson_ratio"])
+    # the tangent's window on a vertical stretch (same strain): no slope
+    out = measure.moduli([0.0, 1e-3, 1e-3, 1e-3, 2e-3], [0.0, 4.5e5, 5e5, 5.5e5, 1e6])
+    assert math.isnan(out["young_modulus_tangent"])
+    assert out["young_modulus_secant"] == pytest.approx(5e5 / 1e-3, rel=1e-12)
+    # the level reached at the second sample, and at a plateau exactly at the level:
+    # where y first reaches it
+    out = measure.moduli([0.0, 1e-3, 2e-3, 3e-3], [0.0, 10e6, 12e6, 11e6], [0.0, 3e-4, 0, 0])
+    assert out["young_modulus_secant"] == pytest.approx(6e6 / 0.6e-3, rel=1e-12)
+    assert out["poisson_ratio"] == pytest.approx(0.3, rel=1e-12)
+    out = measure.moduli([0.0, 1e-3, 2e-3, 3e-3], [0.0, 5e6, 5e6, 10e6], [0.0, 2e-4, 0, 0])
+    assert out["young_modulus_secant"] == pytest.approx(5e9, rel=1e-12)
+    assert out["poisson_ratio"] == pytest.approx(0.2, rel=1e-12)
+    # a preloaded curve, already above the level at its first sample: read there
+    out = measure.moduli([1e-3, 2e-3, 3e-3, 4e-3], [7e6, 8e6, 10e6, 9e6],
+                         [2.5e-4, 5e-4, 7e-4, 8e-4])
+    assert out["young_modulus_secant"] == pytest.approx(5e6 / 1e-3, rel=1e-12)
+    assert out["poisson_ratio"] == pytest.approx(0.25, rel=1e-12)
+    # exactly at the level there, dipping below it after
+    out = measure.moduli([1e-3, 2e-3, 3e-3, 4e-3], [5e6, 4e6, 10e6, 9e6],
+                         [2.5e-4, 5e-4, 7e-4, 8e-4])
+    assert out["young_modulus_secant"] == pytest.approx(5e6 / 1e-3, rel=1e-12)
     # a curve that jumps to its peak: no samples in the tangent's window, no secant point
     # at zero strain
     jump = np.array([0.0, 0.0, 1e6, 0.5e6])
@@ -138,6 +194,8 @@ def test_crack_initiation_at_a_hundredth_of_the_bonds_broken_at_the_peak():
     assert measure.crack_initiation(stress, broken, fraction=0.005) == 3.0
     assert measure.crack_initiation(stress, broken, fraction=0.001) == 2.0   # at least one
     assert math.isnan(measure.crack_initiation(stress, np.r_[0, 0, 0, 0, 0, 0, 5, 9]))
+    # one bond broken at the peak: initiation where it broke
+    assert measure.crack_initiation(stress, np.r_[0, 0, 0, 1, 1, 1, 5, 9]) == 3.0
 
 
 def test_fragments_and_their_table():
@@ -183,6 +241,51 @@ def test_unloading_modulus_of_the_first_branch_between_its_turns():
     assert math.isnan(measure.unloading_modulus(strain[:23], stress[:23], loading[:23]))
 
 
+def coarse_unloading(stresses, strains=None, before=0):
+    """A record unloading through ``stresses`` (Pa) at 25 GPa (or at ``strains``), after
+    ``before`` loading samples (rising to its first stress), with the platen's speed as
+    the loading sign (m/s: +5e-2 loading, -5e-2 unloading)."""
+    stresses = np.asarray(stresses, float)
+    strains = stresses / 25e9 if strains is None else np.asarray(strains, float)
+    rise = np.linspace(0.0, stresses[0], before + 1)[:-1]
+    return (np.r_[rise / 10e9, strains], np.r_[rise, stresses],
+            np.r_[np.full(before, 5e-2), np.full(stresses.size, -5e-2)])
+
+
+def test_unloading_modulus_in_the_closed_middle_half_of_a_coarse_branch():
+    # 50 to 0 MPa in 12.5 MPa steps: the middle half's bounds are samples themselves
+    steps = [50e6, 37.5e6, 25e6, 12.5e6, 0.0]
+    for before in (0, 3):   # a record that starts unloading, and one that loads first
+        strain, stress, loading = coarse_unloading(steps[1:] if before else steps,
+                                                   before=before)
+        if before:
+            stress[before - 1] = 50e6
+        assert measure.unloading_modulus(strain, stress, loading) == pytest.approx(
+            25e9, rel=1e-12)
+    # to a residual stress: the middle half of 50 to 10 MPa
+    strain, stress, loading = coarse_unloading([50e6, 40e6, 30e6, 20e6, 10e6])
+    assert measure.unloading_modulus(strain, stress, loading) == pytest.approx(25e9,
+                                                                               rel=1e-12)
+    # two samples in the middle half, or the stress falling at one strain: NaN
+    strain, stress, loading = coarse_unloading([50e6, 30e6, 20e6, 0.0])
+    assert math.isnan(measure.unloading_modulus(strain, stress, loading))
+    strain, stress, loading = coarse_unloading(steps, strains=np.full(5, 2e-3))
+    assert math.isnan(measure.unloading_modulus(strain, stress, loading))
+    # a first sample at rest (speed 0) is not unloading
+    strain, stress, loading = coarse_unloading(steps[1:], before=3)
+    stress[2] = 50e6
+    loading[0] = 0.0
+    assert measure.unloading_modulus(strain, stress, loading) == pytest.approx(25e9,
+                                                                               rel=1e-12)
+    # one reloading sample ends the first branch: the second is not read
+    strain, stress, loading = coarse_unloading(steps)
+    strain = np.r_[strain, 1.0e-3, 0.9e-3, 0.8e-3, 0.7e-3]
+    stress = np.r_[stress, 30e6, 28e6, 26e6, 24e6]
+    loading = np.r_[loading, 5e-2, -5e-2, -5e-2, -5e-2]
+    assert measure.unloading_modulus(strain, stress, loading) == pytest.approx(25e9,
+                                                                               rel=1e-12)
+
+
 def test_sieve_curve_and_the_size_a_fraction_of_the_mass_lies_below():
     size = np.array([3e-3, 1e-3, 2e-3, 1e-3])
     mass = np.array([1.0, 2.0, 1.0, 0.0])
@@ -193,3 +296,5 @@ def test_sieve_curve_and_the_size_a_fraction_of_the_mass_lies_below():
     assert measure.size_at(size, mass, 0.6) == 2e-3
     assert measure.size_at(size, mass, 0.75) == 2e-3
     assert measure.size_at(size, mass, 0.9) == 3e-3
+    # sizes are lengths (m) whatever numbers they are given in
+    assert measure.passing([3, 1, 2], [1, 1, 2])[0].dtype == np.float64

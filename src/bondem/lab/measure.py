@@ -14,19 +14,23 @@ import numpy as np
 
 def gauge_groups(position, axis, fractions=(0.1, 0.25)):
     """Indices of the particles whose centres lie between fractions[0] and fractions[1]
-    of the height from the lower and from the upper end along ``axis`` (the nearest layer
-    where that band is empty): gauge points inside the specimen, away from the platens'
-    contacts, whose mean positions give an axial strain free of platen compliance."""
+    (inclusive) of the height from the lower and from the upper end along ``axis``:
+    gauge points inside the specimen, away from the platens' contacts, whose mean
+    positions give an axial strain free of platen compliance. Where a band is empty (a
+    specimen of few layers), the second layer from either end, the end layers themselves
+    below four layers."""
     z = position[:, axis]
     low, high = z.min(), z.max()
     h = high - low
     near = np.flatnonzero((z >= low + fractions[0] * h) & (z <= low + fractions[1] * h))
     far = np.flatnonzero((z <= high - fractions[0] * h) & (z >= high - fractions[1] * h))
     if near.size == 0 or far.size == 0:
-        layers = np.unique(np.round((z - low) / max(h, 1e-300), 6))
-        second = layers[min(1, layers.size - 1)]
-        near = np.flatnonzero(np.round((z - low) / h, 6) == second)
-        far = np.flatnonzero(np.round((z - low) / h, 6) == layers[max(layers.size - 2, 0)])
+        # h > 0 here: a single layer lies in both bands
+        layer = np.round((z - low) / h, 6)
+        layers = np.unique(layer)
+        inner = 1 if layers.size >= 4 else 0
+        near = np.flatnonzero(layer == layers[inner])
+        far = np.flatnonzero(layer == layers[-1 - inner])
     return near, far
 
 
@@ -62,13 +66,18 @@ def peak(stress):
 
 
 def _crossing(x, y, level, until):
-    """x where y first reaches ``level`` within [0, until] (linear between samples)."""
+    """Where y first reaches ``level`` among samples [0, until], linear between samples:
+    (x there, k, f) with that x = x[k-1] + f (x[k] - x[k-1]); a curve that starts at or
+    above the level reaches it at its first sample (k = 1, f = 0); (NaN, until, 0) if it
+    never does."""
+    if y[0] >= level:
+        return x[0], 1, 0.0
     for k in range(1, until + 1):
         if y[k] >= level:
-            y0, y1 = y[k - 1], y[k]
-            f = (level - y0) / (y1 - y0) if y1 != y0 else 1.0
-            return x[k - 1] + f * (x[k] - x[k - 1]), k
-    return math.nan, until
+            y0, y1 = y[k - 1], y[k]   # y0 < level <= y1
+            f = (level - y0) / (y1 - y0)
+            return x[k - 1] + f * (x[k] - x[k - 1]), k, f
+    return math.nan, until, 0.0
 
 
 def moduli(strain, stress, lateral=None, fraction=0.5):
@@ -83,7 +92,7 @@ def moduli(strain, stress, lateral=None, fraction=0.5):
         return out
     top = peak(stress)
     level = fraction * stress[top]
-    at, k = _crossing(strain, stress, level, top)
+    at, k, f = _crossing(strain, stress, level, top)
     if math.isfinite(at) and at != 0.0:
         out["young_modulus_secant"] = float(level / at)
     window = np.flatnonzero((stress[:top + 1] >= (fraction - 0.1) * stress[top])
@@ -92,8 +101,6 @@ def moduli(strain, stress, lateral=None, fraction=0.5):
         out["young_modulus_tangent"] = float(np.polyfit(strain[window], stress[window], 1)[0])
     if lateral is not None and math.isfinite(at) and at != 0.0:
         lateral = np.asarray(lateral, float)
-        f = 0.0 if k == 0 else (at - strain[k - 1]) / (strain[k] - strain[k - 1]) \
-            if strain[k] != strain[k - 1] else 1.0
         value = lateral[k - 1] + f * (lateral[k] - lateral[k - 1])
         out["poisson_ratio"] = float(value / at)
     return out
