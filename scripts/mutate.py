@@ -49,6 +49,7 @@ MODULES = {
     "src/bondem/expression.py": ["tests/test_expression.py"],
     "src/bondem/analysis/fields.py": ["tests/test_analysis_fields.py"],
     "src/bondem/lab/measure.py": ["tests/test_lab_measure.py"],
+    "src/bondem/lab/spec.py": ["tests/test_lab_spec.py"],
 }
 COPIED = ["tests/", "examples/", "docs/", "README.md", "benchmarks/", "scripts/"]
 
