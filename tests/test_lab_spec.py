@@ -147,41 +147,49 @@ def test_a_generated_specimen_and_a_scene_specimen(tmp_path):
 
 
 BAD = [
-    (LATTICE + MATERIALS + "[other]\n", "other", "unknown key"),
+    (LATTICE + MATERIALS + "[other]\n", "other",
+     "unknown key 'other'; allowed: specimen, test"),
+    ("specimen = 3\n", "specimen", "expected a table"),
+    ("test = 3\n" + LATTICE + MATERIALS, "test", "expected a table"),
     ("[test]\nsamples = 3\n", "specimen", "missing required table"),
     ('[specimen]\nlattice = [2, 2, 2]\nradius = 1e-3\nsize = [1, 1, 1]\n' + MATERIALS,
-     "specimen.size", "size applies to generated specimens"),
+     "specimen.size", "size applies to generated specimens (shape), not to a lattice"),
     ('[specimen]\nlattice = [2, 2, 2]\nscene = "x.toml"\nradius = 1e-3\n',
-     "specimen.shape", "give exactly one of"),
-    ("[specimen]\nradius = 1e-3\n", "specimen.shape", "give exactly one of"),
-    ('[specimen]\nscene = "missing.toml"\n', "specimen.scene", "no such file"),
+     "specimen.shape", "give exactly one of shape (a generated specimen), lattice "
+     "[nx, ny, nz] or scene (a scene file)"),
+    ("[specimen]\nradius = 1e-3\n", "specimen.shape", "give exactly one of shape (a "
+     "generated specimen), lattice [nx, ny, nz] or scene (a scene file)"),
+    ('[specimen]\nscene = "missing.toml"\n', "specimen.scene",
+     "value 'missing.toml': no such file"),
     ("[specimen]\nlattice = [2, 2, 2]\n" + MATERIALS, "specimen.radius",
-     "a lattice needs radius"),
+     "a lattice needs radius (m)"),
     ('[specimen]\nlattice = [2, 2, 2]\nradius = 1e-3\nshape = "disc"\n' + MATERIALS,
-     "specimen.shape", "a lattice is a box or a cylinder"),
+     "specimen.shape", "value 'disc': a lattice is a box or a cylinder"),
     ("[specimen]\nlattice = [2, 2.5, 2]\nradius = 1e-3\n" + MATERIALS, "specimen.lattice",
-     "expected 3 integers >= 1"),
+     "value [2, 2.5, 2]: expected 3 integers >= 1"),
     ("[specimen]\nlattice = [2, 0, 2]\nradius = 1e-3\n" + MATERIALS, "specimen.lattice",
-     "expected 3 integers >= 1"),
+     "value [2, 0, 2]: expected 3 integers >= 1"),
     ("[specimen]\nlattice = [2, 2]\nradius = 1e-3\n" + MATERIALS, "specimen.lattice",
-     "expected 3 integers >= 1"),
+     "value [2, 2]: expected 3 integers >= 1"),
     ('[specimen]\nshape = "box"\nparticle_radius = 1e-3\n' + MATERIALS, "specimen.size",
      "missing required key"),
     ('[specimen]\nshape = "cylinder"\nsize = [1e-2, 2e-2, 1e-2]\nparticle_radius = 1e-3\n'
-     + MATERIALS, "specimen.size", "expected 2 numbers > 0"),
+     + MATERIALS, "specimen.size", "value [0.01, 0.02, 0.01]: expected 2 numbers > 0"),
     ('[specimen]\nshape = "sphere"\nsize = [true]\nparticle_radius = 1e-3\n' + MATERIALS,
-     "specimen.size", "expected 1 numbers > 0"),
+     "specimen.size", "value [True]: expected 1 number > 0"),
     ('[specimen]\nshape = "sphere"\nsize = [inf]\nparticle_radius = 1e-3\n' + MATERIALS,
-     "specimen.size", "expected 1 numbers > 0"),
+     "specimen.size", "value [inf]: expected 1 number > 0"),
     ('[specimen]\nshape = "sphere"\nsize = 0.01\nparticle_radius = 1e-3\n' + MATERIALS,
-     "specimen.size", "expected 1 numbers > 0"),
+     "specimen.size", "value 0.01: expected 1 number > 0"),
     ('[specimen]\nshape = "sphere"\nsize = [1e-2]\n' + MATERIALS, "specimen.particle_radius",
-     "give exactly one of particle_radius"),
+     "give exactly one of particle_radius (m) or radius_distribution"),
     ('[specimen]\nshape = "sphere"\nsize = [1e-2]\nparticle_radius = 1e-3\n'
      "radius_distribution = {radius = [1e-3], fraction = [1.0]}\n" + MATERIALS,
-     "specimen.particle_radius", "give exactly one of particle_radius"),
+     "specimen.particle_radius",
+     "give exactly one of particle_radius (m) or radius_distribution"),
     ('[specimen]\nshape = "sphere"\nsize = [1e-3]\nparticle_radius = 1e-2\n' + MATERIALS,
-     "specimen", "cannot make the specimen"),
+     "specimen", "cannot make the specimen: the particles do not fit inside the volume "
+     "(particle radius too large for the container?)"),
     ("[specimen]\nlattice = [2, 2, 2]\nradius = 1e-3\n", "specimen.material",
      "missing required table"),
     ("[specimen]\nlattice = [2, 2, 2]\nradius = 1e-3\n[specimen.material]\ndensity = 1.0\n"
@@ -189,29 +197,38 @@ BAD = [
     ("[specimen]\nlattice = [2, 2, 2]\nradius = 1e-3\n[specimen.material]\ndensity = 1.0\n"
      "young_modulus = 1e8\n[specimen.bond_material]\nyoung_modulus = 1e8\n"
      'model = "kelvin"\nyield_strength = 1e6\n', "specimen.bond_material",
-     "needs model"),
+     "bond material 'bond': yield_strength = 1000000.0 needs model = 'concrete' or "
+     "'creep' or 'elastic_plastic' or 'weakening' (model = 'kelvin' has no such "
+     "parameter)"),
     ("[specimen]\nlattice = [2, 2, 2]\nradius = 1e-3\nmaterial = 3\n"
-     "[specimen.bond_material]\nyoung_modulus = 1e8\n",
-     "specimen.material", "expected a table"),
+     "[specimen.bond_material]\nyoung_modulus = 1e8\n", "specimen.material",
+     "value 3: expected a table"),
     ("[specimen]\nlattice = [2, 2, 2]\nradius = 1e-3\ncolour = 1\n" + MATERIALS,
-     "specimen.colour", "unknown key"),
-    (LATTICE + MATERIALS + "[test]\ngauge = [0.1]\n", "test.gauge", "expected 2 numbers"),
+     "specimen.colour", "unknown key 'colour'; allowed: shape, lattice, scene, size, "
+     "particle_radius, radius, radius_distribution, solids_fraction, seed, max_gap, "
+     "diameter_ratio, max_per_particle, consolidation_stress, contact_model, material, "
+     "bond_material"),
+    (LATTICE + MATERIALS + "[test]\ngauge = [0.1]\n", "test.gauge",
+     "value [0.1]: expected 2 numbers >= 0"),
     (LATTICE + MATERIALS + "[test]\ngauge = [-0.1, 0.2]\n", "test.gauge",
-     "expected 2 numbers"),
+     "value [-0.1, 0.2]: expected 2 numbers >= 0"),
     (LATTICE + MATERIALS + '[test]\nunload_at = "soon"\n', "test.unload_at",
-     "expected a list of platen strains"),
+     "value 'soon': expected a list of platen strains in (0, 1)"),
     (LATTICE + MATERIALS + "[test]\nunload_at = [0.001, -0.002]\n", "test.unload_at",
-     "expected 2 numbers > 0"),
+     "value [0.001, -0.002]: expected 2 numbers > 0"),
     (LATTICE + MATERIALS + "[test]\nunload_at = true\n", "test.unload_at",
-     "expected a list of platen strains"),
+     "value True: expected a list of platen strains in (0, 1)"),
     (LATTICE + MATERIALS + "[test]\nunload_at = 3\n", "test.unload_at",
-     "platen strains in (0, 1)"),
-    (LATTICE + MATERIALS + "[test]\ngrip = 0.6\n", "test.grip", "allowed range (0.0, 0.5)"),
-    (LATTICE + MATERIALS + "[test]\nunload_to = 1.0\n", "test.unload_to", "allowed"),
+     "unload_at = [3.0]; platen strains in (0, 1)"),
+    (LATTICE + MATERIALS + "[test]\ngrip = 0.6\n", "test.grip",
+     "value 0.6 is outside the allowed range (0.0, 0.5)"),
+    (LATTICE + MATERIALS + "[test]\nunload_to = 1.0\n", "test.unload_to",
+     "value 1.0 is outside the allowed range [0.0, 1.0)"),
     (LATTICE + MATERIALS + "[test]\nunload_at = [0.001]\nunload_to = 0.0\n"
      "platen_material = {density = 1.0}\n", "test.platen_material.young_modulus",
      "missing required key"),
-    (LATTICE + MATERIALS + "[test]\ngauge = [0.3, 0.2]\n", "test.gauge", "gauge"),
+    (LATTICE + MATERIALS + "[test]\ngauge = [0.3, 0.2]\n", "test.gauge",
+     "gauge = (0.3, 0.2); expected 0 <= low < high <= 0.5"),
 ]
 
 
@@ -220,8 +237,16 @@ def test_a_bad_spec_names_the_file_and_the_key(tmp_path, text, key, message):
     path = write(tmp_path, text)
     with pytest.raises(InputError) as error:
         load_spec(path)
-    assert error.value.key == key and message in str(error.value), str(error.value)
-    assert str(path) in str(error.value)
+    assert error.value.key == key
+    assert str(error.value) == f"{path}: {key}: {message}"
+
+
+def test_an_unreadable_spec_and_a_lattice_box(tmp_path):
+    with pytest.raises(InputError) as error:
+        load_spec(tmp_path)
+    assert str(error.value).startswith(f"{tmp_path}: cannot read the lab spec (")
+    specimen, _, _ = load_spec(write(tmp_path, LATTICE + 'shape = "box"\n' + MATERIALS))
+    assert specimen.shape == "box" and specimen.position.shape == (24, 3)
 
 
 def test_one_unloading_strain_may_be_given_as_a_number(tmp_path):

@@ -96,13 +96,16 @@ def _check(table, schema, where, path):
 
 
 def _numbers(value, count, key, path, integer=False, positive=True):
-    ok = isinstance(value, list) and len(value) in (count if isinstance(count, tuple)
-                                                   else (count,))
+    """``value`` if it is a list of ``count`` finite numbers > 0 (>= 0 unless
+    ``positive``; integers if ``integer``), else an InputError naming ``key``."""
+    ok = isinstance(value, list) and len(value) == count
     ok = ok and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value)
     ok = ok and all((v > 0 if positive else v >= 0) and v < INF for v in value)
     ok = ok and (not integer or all(isinstance(v, int) for v in value))
     if not ok:
-        what = "integers >= 1" if integer else "numbers > 0"
+        kind = "integer" if integer else "number"
+        bound = ">= 1" if integer else "> 0" if positive else ">= 0"
+        what = f"{kind}{'s' if count != 1 else ''} {bound}"
         raise InputError(f"value {value!r}: expected {count} {what}", file=path, key=key)
     return value
 
