@@ -50,6 +50,12 @@ MODULES = {
     "src/bondem/analysis/fields.py": ["tests/test_analysis_fields.py"],
     "src/bondem/lab/measure.py": ["tests/test_lab_measure.py"],
     "src/bondem/lab/spec.py": ["tests/test_lab_spec.py"],
+    "src/bondem/lab/envelope.py": [
+        "tests/test_lab_ensembles.py",
+        "tests/test_lab_envelope.py::test_the_fit_returns_the_criterions_cohesion_and_angle"],
+    "src/bondem/lab/series.py": [
+        "tests/test_lab_ensembles.py",
+        "tests/test_lab_envelope.py::test_series_statistics_are_the_sample_mean_and_deviation"],
 }
 COPIED = ["tests/", "examples/", "docs/", "README.md", "benchmarks/", "scripts/"]
 
