@@ -6,12 +6,14 @@ data) is checked against definitions: Mohr circles through (sigma_3, 0) and
 import csv
 import json
 import math
+import struct
 
 import matplotlib.figure
 import numpy as np
 import pytest
 
-from bondem.lab import envelope, series
+from bondem.lab import envelope, procedures, series
+from bondem.lab import spec as spec_module
 
 COHESION, PHI = 4e6, math.radians(31.0)
 
@@ -196,3 +198,108 @@ def test_statistics_of_one_run_and_of_a_zero_mean():
 
 def test_the_ensemble_runs_in_this_process_in_order():
     assert series.ensemble(pow, [(2, 3), (3, 2), (5, 0)]) == [8, 9, 1]
+
+
+def png_size(path):
+    """(width, height) in pixels of a PNG file (its IHDR chunk)."""
+    return struct.unpack(">II", path.read_bytes()[16:24])
+
+
+def test_the_fit_by_its_definitions():
+    s = math.sin(PHI)
+    sigma3 = np.array([0.5e6, 2e6, 7e6, 11e6])
+    fit = envelope.mohr_coulomb(sigma3, [peak(x) for x in sigma3])
+    assert set(fit) == {"cohesion", "friction_angle", "r_squared", "intercept", "slope"}
+    assert fit["intercept"] == pytest.approx(2 * COHESION * math.cos(PHI) / (1 - s),
+                                             rel=1e-9)
+    assert fit["slope"] == pytest.approx((1 + s) / (1 - s), rel=1e-12)
+    # R^2 of a least-squares line is the squared correlation coefficient
+    scattered = np.array([peak(x) for x in sigma3]) * [1.0, 1.04, 0.97, 1.01]
+    assert envelope.mohr_coulomb(sigma3, scattered)["r_squared"] == pytest.approx(
+        np.corrcoef(sigma3, scattered)[0, 1] ** 2, rel=1e-12)
+    # a few pascals of scatter about a flat line: still its own R^2, not 1
+    tiny = 5e6 + np.array([0.0, 0.3, 0.1, 0.2])
+    assert envelope.mohr_coulomb(sigma3, tiny)["r_squared"] == pytest.approx(
+        np.corrcoef(sigma3, tiny)[0, 1] ** 2, rel=1e-6)
+    # no scatter at all about a flat line: a perfect fit (and no friction)
+    flat = envelope.mohr_coulomb(sigma3, np.full(4, 5e6))
+    assert flat["r_squared"] == 1.0 and math.isnan(flat["friction_angle"])
+    # a weak friction angle (10 degrees: slope 1.42) and none at all (Tresca: slope 1 to
+    # round-off, phi = 0, c = (sigma_1 - sigma_3) / 2)
+    s10 = math.sin(math.radians(10.0))
+    weak = envelope.mohr_coulomb(sigma3, 1e6 + sigma3 * (1 + s10) / (1 - s10))
+    assert weak["friction_angle"] == pytest.approx(10.0, rel=1e-9)
+    for sigma3 in ([0.5e6, 2e6, 7e6, 11e6], [1e5, 3e5, 6e5], [1.3e6, 2.9e6, 4.1e6]):
+        tresca = envelope.mohr_coulomb(sigma3, np.array(sigma3) + 8e6)
+        assert tresca["friction_angle"] == pytest.approx(0.0, abs=1e-6)
+        assert tresca["cohesion"] == pytest.approx(4e6, rel=1e-9)
+    with pytest.raises(ValueError) as error:
+        envelope.mohr_coulomb([2e6], [9e6])
+    assert str(error.value) == "a Mohr-Coulomb envelope needs at least two confining stresses"
+
+
+def test_one_triaxial_of_the_envelope(tmp_path, monkeypatch):
+    calls = []
+
+    class Result:
+        numbers = {"confining_stress": 2e6, "peak_stress": 9e6, "n_particles": 512,
+                   "unrelated": 1.0}
+        no_failure = "no peak"
+
+    def load(spec, overrides):
+        calls.append(("load", spec, overrides))
+        return "specimen", "settings", "text"
+
+    def triaxial(specimen, settings):
+        calls.append(("triaxial", specimen, settings))
+        return Result()
+    monkeypatch.setattr(spec_module, "load_spec", load)
+    monkeypatch.setattr(procedures, "triaxial", triaxial)
+    numbers = envelope._one("a.toml", {"test.samples": 9}, 2_000_000)
+    assert calls == [("load", "a.toml", {"test.samples": 9,
+                                         "test.confining_stress": 2e6}),
+                     ("triaxial", "specimen", "settings")]
+    assert isinstance(calls[0][2]["test.confining_stress"], float)
+    assert list(numbers) == [*envelope.COLUMNS, "no_failure"]
+    assert numbers["peak_stress"] == 9e6 and numbers["n_particles"] == 512
+    assert math.isnan(numbers["strain_at_peak"]) and numbers["no_failure"] == "no peak"
+    calls.clear()
+    envelope._one("a.toml", None, 1e6)
+    assert calls[0] == ("load", "a.toml", {"test.confining_stress": 1e6})
+
+
+def test_an_envelope_of_two_weak_tests_passes_its_scheduler_on(tmp_path, monkeypatch,
+                                                              figures):
+    seen = {}
+
+    def ensemble(function, items, *, scheduler="serial", workers=None):
+        seen.update(scheduler=scheduler, workers=workers)
+        return [{**{k: 1.0 for k in envelope.COLUMNS}, "confining_stress": p,
+                 "peak_stress": 50e3 + 3.0 * p, "no_failure": None}
+                for _, _, p in items]
+    monkeypatch.setattr(series, "ensemble", ensemble)
+    summary = envelope.run_envelope("s.toml", [10e3, 40e3], scheduler="tcp://h:8786",
+                                    workers=3)
+    assert seen == {"scheduler": "tcp://h:8786", "workers": 3}
+    # sigma_1 = 50 kPa + 3 sigma_3: sin(phi) = 1/2, c = 50 kPa / (2 sqrt 3)
+    assert summary["fit"]["friction_angle"] == pytest.approx(30.0, rel=1e-9)
+    paths = envelope.write_envelope(summary, tmp_path / "a" / "b")
+    assert [paths[k].name for k in ("csv", "json", "figure")] == [
+        "envelope.csv", "envelope.json", "lab_envelope.png"]
+    assert paths["json"].read_text().startswith('{\n  "fit": {\n    "intercept"')
+    assert png_size(paths["figure"]) == (600, 400)
+    (ax,) = figures[-1].axes
+    *circles, line = ax.lines
+    # a weak material (kPa): the envelope drawn to its largest peak, 0.17 MPa
+    assert line.get_data()[0][-1] == pytest.approx(0.17, rel=1e-12)
+    assert line.get_linestyle() == "--" and line.get_color() == "k"
+    assert all(len(c.get_data()[0]) >= 100 for c in circles)
+
+
+def test_an_envelope_refused_lists_every_test_that_did_not_fail(monkeypatch):
+    monkeypatch.setattr(series, "ensemble", lambda function, items, **kw: [
+        {"confining_stress": p, "peak_stress": 1.0, "no_failure": f"why {k}"}
+        for k, (_, _, p) in enumerate(items)])
+    with pytest.raises(ValueError) as error:
+        envelope.run_envelope("s.toml", [1e6, 2.5e6])
+    assert str(error.value).endswith("envelope: 1e+06 Pa: why 0; 2.5e+06 Pa: why 1")

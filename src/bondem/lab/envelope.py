@@ -24,8 +24,9 @@ COLUMNS = ("confining_stress", "peak_stress", "peak_deviator_stress", "strain_at
 def mohr_coulomb(sigma3, sigma1):
     """{"cohesion": Pa, "friction_angle": degrees, "r_squared", "intercept": Pa,
     "slope"} of the least-squares line sigma_1 = intercept + slope sigma_3 through the
-    peak stresses (Pa; at least two distinct sigma_3). NaN angle and cohesion when the
-    slope is below 1 (no friction: no Mohr-Coulomb line)."""
+    peak stresses (Pa; at least two distinct sigma_3). A slope of 1 (to round-off: 1e-9)
+    is a material without friction (Tresca: phi = 0, c = (sigma_1 - sigma_3) / 2); NaN
+    angle and cohesion when the slope is below it (no Mohr-Coulomb line)."""
     sigma3, sigma1 = np.asarray(sigma3, float), np.asarray(sigma1, float)
     if sigma3.size < 2 or np.ptp(sigma3) == 0.0:
         raise ValueError("a Mohr-Coulomb envelope needs at least two confining stresses")
@@ -35,8 +36,8 @@ def mohr_coulomb(sigma3, sigma1):
     r_squared = 1.0 - float(np.sum((sigma1 - fitted) ** 2)) / total if total > 0 else 1.0
     out = {"intercept": float(intercept), "slope": float(slope), "r_squared": r_squared,
            "cohesion": math.nan, "friction_angle": math.nan}
-    if slope >= 1.0:
-        sine = (slope - 1.0) / (slope + 1.0)
+    if slope >= 1.0 - 1e-9:
+        sine = max(0.0, (slope - 1.0) / (slope + 1.0))
         phi = math.asin(sine)
         out["friction_angle"] = math.degrees(phi)
         out["cohesion"] = float(intercept * (1.0 - sine) / (2.0 * math.cos(phi)))
