@@ -303,3 +303,119 @@ def test_an_envelope_refused_lists_every_test_that_did_not_fail(monkeypatch):
     with pytest.raises(ValueError) as error:
         envelope.run_envelope("s.toml", [1e6, 2.5e6])
     assert str(error.value).endswith("envelope: 1e+06 Pa: why 0; 2.5e+06 Pa: why 1")
+
+
+class FakeDask:
+    """Stands in for ``distributed``: records the cluster and client made, runs each
+    submitted call at once."""
+
+    def __init__(self):
+        self.log = []
+
+    def LocalCluster(self, **kwargs):
+        self.log.append(("cluster", kwargs))
+        return self
+
+    def Client(self, address, **kwargs):
+        self.log.append(("client", address if address is not self else "cluster", kwargs))
+        return self
+
+    def submit(self, function, *args, **kwargs):
+        self.log.append(("submit", function.__name__, args, kwargs))
+        outcome = function(*args)
+        return type("Future", (), {"result": lambda _: outcome})()
+
+    def close(self):
+        self.log.append(("close",))
+
+
+def test_the_ensemble_on_dask_one_single_threaded_process_per_run(monkeypatch):
+    import os
+    import sys
+    fake = FakeDask()
+    monkeypatch.setitem(sys.modules, "distributed", fake)
+    monkeypatch.setattr(os, "cpu_count", lambda: 8)
+    assert series.ensemble(pow, [(2, 3), (3, 2), (5, 0)], scheduler=None) == [8, 9, 1]
+    # a worker process per run up to the cores, each with one thread: the runs' Numba
+    # kernels do not share cores; a run is not pure (two seeds' equal arguments are two
+    # runs); the cluster made here is closed after
+    assert fake.log == [
+        ("cluster", {"n_workers": 3, "threads_per_worker": 1, "processes": True,
+                     "dashboard_address": None,
+                     "env": {"NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}}),
+        ("client", "cluster", {}),
+        ("submit", "pow", (2, 3), {"pure": False}),
+        ("submit", "pow", (3, 2), {"pure": False}),
+        ("submit", "pow", (5, 0), {"pure": False}),
+        ("close",), ("close",)]
+    fake.log.clear()
+    series.ensemble(pow, [(2, 1)] * 12, scheduler=None)
+    assert fake.log[0][1]["n_workers"] == 8
+    fake.log.clear()
+    series.ensemble(pow, [(2, 1)] * 12, scheduler=None, workers=5)
+    assert fake.log[0][1]["n_workers"] == 5
+    monkeypatch.setattr(os, "cpu_count", lambda: None)
+    fake.log.clear()
+    series.ensemble(pow, [(2, 1)] * 3, scheduler=None)
+    assert fake.log[0][1]["n_workers"] == 1
+    # a scheduler's address: a client of it, nothing of ours to close but the client
+    fake.log.clear()
+    assert series.ensemble(pow, [(2, 2)], scheduler="tcp://h:8786") == [4]
+    assert fake.log == [("client", "tcp://h:8786", {"timeout": "30s"}),
+                        ("submit", "pow", (2, 2), {"pure": False}), ("close",)]
+    # a run that raises still closes the client and the cluster
+    fake.log.clear()
+    with pytest.raises(ZeroDivisionError):
+        series.ensemble(divmod, [(1, 0)], scheduler=None)
+    assert fake.log[-2:] == [("close",), ("close",)]
+
+
+def test_one_run_of_a_series(monkeypatch):
+    calls = []
+
+    class Result:
+        numbers = {"ucs": 3e6}
+        no_failure = None
+        fragments = {"size": np.array([1e-3, 2e-3]), "mass": np.array([1.0, 3.0])}
+
+    def load(spec, overrides):
+        calls.append(("load", spec, overrides))
+        return "specimen", "settings", "text"
+    monkeypatch.setattr(spec_module, "load_spec", load)
+    monkeypatch.setitem(procedures.RUNNERS, "ucs",
+                        lambda specimen, settings: calls.append(("ucs", specimen, settings))
+                        or Result())
+    run = series._one("a.toml", "ucs", {"test.samples": 5}, 7)
+    assert calls == [("load", "a.toml", {"test.samples": 5, "specimen.seed": 7}),
+                     ("ucs", "specimen", "settings")]
+    assert run == {"seed": 7, "numbers": {"ucs": 3e6}, "no_failure": None,
+                   "fragments": {"size": [1e-3, 2e-3], "mass": [1.0, 3.0]}}
+    assert type(run["fragments"]["size"]) is list
+    Result.fragments, Result.no_failure = None, "no peak"
+    calls.clear()
+    run = series._one("a.toml", "ucs", None, 2)
+    assert calls[0] == ("load", "a.toml", {"specimen.seed": 2})
+    assert run["fragments"] is None and run["no_failure"] == "no peak"
+
+
+def test_a_series_passes_its_scheduler_on_and_writes_runs_missing_a_number(
+        tmp_path, monkeypatch, figures):
+    seen = {}
+
+    def ensemble(function, items, *, scheduler="serial", workers=None):
+        seen.update(scheduler=scheduler, workers=workers)
+        return [{"seed": s, "numbers": {"ucs": 2e6} if s == 1 else {"fragments": 4},
+                 "no_failure": None, "fragments": {"size": [1e-3], "mass": [1.0]}}
+                for _, _, _, s in items]
+    monkeypatch.setattr(series, "ensemble", ensemble)
+    out = series.run_series("s.toml", "agglomerate", [1, 2], scheduler=None, workers=2)
+    assert seen == {"scheduler": None, "workers": 2}
+    paths = series.write_series(out, tmp_path / "a" / "b")
+    assert [paths[k].name for k in ("csv", "json", "figure")] == [
+        "series.csv", "series.json", "lab_series_fragments.png"]
+    rows = list(csv.reader(paths["csv"].open()))
+    assert rows[1:] == [["1", "2000000.0", "nan", "True"], ["2", "nan", "4.0", "True"]]
+    assert paths["json"].read_text().startswith('{\n  "test": "agglomerate",\n  "runs"')
+    assert png_size(paths["figure"]) == (600, 400)
+    (ax,) = figures[-1].axes
+    assert [t.get_fontsize() for t in ax.get_legend().get_texts()] == [8.0, 8.0]
