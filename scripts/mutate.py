@@ -53,6 +53,12 @@ MODULES = {
     "src/bondem/lab/envelope.py": [
         "tests/test_lab_ensembles.py",
         "tests/test_lab_envelope.py::test_the_fit_returns_the_criterions_cohesion_and_angle"],
+    "src/bondem/lab/cracks.py": [
+        "tests/test_lab_ae.py",
+        "tests/test_lab_cracks.py::test_magnitude_is_kanamoris_energy_magnitude",
+        "tests/test_lab_cracks.py::test_b_value_of_a_gutenberg_richter_sample",
+        "tests/test_lab_cracks.py::test_cracks_group_by_distance_and_time",
+        "tests/test_lab_cracks.py::test_crack_damage_is_where_the_volume_turns_to_dilatancy"],
     "src/bondem/lab/series.py": [
         "tests/test_lab_ensembles.py",
         "tests/test_lab_envelope.py::test_series_statistics_are_the_sample_mean_and_deviation"],
