@@ -42,7 +42,7 @@ MODULES = {
     "src/bondem/analysis/fragments.py": ["tests/test_analysis_fragments.py"],
     "src/bondem/analysis/breakage.py": ["tests/test_analysis_fragments.py"],
     "src/bondem/timestep.py": ["tests/test_model.py", "tests/test_bond_kelvin.py"],
-    "src/bondem/io/csv_files.py": ["tests/test_bad_files.py", "tests/test_generate_io.py"],
+    "src/bondem/io/csv_files.py": ["tests/test_csv_files.py"],
     "src/bondem/calibrate.py": ["tests/test_calibrate.py"],
     "src/bondem/io/protowire.py": ["tests/test_protowire.py"],
     "src/bondem/io/grid_files.py": ["tests/test_grid_files.py"],
