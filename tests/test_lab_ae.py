@@ -83,3 +83,34 @@ def test_crack_damage_at_the_edges_of_a_curve():
     assert cracks.crack_damage([1.0, 2.0, 3.0, 2.5], [0.5, 0.2, 0.1, 0.0]) == 1.0
     # the peak at the first sample: no pre-peak turn
     assert math.isnan(cracks.crack_damage([3.0, 2.0, 1.0], [0.0, 0.1, 0.2]))
+
+
+def test_cracks_of_one_step_are_taken_in_the_order_logged():
+    # three steps, twenty bonds breaking in each along a line of its own (10 mm apart),
+    # 0.8 mm apart: each within the 1 mm radius of the one logged before it, so one event
+    # per step (taken in any other order, cracks 1.6 mm apart would start events of
+    # their own); the log interleaves the steps
+    step = np.repeat([0, 1, 2], 20)   # crack c: its step, its place on its step's line
+    rank = np.tile(np.arange(20), 3)
+    log = np.random.default_rng(2).permutation(60)
+    for s in range(3):   # each step's cracks, wherever they sit in the log, in chain order
+        log[np.flatnonzero(step[log] == s)] = np.flatnonzero(step == s)
+    time = 1e-6 * (1 + step[log])
+    position = np.zeros((60, 3))
+    position[:, 0] = 0.8e-3 * rank[log]
+    position[:, 1] = 10e-3 * step[log]
+    label = cracks.group_events(time, position, radius=1e-3, window=0.5e-6)
+    assert label.tolist() == step[log].tolist()
+    ae = cracks.events(time, position, np.ones(60), label)
+    assert ae["cracks"].tolist() == [20, 20, 20] and ae["cracks"].dtype == np.int64
+
+
+def test_b_value_counts_the_magnitudes_at_the_minimum():
+    m = np.r_[np.full(3, -3.0), np.linspace(-2.9, -2.0, 8)]
+    assert cracks.b_value(m, minimum=-3.0) == pytest.approx(
+        math.log10(math.e) / (m.mean() + 3.0), rel=1e-12)
+
+
+def test_crack_damage_looks_before_the_peak_only():
+    # the compaction largest just after the peak: the pre-peak turn is still read
+    assert cracks.crack_damage([1.0, 2.0, 3.0, 2.0], [0.0, 0.5, 0.4, 0.9]) == 2.0
