@@ -32,6 +32,7 @@ def test_written_particles_read_back_to_the_same_doubles(tmp_path):
         np.testing.assert_array_equal(data["w" + name], spin[:, k])
     np.testing.assert_array_equal(data["radius"], radius)
     assert data["material"].tolist() == ["glass", "steel", "glass", "a b", "c"]
+    assert data["material"].dtype == object
     assert data["clump"].tolist() == [0, 0, -1, 1, 1] and data["clump"].dtype == np.int64
     assert data["line"].tolist() == [2, 3, 4, 5, 6]
     assert path.read_text().splitlines()[0] == "x,y,z,radius,material,vx,vy,vz,wx,wy,wz,clump"
@@ -135,6 +136,7 @@ def test_the_largest_clump_index_and_a_missing_or_foreign_file(tmp_path):
     with pytest.raises(InputError) as error:
         read_particles(path)
     assert error.value.reason == "line 2: byte 0xe9 is not UTF-8 text; save the file as UTF-8"
+    assert error.value.file == str(path)
 
 
 BOND_HEADER = "i,j,diameter,material\n"
@@ -144,6 +146,11 @@ BOND_DEFECTS = [
     (BOND_HEADER + "0,4611686018427387904,1e-3,b\n",
      "line 2: 4611686018427387904 is not an integer index in [0, 2^62)", "j"),
     (BOND_HEADER + "0,46116860184273879040000,1e-3,b\n",
+     "line 2: 46116860184273879040... is not an integer index in [0, 2^62)", "j"),
+    # up to 20 characters shown whole
+    (BOND_HEADER + "0,46116860184273879040,1e-3,b\n",
+     "line 2: 46116860184273879040 is not an integer index in [0, 2^62)", "j"),
+    (BOND_HEADER + "0,461168601842738790400,1e-3,b\n",
      "line 2: 46116860184273879040... is not an integer index in [0, 2^62)", "j"),
     (BOND_HEADER + "0,1,1e-3,b\n\n2,2,1e-3,b\n", "line 4: i = j = 2", "j"),
     (BOND_HEADER + "0,1,1e-3,b\n1,5,1e-3,b\n", "line 3: index 5 is outside [0, 4] (rows of "
@@ -171,3 +178,29 @@ def test_bond_indices_are_checked_only_against_a_given_particle_count(tmp_path):
     # the last row of five particles is index 4
     assert read_bonds(write(tmp_path, BOND_HEADER + "0,4,1e-3,b\n", "c.csv"),
                       n_particles=5)["j"].tolist() == [4]
+
+
+def test_a_bond_file_without_rows_and_large_indices(tmp_path):
+    data = read_bonds(write(tmp_path, BOND_HEADER, "b.csv"))
+    assert {k: (v.dtype, v.size) for k, v in data.items()} == {
+        "i": (np.int64, 0), "j": (np.int64, 0), "diameter": (np.float64, 0),
+        "material": (object, 0), "line": (np.int64, 0)}
+    data = read_bonds(write(tmp_path, BOND_HEADER + "200,299,1e-3,b\n", "c.csv"),
+                      n_particles=300)
+    assert data["i"].tolist() == [200] and data["j"].tolist() == [299]
+
+
+def test_files_are_written_with_unix_line_ends_and_integer_rows(tmp_path):
+    # pairs as a float array (as np.loadtxt gives them) are written as integer rows;
+    # one diameter serves every bond
+    path = tmp_path / "b.csv"
+    write_bonds(path, np.array([[0.0, 1.0], [1.0, 2.0], [2.0, 3.0]]), 1e-4, ["a", "b", "c"])
+    assert path.read_bytes() == (b"i,j,diameter,material\n0,1,0.0001,a\n1,2,0.0001,b\n"
+                                 b"2,3,0.0001,c\n")
+    assert read_bonds(path, n_particles=4)["j"].tolist() == [1, 2, 3]
+    path = tmp_path / "p.csv"
+    write_particles(path, [[0, 1, 2]], [1], ["\u00e9"], velocity=[[1, 0, 0]],
+                    angular_velocity=[[0, 0, 3]])
+    assert path.read_bytes() == ("x,y,z,radius,material,vx,vy,vz,wx,wy,wz\n"
+                                 "0.0,1.0,2.0,1.0,\u00e9,1.0,0.0,0.0,0.0,0.0,3.0\n"
+                                 ).encode("utf-8")

@@ -206,11 +206,11 @@ def write_particles(path, position, radius, material_names, velocity=None,
 
 
 def write_bonds(path, pairs, diameter, material_names):
-    """Write bonds.csv: pairs (B,2) particle rows, diameter (B,) m, material_names (B,)
-    or one name."""
+    """Write bonds.csv: pairs (B,2) particle rows, diameter (B,) m or one for all,
+    material_names (B,) or one name."""
     pairs = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
     b = pairs.shape[0]
-    diameter = np.asarray(diameter, dtype=np.float64).reshape(b)
+    diameter = np.broadcast_to(np.asarray(diameter, dtype=np.float64), (b,))
     names = np.broadcast_to(np.asarray(material_names, dtype=object), (b,))
     with open(path, "w", newline="", encoding="utf-8") as handle:
         writer = csv.writer(handle, lineterminator="\n")
