@@ -41,7 +41,7 @@ MODULES = {
     "src/bondem/analysis/energy.py": ["tests/test_analysis_walls.py"],
     "src/bondem/analysis/fragments.py": ["tests/test_analysis_fragments.py"],
     "src/bondem/analysis/breakage.py": ["tests/test_analysis_fragments.py"],
-    "src/bondem/timestep.py": ["tests/test_model.py", "tests/test_bond_kelvin.py"],
+    "src/bondem/timestep.py": ["tests/test_timestep.py"],
     "src/bondem/io/csv_files.py": ["tests/test_csv_files.py"],
     "src/bondem/calibrate.py": ["tests/test_calibrate.py"],
     "src/bondem/io/protowire.py": ["tests/test_protowire.py"],
