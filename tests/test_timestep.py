@@ -9,6 +9,7 @@ import pytest
 
 import bondem
 from bondem.model import fluid_array, frame_array, make_system
+from bondem.physics import bond_kelvin
 from bondem.timestep import stable_time_step, step_count, time_scales
 
 GLASS = bondem.Material(name="glass", density=2500.0, young_modulus=6e10, poisson_ratio=0.22)
@@ -71,6 +72,34 @@ def test_the_stable_step_is_the_safety_factor_of_the_smallest_scale():
     assert named == cause and step == pytest.approx(0.2 * scales[cause], rel=1e-15)
     step, named = stable_time_step(model, safety_factor=0.05)
     assert step == pytest.approx(0.05 * scales[cause], rel=1e-15)
+
+
+def test_a_bond_model_is_asked_about_its_own_bonds(monkeypatch):
+    asked = []
+
+    def scales(model, bonds, reduced_mass, musen_compat=False):
+        asked.append((bonds.tolist(), reduced_mass.tolist(), musen_compat))
+        return {"bond_probe": 1.0}
+    monkeypatch.setattr(bond_kelvin, "time_scales", scales)
+    model, _ = system()
+    assert time_scales(model, musen_compat=True)["bond_probe"] == 1.0
+    m1, m2 = sphere(2e-3, 2500.0)[0], sphere(3e-3, 1100.0)[0]
+    ((bonds, reduced, compat),) = asked
+    assert bonds == [1] and compat is True
+    assert reduced == pytest.approx([m1 * m2 / (m1 + m2)], rel=1e-12)
+
+
+def test_a_dashpot_that_limits_the_step_only_outside_musen_compatibility():
+    # eta = 3e-3 s: the dashpot stops its pair in m_red / (eta k_n), far below the rest
+    model, _ = system()
+    model.bond_materials[1] = bondem.BondMaterial(name="soft", young_modulus=2e8,
+                                                  model="kelvin", viscosity=3e-3)
+    scales = time_scales(model)
+    assert stable_time_step(model) == (pytest.approx(0.2 * scales["bond_dashpot"],
+                                                     rel=1e-15), "bond_dashpot")
+    step, cause = stable_time_step(model, musen_compat=True)
+    assert cause != "bond_dashpot" and step > 0.2 * scales["bond_dashpot"]
+    assert cause == min((k for k in scales if k != "bond_dashpot"), key=scales.get)
 
 
 def test_fields_add_their_scales_and_particles_alone_have_rayleighs():

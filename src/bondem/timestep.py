@@ -47,10 +47,8 @@ def time_scales(model, musen_compat=False):
         for module in model.bond_models_used():
             bonds = np.flatnonzero(codes == module.CODE)
             scales.update(module.time_scales(model, bonds, reduced_mass[bonds], musen_compat))
-    fields = getattr(model, "fields", None)
-    if fields is not None:
-        # each field model's own limits (time_scales in physics/field_*.py)
-        scales.update(field_models.time_scales(fields, model.mass, model.radius))
+    # each field model's own limits (time_scales in physics/field_*.py)
+    scales.update(field_models.time_scales(model.fields, model.mass, model.radius))
     return scales
 
 
