@@ -108,16 +108,29 @@ def save(path, arrays):
 def test_an_optional_array_absent_and_another_format(tmp_path):
     state = a_state()
     state.bond_previous_length = None
+    # the arrays after it in the State (a clump's) are still written and read
+    state.clump_position = np.array([[1.0, 2.0, 3.0]])
+    state.clump_orientation = np.array([[0.6, 0.8, 0.0, 0.0]])
     path = write_checkpoint(tmp_path / "old.ckpt", state, frames=2)
     back = read_checkpoint(path)[0]
     assert back.bond_previous_length is None
-    assert back.clump_position.shape == (0, 3)
+    np.testing.assert_array_equal(back.clump_position, [[1.0, 2.0, 3.0]], strict=True)
+    np.testing.assert_array_equal(back.clump_orientation, [[0.6, 0.8, 0.0, 0.0]],
+                                  strict=True)
     # a checkpoint of an older State without the clump arrays reads them as empty
     with np.load(path) as data:
         arrays = {k: data[k] for k in data.files if not k.startswith("state/clump_")}
     save(tmp_path / "older.ckpt", arrays)
     back = read_checkpoint(tmp_path / "older.ckpt")[0]
     assert back.clump_orientation.shape == (0, 4) and back.position.shape == (4, 3)
+    # a checkpoint is never unpickled: an object array in it is refused
+    meta = json.loads(bytes(arrays["meta"]).decode())
+    meta["extra"]["evil"] = "array"
+    evil = dict(arrays, meta=np.frombuffer(json.dumps(meta).encode(), dtype=np.uint8))
+    evil["extra/evil"] = np.array([{"a": 1}], dtype=object)
+    save(tmp_path / "evil.ckpt", evil)
+    with pytest.raises(ValueError, match="allow_pickle"):
+        read_checkpoint(tmp_path / "evil.ckpt")
     # a required array missing is an error, not a default
     with np.load(path) as data:
         arrays = {k: data[k] for k in data.files if k != "state/velocity"}
