@@ -49,9 +49,9 @@ MODULES = {
     "src/bondem/io/grid_files.py": ["tests/test_grid_files.py"],
     "src/bondem/expression.py": ["tests/test_expression.py"],
     "src/bondem/analysis/fields.py": ["tests/test_analysis_fields.py"],
-    "src/bondem/analysis/summary.py": ["tests/test_analysis_walls.py",
-                                       "tests/test_analysis_fields.py",
-                                       "tests/test_analysis_fragments.py"],
+    "src/bondem/analysis/summary.py": ["tests/test_analysis_summary.py",
+                                       "tests/test_analysis_walls.py",
+                                       "tests/test_analysis_fields.py"],
     "src/bondem/lab/measure.py": ["tests/test_lab_measure.py"],
     "src/bondem/lab/spec.py": ["tests/test_lab_spec.py"],
     "src/bondem/lab/envelope.py": [
