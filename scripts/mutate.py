@@ -35,7 +35,8 @@ ROOT = Path(__file__).resolve().parents[1]
 # module -> the tests that guard it (run for every mutant: keep them fast). Tests that run
 # a Simulation do not work here: mutmut forks a process per mutant, and Numba's parallel
 # kernels in a forked child end every such run as "suspicious" (measured with
-# tests/test_analysis_run.py).
+# tests/test_analysis_run.py; io/lammps.py's export tests: 399 of 660), which the score
+# counts as survivors.
 MODULES = {
     "src/bondem/analysis/walls.py": ["tests/test_analysis_walls.py"],
     "src/bondem/analysis/energy.py": ["tests/test_analysis_walls.py"],
@@ -46,7 +47,6 @@ MODULES = {
     "src/bondem/calibrate.py": ["tests/test_calibrate.py"],
     "src/bondem/io/protowire.py": ["tests/test_protowire.py"],
     "src/bondem/io/checkpoint.py": ["tests/test_checkpoint.py"],
-    "src/bondem/io/lammps.py": ["tests/test_lammps_export.py"],
     "src/bondem/io/grid_files.py": ["tests/test_grid_files.py"],
     "src/bondem/expression.py": ["tests/test_expression.py"],
     "src/bondem/analysis/fields.py": ["tests/test_analysis_fields.py"],
@@ -117,10 +117,16 @@ def mutate(module, tests, keep=False):
     stats = json.loads((work / "mutants" / "mutmut-cicd-stats.json").read_text())
     listing = subprocess.run([sys.executable, "-m", "mutmut", "results"], cwd=work, env=env,
                              capture_output=True, text=True).stdout
+    # a suspicious mutant (its tests hung or crashed: a Simulation in a forked child)
+    # proves nothing: it counts as a survivor, listed, so that such a score is not trusted
     survivors = [line.split(":")[0].strip() for line in listing.splitlines()
-                 if line.strip().endswith(("survived", "no tests"))]
+                 if line.strip().endswith(("survived", "no tests", "suspicious"))]
     killed = stats["killed"] + stats.get("timeout", 0)
-    survived = stats["survived"] + stats.get("no_tests", 0)
+    survived = (stats["survived"] + stats.get("no_tests", 0)
+                + stats.get("suspicious", 0))
+    if stats.get("suspicious"):
+        print(f"{stats['suspicious']} suspicious mutants (counted as survivors): the "
+              f"tests of {module} run a Simulation, which mutmut's forked children cannot")
     if not keep:
         shutil.rmtree(work, ignore_errors=True)
     else:
