@@ -50,6 +50,8 @@ MODULES = {
     "src/bondem/io/grid_files.py": ["tests/test_grid_files.py"],
     "src/bondem/expression.py": ["tests/test_expression.py"],
     "src/bondem/analysis/fields.py": ["tests/test_analysis_fields.py"],
+    "src/bondem/analysis/results.py": ["tests/test_analysis_results.py",
+                                       "tests/test_analysis_summary.py"],
     "src/bondem/analysis/summary.py": ["tests/test_analysis_summary.py",
                                        "tests/test_analysis_walls.py",
                                        "tests/test_analysis_fields.py"],
