@@ -2,6 +2,8 @@
 complete frames only when datasets differ in length (as while a run writes), negative
 frame indices, the contacts of each frame from their running end, blocks of bond flags,
 and the defaults of files without masses, clumps, break records, energy or contacts."""
+from pathlib import Path
+
 import h5py
 import numpy as np
 import pytest
@@ -58,6 +60,33 @@ def test_complete_frames_and_their_indices(tmp_path):
         assert repr(results) == (f"Results({str(path)!r}: 4 frames, t = 0 .. 0.00075 s, "
                                  "3 particles, 2 walls, 1 of 2 bonds intact at the end)")
     assert repr(results) == f"Results({str(path)!r}, closed)"
+    # the last complete frame's bonds, not the one before
+    with h5py.File(path, "a") as f:
+        f["bonds/active"][3, 0] = False
+    with Results(path) as results:
+        assert repr(results).endswith("0 of 2 bonds intact at the end)")
+    # one whose opening failed before it had a file
+    half = Results.__new__(Results)
+    half.path = Path("lost.h5")
+    assert repr(half) == "Results('lost.h5', closed)"
+
+
+def test_flags_stored_as_bytes_and_a_single_bond(tmp_path):
+    # another writer's 0/1 bytes are flags: a broken bond is one whose byte is 0
+    path = a_file(tmp_path / "r.h5", frames=4)
+    with h5py.File(path, "a") as f:
+        del f["bonds/pairs"], f["bonds/active"]
+        f["bonds/pairs"] = np.array([[0, 2]])
+        f["bonds/active"] = np.array([[1], [1], [0]], dtype=np.uint8)
+    with Results(path) as results:
+        assert results.n_bonds == 1
+        active = results.active()
+        assert active.dtype == bool and active.tolist() == [[True], [True], [False]]
+        assert results.active(-1).dtype == bool and results.active(-1).tolist() == [False]
+        (start, block), = results.iter_active()
+        assert start == 0 and block.dtype == bool and block.tolist() == active.tolist()
+        broken = results.any_broken()
+        assert broken.dtype == bool and broken.tolist() == [False, False, True]
 
 
 def test_energy_shorter_than_time_limits_the_frames(tmp_path):
@@ -71,6 +100,9 @@ def test_energy_shorter_than_time_limits_the_frames(tmp_path):
         assert sorted(energy) == ["kinetic_translational", "work_walls"]
         np.testing.assert_array_equal(energy["work_walls"], [0.0, 2.0, 4.0])
         assert energy["work_walls"].dtype == np.float64
+    with Results(a_file(tmp_path / "single.h5")) as results:
+        # a term stored in single precision is read in double
+        assert results.energy()["kinetic_translational"].dtype == np.float64
 
 
 def test_bond_flags_whole_by_frame_and_in_blocks(tmp_path):
@@ -138,7 +170,7 @@ def test_a_file_that_is_not_a_results_file(tmp_path):
             del f[missing]
         with pytest.raises(InputError) as error:
             Results(path)
-        assert error.value.key == missing
+        assert error.value.key == missing and error.value.file == str(path)
         assert error.value.reason == f"missing dataset /{missing} (not a bondem results file?)"
         # the file was closed again: it can be opened for writing
         with h5py.File(path, "a") as f:
