@@ -38,6 +38,60 @@ def test_lookup3_reproduces_hdf5s_superblock_checksum(tmp_path):
     assert lookup3(b"") == 0xDEADBEEF and lookup3(b"", 1) == 0xDEADBEEF + 1
 
 
+def hashlittle_bytewise(data, initval=0):
+    """lookup3.c's hashlittle written byte by byte, as its switch on the last block's
+    length does (bytes 0-3 of the block into a, 4-7 into b, 8-11 into c): a formulation
+    apart from the padded words of bondem's."""
+    mask = 0xFFFFFFFF
+
+    def rot(x, k):
+        return ((x << k) | (x >> (32 - k))) & mask
+
+    def word(k):
+        return data[k] | data[k + 1] << 8 | data[k + 2] << 16 | data[k + 3] << 24
+    n, o = len(data), 0
+    a = b = c = (0xDEADBEEF + n + initval) & mask
+    while n > 12:
+        a, b, c = (a + word(o)) & mask, (b + word(o + 4)) & mask, (c + word(o + 8)) & mask
+        for x, y, z, k in (("a", "c", "b", 4), ("b", "a", "c", 6), ("c", "b", "a", 8),
+                           ("a", "c", "b", 16), ("b", "a", "c", 19), ("c", "b", "a", 4)):
+            v = {"a": a, "b": b, "c": c}
+            v[x] = ((v[x] - v[y]) & mask) ^ rot(v[y], k)
+            v[y] = (v[y] + v[z]) & mask
+            a, b, c = v["a"], v["b"], v["c"]
+        n, o = n - 12, o + 12
+    if n == 0:
+        return c
+    for k in range(n):
+        value = data[o + k] << (8 * (k % 4))
+        if k >= 8:
+            c = (c + value) & mask
+        elif k >= 4:
+            b = (b + value) & mask
+        else:
+            a = (a + value) & mask
+    for x, y, k in (("c", "b", 14), ("a", "c", 11), ("b", "a", 25), ("c", "b", 16),
+                    ("a", "c", 4), ("b", "a", 14), ("c", "b", 24)):
+        v = {"a": a, "b": b, "c": c}
+        v[x] = ((v[x] ^ v[y]) - rot(v[y], k)) & mask
+        a, b, c = v["a"], v["b"], v["c"]
+    return c
+
+
+def test_lookup3_of_every_length_and_the_published_values():
+    # lookup3.c's driver5: its printed values
+    text = b"Four score and seven years ago"
+    assert lookup3(b"", 0xDEADBEEF) == 0xBD5B7DDE
+    assert lookup3(text) == 0x17770551 and lookup3(text, 1) == 0xCD628161
+    assert hashlittle_bytewise(text) == 0x17770551
+    assert hashlittle_bytewise(b"", 0xDEADBEEF) == 0xBD5B7DDE
+    # every length through four blocks, each tail length and whole blocks among them
+    data = np.random.default_rng(11).integers(0, 256, 60, dtype=np.uint8).tobytes()
+    for n in range(61):
+        for initval in (0, 0x9E3779B9):
+            assert lookup3(data[:n], initval) == hashlittle_bytewise(data[:n], initval), n
+
+
 def test_killed_swmr_writer_file_opens_plainly_after_repair(tmp_path):
     path = tmp_path / "killed.h5"
     writer = subprocess.Popen([sys.executable, "-c", WRITER, str(path)],
