@@ -153,3 +153,70 @@ def test_repair_extends_a_file_shorter_than_its_eoa(tmp_path):
     assert path.stat().st_size == size + 4096
     with h5py.File(path, "r") as f:
         np.testing.assert_array_equal(f["x"][()], np.arange(100.0))
+
+
+def superblock(version=3, offsets=8, lengths=8, flags=0x05, base=0, end=4096,
+               signature=b"\x89HDF\r\n\x1a\n", checksum=None):
+    """48 bytes of a version 2/3 superblock (HDF5 File Format, III.A): signature,
+    version, sizes of offsets and lengths, flags, base address, extension address, end
+    of file address, root object header address, lookup3 checksum."""
+    block = bytearray(48)
+    block[:8] = signature
+    block[8], block[9], block[10], block[11] = version, offsets, lengths, flags
+    struct.pack_into("<QQQQ", block, 12, base, 2 ** 64 - 1, end, 48)
+    struct.pack_into("<I", block, 44, lookup3(bytes(block[:44])) if checksum is None
+                     else checksum)
+    return bytes(block)
+
+
+@pytest.mark.parametrize("block, why", [
+    (superblock(version=1), "a version 1 superblock"),
+    (superblock(version=0), "a version 0 superblock"),
+    (superblock(offsets=4), "4-byte addresses"),
+    (superblock(signature=b"\x89HDF\r\n\x1a\x0b"), "not HDF5's signature"),
+    (superblock(checksum=1), "a wrong checksum"),
+    (superblock(flags=0), "no marks: closed by its writer"),
+    (superblock()[:40], "a truncated superblock"),
+])
+def test_only_a_marked_version_2_or_3_superblock_is_touched(tmp_path, block, why):
+    path = tmp_path / "other.h5"
+    content = block + bytes(range(256)) * 20
+    path.write_bytes(content)
+    assert clear_open_flags(path) is False, why
+    assert path.read_bytes() == content, why
+    assert clear_open_flags(tmp_path / "missing.h5") is False
+
+
+@pytest.mark.parametrize("version, lengths", [(2, 8), (3, 8), (3, 4)])
+def test_a_marked_superblock_is_cleared_and_its_checksum_renewed(tmp_path, version,
+                                                                 lengths):
+    # flags chosen so that the checksum has its top bit set (read as unsigned); the size
+    # of lengths does not matter (the fields mended are addresses)
+    block = next(b for f in range(1, 256, 2)
+                 for b in [superblock(version, lengths=lengths, flags=f)]
+                 if struct.unpack_from("<I", b, 44)[0] >= 2 ** 31)
+    path = tmp_path / "marked.h5"
+    path.write_bytes(block + bytes(4096 - 48))
+    assert clear_open_flags(path) is True
+    fixed = path.read_bytes()
+    assert fixed[11] == 0 and fixed[:11] == block[:11] and fixed[12:44] == block[12:44]
+    assert struct.unpack_from("<I", fixed, 44)[0] == lookup3(fixed[:44])
+    assert len(fixed) == 4096
+
+
+def test_the_watchman_clears_the_marks_when_its_pipe_closes(tmp_path, monkeypatch):
+    import io
+    from bondem.io import _h5guard
+    path = tmp_path / "watched.h5"
+    with h5py.File(path, "w", libver="latest") as f:
+        f["x"] = np.arange(5.0)
+    _mark_killed(path, path.stat().st_size)
+    with pytest.raises(OSError):
+        h5py.File(path, "r")
+    stdin = type("Stdin", (), {"buffer": io.BytesIO(b"w" * 100_000)})()
+    monkeypatch.setattr(sys, "stdin", stdin)
+    monkeypatch.setattr(sys, "argv", ["pytest", "not-this-file"])
+    _h5guard.main(["_h5guard.py", str(path)])
+    assert stdin.buffer.tell() == 100_000    # it read until the pipe closed
+    with h5py.File(path, "r") as f:
+        np.testing.assert_array_equal(f["x"][()], np.arange(5.0))
