@@ -487,8 +487,9 @@ def integrate_clump(c, force, moment, clumps, clump_state, particles, bodies, fi
                     damping, kick_dt, drift_dt, box, track_energy):
     """The leapfrog of rigid clump c (physics/rigid_body.py): its members' loads force (N)
     and moment (N m), their external loads and the fields' force on each
-    (``clump_field_force``, at its own place and velocity) summed into the clump's force and its torque about the centre of
-    mass, lever arms R(q) d from the clump's orientation at the start of the step; gravity
+    (``clump_field_force``, at its own place and velocity) summed into the clump's force
+    and its torque about the centre of mass, lever arms R(q) d from the clump's
+    orientation at the start of the step; gravity
     on the clump's mass; local damping per component against the signs of V and of the
     angular velocity. Kick: V += F/M kick_dt, L += T kick_dt (lab frame); drift:
     X += V drift_dt, q by NO_SQUISH over drift_dt. Then each member p is placed at
