@@ -364,11 +364,9 @@ def _build(data, text, path):
                          f"allowed: one of {', '.join(d for d in DRAG_LAWS if d != 'none')}",
                          file=path, key="fluid.drag")
     flow_file = fluid.pop("velocity_file")
-    field_arrays = {"fluid": _field_array("fluid", fluid, path)}
-    for name, module in field_models.BY_NAME.items():
-        if name not in field_arrays:
-            field_arrays[name] = _field_array(
-                name, _check_table(tables[name], module.KEYS, name, path), path)
+    field_arrays = {name: _field_array(name, fluid if name == "fluid" else _check_table(
+                        tables[name], module.KEYS, name, path), path)
+                    for name, module in field_models.BY_NAME.items()}
     save_every_given = sim["save_every"] is not None
     if not save_every_given:
         sim["save_every"] = sim["end_time"] / 100.0   # rounded up to a step below

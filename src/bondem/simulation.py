@@ -70,11 +70,11 @@ class Simulation:
                 values = {k: getattr(material, k) for k in bond_models.bond_material_schema()}
                 for key, message in bond_models.check(values, musen_compat=True):
                     raise ValueError(f"bond material {material.name!r}: {message}")
-        for name in model.acting_fields if model.n_clumps else ():
-            if not field_models.BY_NAME[name].CLUMPS:
-                raise ValueError(f"the field [{name}] does not act on clumps yet "
-                                 f"(physics/field_{name}.py)"
-                                 + ("; turn the walls instead" if name == "frame" else ""))
+        if model.n_clumps:
+            for name in model.acting_fields:
+                if not field_models.BY_NAME[name].CLUMPS:
+                    raise ValueError(f"the field [{name}] does not act on clumps yet "
+                                     f"(physics/field_{name}.py, docs/fields.md)")
         if flow is not None:
             # the flow's values at the start (a frame saved before the first step shows
             # them; the device gets the array at its size)

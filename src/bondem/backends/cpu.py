@@ -473,10 +473,9 @@ def box(model, put=lambda a: a):
 
 def fields(model, put=lambda a: a):
     """The model's body-force fields as a ``loops.Fields``: gravity, each field model's
-    parameter array (Model.fields), their INPUTS (Model attributes)."""
-    return loops.Fields(*(put(model.gravity if name == "gravity" else model.fields[name]
-                              if name in model.fields else getattr(model, name))
-                          for name in loops.Fields._fields))
+    parameter array (Model.fields), their INPUTS (Model attributes, as gravity)."""
+    return loops.Fields(*(put(model.fields[name] if name in model.fields
+                              else getattr(model, name)) for name in loops.Fields._fields))
 
 
 def bodies(model, put=lambda a: a):

@@ -174,9 +174,10 @@ def read_bonds(path, n_particles=None):
 def write_particles(path, position, radius, material_names, velocity=None,
                     angular_velocity=None, clump=None):
     """Write particles.csv: position (N,3) m, radius (N,) m or one for all,
-    material_names (N,) or one name; velocity (N,3) m/s and angular_velocity (N,3) rad/s optional (a given angular
-    velocity without velocity writes zero velocities, as the columns come in order);
-    clump (N,) int optional: each particle's clump, -1 for a free sphere."""
+    material_names (N,) or one name; velocity (N,3) m/s and angular_velocity (N,3) rad/s
+    optional (a given angular velocity without velocity writes zero velocities, as the
+    columns come in order); clump (N,) int optional: each particle's clump, -1 for a free
+    sphere."""
     position = np.asarray(position, dtype=np.float64).reshape(-1, 3)
     n = position.shape[0]
     radius = np.broadcast_to(np.asarray(radius, dtype=np.float64), (n,))

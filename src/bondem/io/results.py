@@ -111,7 +111,7 @@ def bond_forces(model, state):
 
 def _has_fields(model):
     """Whether a field model acts on the particles (a fluid, a rotating frame)."""
-    return bool(getattr(model, "acting_fields", ()))
+    return bool(model.acting_fields)
 
 
 def _field_forces(model, state):
