@@ -11,7 +11,8 @@ import numpy as np
 from numba import cuda
 
 from bondem.backends.cpu import particle_bond_index
-from bondem.backends.cuda import THREADS, _blocks, gather_bond_loads_kernel, minimum_image
+from bondem.backends.cuda import gather_bond_loads_kernel, minimum_image
+from bondem.backends.cuda_device import THREADS, blocks as _blocks
 from bondem.backends.loops import BondIndex, BondLoads
 
 # ---------------------------------------------------------------------------------------

@@ -261,7 +261,7 @@ class TetherGpu(TetherCpu):
         self.device_anchor = cuda.to_device(self.anchor)
 
     def accumulate(self, model, state, force, moment, increment_dt):
-        from bondem.backends.cuda import THREADS
+        from bondem.backends.cuda_device import THREADS
         n = model.n_particles
         tether_kernel[(n + THREADS - 1) // THREADS, THREADS](
             self.device_backend.device.position, self.device_anchor, self.stiffness,
@@ -400,7 +400,8 @@ def case_contact_kernel():
     """make_contact_kernel + CSR gather against a NumPy loop over the same pair law."""
     from numba import cuda
     from bondem.backends.cpu import particle_bond_index
-    from bondem.backends.cuda import THREADS, gather_bond_loads_kernel
+    from bondem.backends.cuda import gather_bond_loads_kernel
+    from bondem.backends.cuda_device import THREADS
     from bondem.backends.loops import BondIndex, BondLoads
     from gpu_prototypes import make_contact_kernel, neighbour_pairs
     rng = np.random.default_rng(11)

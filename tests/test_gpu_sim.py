@@ -7,6 +7,7 @@ each case runs in a subprocess (tests/gpu_sim_cases.py). Tests marked ``gpu`` ru
 kernels on a real device at the benchmark sizes and skip without one.
 """
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -187,6 +188,43 @@ def test_gpu_backend_without_device_is_a_clear_error(glass, binder):
         bondem.Simulation(model, state, backend="tpu")
 
 
+def test_numpy_without_row_stack_is_a_clear_error():
+    """numba-cuda registers np.row_stack, which NumPy 2.5 removed: backend='gpu' says so
+    and what to install, instead of failing at the first launch (skips without numba-cuda;
+    NumPy 2.5 is imitated by removing the function)."""
+    import importlib.util
+    if importlib.util.find_spec("numba_cuda") is None:
+        pytest.skip("numba-cuda is not installed")
+    from bondem.backends.cuda import cuda_target_problem
+    assert cuda_target_problem() is None
+    code = ("import numpy, bondem\n"
+            "from bondem.backends.cuda import cuda_target_problem\n"
+            "del numpy.row_stack\n"
+            "print(cuda_target_problem())\n")
+    env = dict(os.environ, PYTHONPATH=str(SRC))
+    env.pop("NUMBA_ENABLE_CUDASIM", None)
+    result = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
+                            text=True, timeout=120)
+    assert result.returncode == 0, result.stderr
+    import numpy
+    assert result.stdout.strip() == (
+        f"numba-cuda cannot compile kernels with NumPy {numpy.__version__} (module 'numpy' "
+        "has no attribute 'row_stack'; NVIDIA/numba-cuda#907): install numpy<2.5, as pip "
+        "install 'bondem[gpu]' does")
+
+
+# every case of gpu_sim_cases.py but the PTX check (which needs no device)
+DEVICE_CASES = sorted(set(re.findall(r"^def case_(\w+)\(", (HERE / "gpu_sim_cases.py").read_text(),
+                                     re.MULTILINE)) - {"ptx"})
+
+
+def test_device_cases_are_every_simulator_case():
+    """The device run repeats each case a simulator test runs (none forgotten as cases are
+    added)."""
+    simulated = set(re.findall(r'run_case\("(\w+)"\)', Path(__file__).read_text()))
+    assert simulated and simulated <= set(DEVICE_CASES)
+
+
 def _has_gpu():
     if os.environ.get("NUMBA_ENABLE_CUDASIM") == "1":
         return False
@@ -199,14 +237,9 @@ def _has_gpu():
 
 @pytest.mark.gpu
 @pytest.mark.skipif(not _has_gpu(), reason="needs a CUDA GPU")
-@pytest.mark.parametrize("case", ["bonds_match_cpu", "periodic_match_cpu", "extra_law_match_cpu",
-                                  "blow_up_flag",
-                                  "neighbour_search", "history_remap", "contact_kernel",
-                                  "contacts_match_cpu", "contacts_walls_match_cpu",
-                                  "adhesive_contacts_match_cpu",
-                                  "contacts_linear_rebuilds"])
+@pytest.mark.parametrize("case", DEVICE_CASES)
 def test_cases_on_device(case):
-    """The simulator cases again on the real device (fused multiply-add may change bits,
+    """Every simulator case again on the real device (fused multiply-add may change bits,
     not the 1e-12 agreement)."""
     run_case(case, simulator=False)
 

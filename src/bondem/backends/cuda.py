@@ -32,7 +32,7 @@ from ..status import STATUS_OK, blow_up
 from . import loops
 from .cpu import (bodies, bond_state, bond_tuples, box, clump_state, clumps, fields,
                   has_model_state, particles)
-from .cuda_device import THREADS, K, blocks as _blocks
+from .cuda_device import K, launch
 add = K.add
 row3 = K.row3
 advance_bond = K.advance_bond
@@ -154,6 +154,24 @@ def require_device(name="gpu"):
             f"backend = {name!r}: no CUDA GPU found (numba.cuda.is_available() is False); "
             "use backend = 'cpu', or set NUMBA_ENABLE_CUDASIM=1 to run the CUDA kernels "
             "in numba's (slow) simulator")
+    problem = cuda_target_problem()
+    if problem:
+        raise BackendUnavailable(f"backend = {name!r}: {problem}")
+
+
+def cuda_target_problem():
+    """Why numba-cuda cannot compile kernels with this NumPy, or None. numba-cuda loads its
+    array typing at the first kernel compile; its releases up to now register np.row_stack,
+    which NumPy 2.5 removed (NVIDIA/numba-cuda#907), so every launch would fail deep in
+    numba: say so at the start instead."""
+    try:
+        import numba.cuda.np.arrayobj  # noqa: F401
+    except ImportError:              # numba's own older CUDA target, or the simulator
+        return None
+    except AttributeError as error:
+        return (f"numba-cuda cannot compile kernels with NumPy {np.__version__} ({error}; "
+                "NVIDIA/numba-cuda#907): install numpy<2.5, as pip install 'bondem[gpu]' does")
+    return None
 
 
 class DeviceState:
@@ -295,7 +313,7 @@ class GpuBackend:
         if bonds is not None and not musen_compat:
             bonds.compute(model, state, increment_dt)
         if others:
-            _zero_kernel[_blocks(force.shape[0]), THREADS](force, moment)
+            launch(_zero_kernel, force.shape[0], force, moment)
             for law in others:
                 law.accumulate(model, state, force, moment, increment_dt)
         if bonds is not None and musen_compat:
@@ -373,8 +391,8 @@ class ElasticBondsGpu:
     def accumulate(self, model, state, force, moment, increment_dt):
         """Advance the bonds by ``increment_dt`` (s); set the device force (N), moment (N m)."""
         self.compute(model, state, increment_dt)
-        gather_bond_loads_kernel[_blocks(model.n_particles), THREADS](
-            self.index, self.loads, force, moment, True)
+        launch(gather_bond_loads_kernel, model.n_particles, self.index, self.loads, force,
+               moment, True)
 
     def compute(self, model, state, increment_dt):
         """Advance every intact bond by ``increment_dt`` (s); loads kept per bond."""
@@ -382,10 +400,9 @@ class ElasticBondsGpu:
         if self._pending:
             self.to_device(state)
         if model.n_bonds:
-            elastic_bonds_kernel[_blocks(model.n_bonds), THREADS](
-                self._bonds, self._materials, bond_state(g.device, self._model_state),
-                particles(g.device),
-                g.box, state.time, increment_dt, bool(self.musen_compat), self.loads)
+            launch(elastic_bonds_kernel, model.n_bonds, self._bonds, self._materials,
+                   bond_state(g.device, self._model_state), particles(g.device), g.box,
+                   state.time, increment_dt, bool(self.musen_compat), self.loads)
 
     def energy(self, model, state):
         """Elastic energy stored in each bond (J), shape (B,), copied to the host."""
@@ -393,9 +410,8 @@ class ElasticBondsGpu:
             return np.zeros(0)
         g = self.backend_object
         out = cuda.device_array(model.n_bonds)
-        bond_energies_kernel[_blocks(model.n_bonds), THREADS](
-            self._bonds, self._materials, bond_state(g.device, self._model_state),
-            g.device.position, g.box, out)
+        launch(bond_energies_kernel, model.n_bonds, self._bonds, self._materials,
+               bond_state(g.device, self._model_state), g.device.position, g.box, out)
         return out.copy_to_host()
 
 
@@ -424,13 +440,12 @@ class IntegratorGpu:
         """
         g = self.backend_object
         index, loads = self._no_bonds if bonds is None else (bonds.index, bonds.loads)
-        integrate_kernel[_blocks(model.n_particles), THREADS](
-            index, loads, use_loads, particles(g.device), g.bodies, force, moment, g.fields,
-            model.damping, kick_dt, drift_dt, g.box, g.status, g.device.work,
-            g.device.dissipated, self.clumps is not None)
+        launch(integrate_kernel, model.n_particles, index, loads, use_loads, particles(g.device),
+               g.bodies, force, moment, g.fields, model.damping, kick_dt, drift_dt, g.box,
+               g.status, g.device.work, g.device.dissipated, self.clumps is not None)
         if self.clumps is not None:
-            clump_kernel[_blocks(model.n_clumps), THREADS](
-                force, moment, self.clumps, clump_state(g.device), particles(g.device),
-                g.bodies, g.fields, model.damping, kick_dt, drift_dt, g.box, g.status,
-                g.device.work, g.device.dissipated)
+            launch(clump_kernel, model.n_clumps, force, moment, self.clumps,
+                   clump_state(g.device), particles(g.device), g.bodies, g.fields,
+                   model.damping, kick_dt, drift_dt, g.box, g.status, g.device.work,
+                   g.device.dissipated)
         return STATUS_OK

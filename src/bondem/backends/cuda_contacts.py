@@ -35,7 +35,7 @@ from ..contacts import MUSEN_PAIR_HISTORY, MUSEN_WALL_HISTORY
 from .cpu_contacts import NO_TANGENTIAL, ContactLaw, csr_by, pair_rows
 from . import cpu_contacts, loops
 from .cpu import particles
-from .cuda_device import THREADS, K, blocks as _blocks
+from .cuda_device import K, launch
 
 pair_contact = K.pair_contact
 pair_rows_sum = K.pair_rows_sum
@@ -244,9 +244,8 @@ class ContactLawGpu(ContactLaw):
             return True
         self._flag.copy_to_device(np.zeros(1, dtype=np.int64))
         n = model.n_particles
-        displacement_flag_kernel[_blocks(n), THREADS](
-            self.g.device.position, self._dev["reference"], self.g.box_length, self.g.periodic,
-            limit * limit, self._flag)
+        launch(displacement_flag_kernel, n, self.g.device.position, self._dev["reference"],
+               self.g.box_length, self.g.periodic, limit * limit, self._flag)
         return bool(self._flag.copy_to_host()[0])
 
     # -- the law ----------------------------------------------------------------------
@@ -273,23 +272,22 @@ class ContactLawGpu(ContactLaw):
         counters[3] = state.time
         use_rolling = bool(self.settings.rolling_resistance)
         if self._counts[0]:
-            particle_contacts_kernel[_blocks(self._counts[0]), THREADS](
-                dev["pairs"], dev["pair_bond"], d.bond_active, particles(d), self._d_grains,
-                self._d_materials, self.wall_law, self.reach()[0], use_rolling, g.box,
-                dev["pair_rows"], increment_dt, moved_dt, self.musen_code if self.musen_compat else 0)
-            gather_pairs_kernel[_blocks(n), THREADS](dev["index"], dev["pair_rows"], force,
-                                                     moment, self._d_lost)
+            launch(particle_contacts_kernel, self._counts[0], dev["pairs"], dev["pair_bond"],
+                   d.bond_active, particles(d), self._d_grains, self._d_materials,
+                   self.wall_law, self.reach()[0], use_rolling, g.box, dev["pair_rows"],
+                   increment_dt, moved_dt, self.musen_code if self.musen_compat else 0)
+            launch(gather_pairs_kernel, n, dev["index"], dev["pair_rows"], force,
+                   moment, self._d_lost)
         if self.walls.n_walls:
             rows = self.walls.elements(self._t_wall)
             if rows is not self._rows_host:   # static walls: the same rows object
                 self._d_rows = cuda.to_device(rows)
                 self._rows_host = rows
-            wall_contacts_kernel[_blocks(n), THREADS](
-                dev["wall_start"], dev["wall_pairs"],
-                self.wall_tuple(self._t_wall, self._put_walls, self._d_rows,
-                                self._walls_still(state)), particles(d),
-                self._d_grains, self._d_materials, self.wall_law, self.reach()[1],
-                use_rolling, dev["wall_rows"], increment_dt, moved_dt, force, moment,
-                self._d_lost, self._d_work, self._evaluated_position,
-                self.musen_code if self.musen_compat else 0)
+            launch(wall_contacts_kernel, n, dev["wall_start"], dev["wall_pairs"],
+                   self.wall_tuple(self._t_wall, self._put_walls, self._d_rows,
+                                   self._walls_still(state)), particles(d),
+                   self._d_grains, self._d_materials, self.wall_law, self.reach()[1],
+                   use_rolling, dev["wall_rows"], increment_dt, moved_dt, force, moment,
+                   self._d_lost, self._d_work, self._evaluated_position,
+                   self.musen_code if self.musen_compat else 0)
             self._evaluated_time = self._t_wall
