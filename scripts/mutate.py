@@ -72,6 +72,7 @@ MODULES = {
     "src/bondem/lab/series.py": [
         "tests/test_lab_ensembles.py",
         "tests/test_lab_envelope.py::test_series_statistics_are_the_sample_mean_and_deviation"],
+    "src/bondem/lab/membrane.py": ["tests/test_lab_membrane.py"],
 }
 COPIED = ["tests/", "examples/", "docs/", "README.md", "benchmarks/", "scripts/"]
 
