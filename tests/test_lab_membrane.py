@@ -84,8 +84,10 @@ def test_a_gap_is_spanned_by_its_nearest_neighbour_and_an_empty_row_is_not_press
     position, radius = cells()
     row = np.arange(len(position)) // N_THETA
     cell = np.arange(len(position)) % N_THETA
-    # gaps in opposite cells (the centroid stays): 4, 5, 6 of row 1 and 10, 11, 0 of row 2
+    # gaps in opposite cells (the centroid stays): 4, 5, 6 of row 1 and 10, 11, 0 of row 2;
+    # 1 and 7 of row 0
     gone = (row == 1) & ((cell == 4) | (cell == 5) | (cell == 6))
+    gone |= (row == 0) & ((cell == 1) | (cell == 7))
     gone |= (row == 2) & ((cell == 10) | (cell == 11) | (cell == 0))
     gone |= row == 3                                                   # the top row empty
     force, area, mean_radius = membrane_forces(position[~gone], radius[~gone], 0, LOW, HIGH,
@@ -99,6 +101,9 @@ def test_a_gap_is_spanned_by_its_nearest_neighbour_and_an_empty_row_is_not_press
     share[kept == 1 * N_THETA + 7] = 2
     share[kept == 2 * N_THETA + 9] = 3
     share[kept == 2 * N_THETA + 1] = 2
+    # row 0: 1 and 7 are ties, to 0 (the very first cell) and 6
+    share[kept == 0] = 2
+    share[kept == 6] = 2
     np.testing.assert_allclose(np.linalg.norm(force, axis=1), PRESSURE * cell_area * share,
                                rtol=1e-9)
     assert area == pytest.approx(3 * 2 * math.pi * REACH * D_Z, rel=1e-12)
@@ -171,8 +176,10 @@ def test_nearest_filled_goes_round_and_prefers_the_cell_before():
     grid = np.array([[0, 0, 1, 0, 0, 1, 0, 0, 0, 0],
                      [0, 1, 0, 0, 0, 1, 0, 0, 0, 0],
                      [1, 0, 0, 0, 0, 0, 0, 0, 0, 0],
-                     [1, 1, 1, 1, 1, 1, 1, 1, 1, 1]], bool)
-    out = nearest_filled(grid).reshape(4, 10)
+                     [1, 1, 1, 1, 1, 1, 1, 1, 1, 1],
+                     [0, 0, 0, 0, 0, 0, 0, 0, 0, 0]], bool)
+    out = nearest_filled(grid).reshape(5, 10)
+    assert out[4].tolist() == [-1] * 10                 # a row without a particle
     # row 0: cell 9 is 3 after going round to 2, 4 after 5: it wraps to 2
     assert out[0].tolist() == [2, 2, 2, 2, 5, 5, 5, 5, 5, 2]
     # row 1: ties at 3 (1 and 5) and 8 (5 and 11 = 1): the cell before
@@ -208,3 +215,21 @@ def test_the_end_rows_reach_the_platens():
     assert area == pytest.approx(2 * math.pi * REACH * (HIGH - LOW), rel=1e-12)
     np.testing.assert_allclose(np.linalg.norm(force, axis=1),
                                PRESSURE * REACH * D_THETA * D_Z, rtol=1e-9)
+
+
+def test_a_particle_at_half_a_turn_is_in_the_last_cell():
+    """atan2 gives +pi on the negative side of the first lateral axis: that particle is in
+    the row's last cell (not the next row's first). Coordinates are binary fractions, so
+    the centroid and the angle are exact; six cells of 60 degrees around."""
+    c, d, r = 2.0 ** -8, 2.0 ** -7, 2.0 ** -10
+    lateral = np.array([[c, c], [-c, c], [-c, -c], [c, -c], [-d, 0.0], [d, 0.0]])
+    centre = np.array([0.5, -0.25, 0.125])
+    position = centre + np.column_stack([np.zeros(6), lateral])   # x = 0.5: inside
+    force, area, _ = membrane_forces(position, np.full(6, r), 0, 0.25, 0.75, PRESSURE, 10.0)
+    # cells (from -180 degrees): 0 holds -135, 2 holds -45, 3 holds 0 and 45, 5 holds 135
+    # and 180 (the farther); 1 and 4 are ties, given to 0 and 3
+    sixth = 2 * math.pi / 6 * 0.5
+    np.testing.assert_allclose(force[4], [0.0, PRESSURE * (d + r) * sixth, 0.0], rtol=1e-12)
+    assert force[1].tolist() == [0.0, 0.0, 0.0]
+    assert area == pytest.approx(sixth * (3 * (c * math.sqrt(2) + r) + 3 * (d + r)),
+                                 rel=1e-12)
