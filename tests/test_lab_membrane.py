@@ -233,3 +233,20 @@ def test_a_particle_at_half_a_turn_is_in_the_last_cell():
     assert force[1].tolist() == [0.0, 0.0, 0.0]
     assert area == pytest.approx(sixth * (3 * (c * math.sqrt(2) + r) + 3 * (d + r)),
                                  rel=1e-12)
+
+
+def test_a_few_particles_standing_out_leave_the_cells_as_they_were():
+    """The cells are sized from the reach that 90 % of the particles stay within: five
+    particles of 53 (under a tenth) standing out to three times the surface's reach press
+    their own cells at their reach, and the cells stay those of the surface."""
+    position, radius = cells()
+    angles = -math.pi + 0.1 + 2 * math.pi / 5 * np.arange(5)     # a pentagon: centroid kept
+    reach_out = 3 * REACH
+    out = ring(reach_out - R_P, LOW + 1.5 * D_Z, angles)
+    force, area, _ = membrane_forces(np.vstack([position, out]), np.r_[radius, np.full(5, R_P)],
+                                     0, LOW, HIGH, PRESSURE, CELL)
+    assert np.count_nonzero(np.linalg.norm(force, axis=1)) == N_THETA * N_Z
+    np.testing.assert_allclose(np.linalg.norm(force[-5:], axis=1),
+                               PRESSURE * reach_out * D_THETA * D_Z, rtol=1e-9)
+    assert area == pytest.approx(D_THETA * D_Z * ((N_THETA * N_Z - 5) * REACH
+                                                  + 5 * reach_out), rel=1e-9)
