@@ -73,15 +73,10 @@ MODULES = {
         "tests/test_lab_ensembles.py",
         "tests/test_lab_envelope.py::test_series_statistics_are_the_sample_mean_and_deviation"],
     "src/bondem/lab/membrane.py": ["tests/test_lab_membrane.py"],
-    # the tests that run LAMMPS itself (and a Simulation) are left out: slow, and not
-    # where the deck's lines are checked
-    "src/bondem/io/lammps.py": [
-        "tests/test_lammps_deck.py",
-        "tests/test_lammps_export.py::test_bond_coefficients_are_the_springs_and_limits_of_each_bond",
-        "tests/test_lammps_export.py::test_what_has_no_counterpart_is_named",
-        "tests/test_lammps_export.py::test_a_plastic_bond_is_exported_elastic_and_named",
-        "tests/test_lammps_export.py::test_adhesive_contacts_map_to_lammps_jkr_and_dmt",
-        "tests/test_lammps_export.py::test_command_line_writes_the_files_and_takes_set"],
+    # test_lammps_export.py loads scene files, which ends a forked child as "suspicious"
+    # (all 140 survivors of a first run that included it); the deck is checked line by
+    # line on Python-built models here
+    "src/bondem/io/lammps.py": ["tests/test_lammps_deck.py"],
 }
 COPIED = ["tests/", "examples/", "docs/", "README.md", "benchmarks/", "scripts/"]
 

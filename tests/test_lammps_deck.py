@@ -239,3 +239,55 @@ def test_notes_name_what_has_no_counterpart(tmp_path):
                          contact=ContactSettings(model="popov_jkr", skin=SKIN))
     assert ("contact model 'popov_jkr': exported as LAMMPS's jkr (the law Popov's fits)"
             in notes)
+
+
+STICKY = bondem.Material(density=2500.0, young_modulus=1e8, poisson_ratio=0.3,
+                         restitution=0.5, friction=0.3, surface_energy=0.3,
+                         hamaker_constant=1.2e-19, vdw_min_distance=5e-10, name="sticky")
+
+
+def adhesive_deck(tmp_path, model_name):
+    position = [[0.0, 0.0, 0.0], [2e-3, 0.0, 0.0]]
+    model, state = bondem.make_system(position, 1e-3, STICKY)
+    wall = PlaneWall((0.0, 0.0, -0.01), (0.0, 0.0, 1.0), STICKY)
+    _, deck, notes = export(tmp_path, model, state, walls=[wall],
+                            contact=ContactSettings(model=model_name, skin=SKIN))
+    pair = next(x for x in deck if x.startswith("pair_coeff")).split()
+    fix = next(x for x in deck if x.startswith("fix             wall0")).split()
+    return pair[3:], fix[5:fix.index("region")], notes
+
+
+@pytest.mark.parametrize("name", ["jkr", "popov_jkr"])
+def test_jkr_is_lammps_jkr_with_half_the_work_of_adhesion(tmp_path, name):
+    """LAMMPS's JKR cohesion is the surface energy gamma = w/2 (its pull-off 3 pi gamma R*
+    against bondem's 3/2 pi w R*), between particles and on the walls alike."""
+    pair, wall, notes = adhesive_deck(tmp_path, name)
+    ratio = f"{2 * math.sqrt((1 - 0.3) / (2 * (2 - 0.3))):.6f}"
+    expected = ["jkr", "100000000.0", "0.5", "0.3", "0.15", "tangential", "mindlin", "NULL",
+                ratio, "0.3", "damping", "tsuji"]
+    assert pair == expected and wall == expected
+    popov = "contact model 'popov_jkr': exported as LAMMPS's jkr (the law Popov's fits)"
+    assert (popov in notes) == (name == "popov_jkr")
+
+
+def test_van_der_waals_is_lammps_dmt_with_the_same_pull_in_contact(tmp_path):
+    """DMT's pull-off 4 pi gamma R* equals bondem's saturated A R* / (6 h0^2) for
+    gamma = A / (24 pi h0^2)."""
+    pair, wall, notes = adhesive_deck(tmp_path, "vdw")
+    gamma = 1.2e-19 / (24 * math.pi * 5e-10 ** 2)
+    assert pair[:4] == ["dmt", "100000000.0", "0.5", "0.3"] and pair == wall
+    assert float(pair[4]) == pytest.approx(gamma, rel=1e-15)
+    assert 4 * math.pi * float(pair[4]) == pytest.approx(1.2e-19 / (6 * 5e-10 ** 2),
+                                                         rel=1e-15)
+    assert notes == ["contact model 'vdw': exported as LAMMPS's dmt with the same pull in "
+                     "contact; LAMMPS's granular styles have no force beyond contact"]
+
+
+def test_plain_contacts_need_no_note(tmp_path):
+    """Hertz-Mindlin without rolling friction, damping, fixed particles, bonds or mixed
+    materials: nothing to say."""
+    pair, _, notes = adhesive_deck(tmp_path, "hertz_mindlin")
+    assert pair[0] == "hertz/material" and notes == []
+    _, _, notes = adhesive_deck(tmp_path, "liquid_bridge")
+    assert notes == ["contact model 'liquid_bridge': exported as Hertz-Mindlin (LAMMPS's "
+                     "granular styles have no counterpart)"]
