@@ -291,3 +291,129 @@ def test_plain_contacts_need_no_note(tmp_path):
     _, _, notes = adhesive_deck(tmp_path, "liquid_bridge")
     assert notes == ["contact model 'liquid_bridge': exported as Hertz-Mindlin (LAMMPS's "
                      "granular styles have no counterpart)"]
+
+
+GREY = bondem.Material(density=2000.0, young_modulus=5e7, poisson_ratio=0.25, restitution=0.6,
+                       friction=0.4)
+GLUE = bondem.BondMaterial(young_modulus=1e8, poisson_ratio=0.25, normal_strength=1e6,
+                           tangential_strength=2e6)
+
+
+def pair_system(bonded=True):
+    return bondem.make_system([[0, 0, 0], [0.002, 0, 0]], 0.001, GREY,
+                              velocity=[[0.5, 0, 0], [0, 0, 0]],
+                              bonds=[[0, 1]] if bonded else None,
+                              bond_diameter=0.001 if bonded else None,
+                              bond_material=GLUE if bonded else None)
+
+
+def test_a_bonded_pair_exports_whole(tmp_path):
+    """The whole data file and deck of a bonded pair, no contact law, no walls, no gravity
+    (the folder made with its parents): each line is what LAMMPS reads (docs/lammps.md).
+    The default skin is a fifth of the mean radius (0.2 mm); the ghost cut-off covers 1.5
+    bond lengths (3.2 mm); no contact law: pair style zero at 2 r + skin."""
+    model, state = pair_system()
+    data, deck, notes = write_lammps(model, state, {"time_step": 1e-6}, tmp_path / "a" / "b",
+                                     end_time=2e-4, save_every=5e-5)
+    assert data.read_text() == "\n".join([
+        "LAMMPS data file written by bondem export lammps (SI units)", "",
+        "2 atoms", "1 atom types", "1 bonds", "1 bond types", "",
+        "-0.002 0.004 xlo xhi", "-0.002 0.002 ylo yhi", "-0.002 0.002 zlo zhi", "",
+        "Atoms # bpm/sphere", "",
+        "1 0 1 0.002 2000.0 0.0 0.0 0.0", "2 0 1 0.002 2000.0 0.002 0.0 0.0", "",
+        "Velocities", "",
+        "1 0.5 0.0 0.0 0.0 0.0 0.0", "2 0.0 0.0 0.0 0.0 0.0 0.0", "",
+        "Bonds", "", "1 1 1 2"]) + "\n"
+    assert deck.read_text() == "\n".join([
+        "# bondem exported by bondem (docs/lammps.md)",
+        "units           si",
+        "atom_style      bpm/sphere",
+        "boundary        m m m",
+        "newton          on off",
+        "comm_modify     vel yes cutoff 0.0032",
+        "special_bonds   lj 0 1 1 coul 1 1 1",
+        "read_data       data.lammps extra/bond/per/atom 12 extra/special/per/atom 60",
+        "bond_style      bpm/rotational break yes smooth no",
+        "include         bond_coeffs.lammps",
+        "pair_style      zero 0.0022",
+        "pair_coeff      * *",
+        "neighbor        0.0002 bin",
+        "neigh_modify    every 1 delay 0 check yes",
+        "fix             integrate all nve/bpm/sphere",
+        "dump            particles all custom 50 dump.particles.* id type radius mass x y z "
+        "vx vy vz omegax omegay omegaz fx fy fz",
+        "dump_modify     particles sort id format float %.17g",
+        "compute         bonds all property/local batom1 batom2 btype",
+        "dump            bonds all local 50 dump.bonds.* c_bonds[1] c_bonds[2] c_bonds[3]",
+        "dump_modify     bonds colname 1 atom1 colname 2 atom2 colname 3 type",
+        "timestep        1e-06",
+        "thermo_style    custom step time ke",
+        "thermo          50",
+        "variable        steps index 200",
+        "run             ${steps}"]) + "\n"
+    coeffs = (tmp_path / "a" / "b" / "bond_coeffs.lammps").read_text()
+    assert coeffs.startswith("bond_coeff 1 ") and coeffs.endswith("\n")
+    assert coeffs.count("\n") == 1
+    r, length, shear = 5e-4, 2e-3, 1e8 / 2.5
+    area, second = math.pi * r ** 2, math.pi * r ** 4 / 4
+    values = [float(v) for v in coeffs.split()[2:]]
+    assert values == pytest.approx([1e8 * area / length, shear * area / length,
+                                    shear * 2 * second / length, 1e8 * second / length,
+                                    1e6 * area, 2e6 * area, 1e6 * second / r,
+                                    2e6 * 2 * second / r, 0, 0, 0, 0], rel=1e-13)
+    assert notes == ["breakage: LAMMPS sums the four load ratios (normal, shear, bending, "
+                     "twisting), bondem compares each stress pair with its strength "
+                     "(docs/lammps.md)"]
+
+
+def test_loose_particles_have_no_bond_lines(tmp_path):
+    model, state = pair_system(bonded=False)
+    data, deck, notes = write_lammps(model, state, {"time_step": 1e-6}, tmp_path,
+                                     end_time=2e-4, save_every=5e-5)
+    text = data.read_text()
+    assert "bonds" not in text and "Bonds" not in text and "bond types" not in text
+    assert text.split("\n")[2:5] == ["2 atoms", "1 atom types", ""]
+    lines = deck.read_text().splitlines()
+    assert not any("bond" in line for line in lines[8:]), lines
+    assert not (tmp_path / "bond_coeffs.lammps").exists() and notes == []
+    # without bonds the ghost cut-off is the pair search's, 2 r + skin
+    assert "comm_modify     vel yes cutoff 0.0022" in lines
+
+
+def test_an_automatic_time_step_is_the_simulations(tmp_path):
+    model, state = pair_system()
+    _, deck, _ = write_lammps(model, state, {"time_step": "auto"}, tmp_path,
+                              end_time=1e-3, save_every=1e-4)
+    dt = bondem.Simulation(model, state.copy()).time_step
+    lines = deck.read_text().splitlines()
+    assert f"timestep        {dt!r}" in lines
+    assert f"variable        steps index {round(1e-3 / dt)}" in lines
+
+
+def test_every_note_whole(tmp_path):
+    """A moment alone is an external load; a plastic bond is exported elastic."""
+    plastic = bondem.BondMaterial(young_modulus=1e8, poisson_ratio=0.25, breakage="none",
+                                  model="elastic_plastic", yield_strength=1e5)
+    model, state = bondem.make_system([[0, 0, 0], [0.002, 0, 0]], 0.001, GREY,
+                                      bonds=[[0, 1]], bond_diameter=0.001,
+                                      bond_material=plastic,
+                                      external_moment=[[0, 0, 1e-6], [0, 0, 0]])
+    _, _, notes = write_lammps(model, state, {"time_step": 1e-6}, tmp_path, end_time=1e-4,
+                               save_every=1e-5)
+    assert notes == ["fixed particles and external loads: not exported",
+                     "elastic_plastic bonds: exported as elastic bonds (LAMMPS's "
+                     "bpm/rotational has no counterpart: docs/lammps.md)"]
+    _, _, notes = write_lammps(*pair_system(), {"time_step": 1e-6}, tmp_path, end_time=1e-4,
+                               save_every=1e-5)
+    assert not any("exported as elastic" in n for n in notes)
+
+
+def test_a_mesh_wall_is_skipped_not_the_walls_after_it(tmp_path):
+    model, state = pair_system()
+    walls = [MeshWall([[0, 0, 0.05], [1, 0, 0.05], [0, 1, 0.05]], [[0, 1, 2]], GREY),
+             PlaneWall((0.0, 0.0, -0.01), (0.0, 0.0, 1.0), GREY)]
+    _, deck, notes = export(tmp_path, model, state, walls=walls)
+    assert "pair_style      granular" in deck
+    assert [x for x in deck if x.startswith("region")] == [
+        "region          wall1 plane 0.0 0.0 -0.01 0.0 0.0 1.0 side in"]
+    assert "walls[0]: a mesh wall, not exported" in notes
