@@ -97,8 +97,9 @@ def test_bond_types_are_the_distinct_coefficient_rows(tmp_path):
     text, deck, _ = export(tmp_path, model, state)
     bonds = [[int(v) for v in line.split()] for line in section(text, "Bonds")]
     assert bonds[0][1] == bonds[1][1] != bonds[2][1]
-    coeffs = {int(line.split()[1]): [float(v) for v in line.split()[2:]]
-              for line in (tmp_path / "bond_coeffs.lammps").read_text().splitlines()}
+    lines = (tmp_path / "bond_coeffs.lammps").read_text().splitlines()
+    assert [line.split()[:2] for line in lines] == [["bond_coeff", "1"], ["bond_coeff", "2"]]
+    coeffs = {int(line.split()[1]): [float(v) for v in line.split()[2:]] for line in lines}
     area = math.pi * (0.5e-3) ** 2
     second = area * (0.5e-3) ** 2 / 4
     weak = coeffs[bonds[0][1]]
@@ -315,6 +316,8 @@ def test_a_bonded_pair_exports_whole(tmp_path):
     model, state = pair_system()
     data, deck, notes = write_lammps(model, state, {"time_step": 1e-6}, tmp_path / "a" / "b",
                                      end_time=2e-4, save_every=5e-5)
+    assert (data.name, deck.name, data.parent) == ("data.lammps", "in.lammps",
+                                                   tmp_path / "a" / "b")
     assert data.read_text() == "\n".join([
         "LAMMPS data file written by bondem export lammps (SI units)", "",
         "2 atoms", "1 atom types", "1 bonds", "1 bond types", "",
@@ -382,9 +385,10 @@ def test_loose_particles_have_no_bond_lines(tmp_path):
 
 def test_an_automatic_time_step_is_the_simulations(tmp_path):
     model, state = pair_system()
-    _, deck, _ = write_lammps(model, state, {"time_step": "auto"}, tmp_path,
-                              end_time=1e-3, save_every=1e-4)
-    dt = bondem.Simulation(model, state.copy()).time_step
+    _, deck, _ = write_lammps(model, state, {"time_step": "auto", "safety_factor": 0.1},
+                              tmp_path, end_time=1e-3, save_every=1e-4)
+    dt = bondem.Simulation(model, state.copy(), safety_factor=0.1).time_step
+    assert dt < bondem.Simulation(model, state.copy()).time_step   # the options count
     lines = deck.read_text().splitlines()
     assert f"timestep        {dt!r}" in lines
     assert f"variable        steps index {round(1e-3 / dt)}" in lines
