@@ -120,7 +120,8 @@ def mutate(module, tests, keep=False):
     # the mutated package, made by mutmut: the folder must exist when Python starts, or
     # the import system remembers it as missing
     (work / "mutants" / "src").mkdir(parents=True)
-    env = dict(os.environ, PYTHONPATH=str(work / "mutants" / "src"), NUMBA_NUM_THREADS="1")
+    env = dict(os.environ, PYTHONPATH=str(work / "mutants" / "src"), NUMBA_NUM_THREADS="1",
+               NUMBA_THREADING_LAYER=os.environ.get("NUMBA_THREADING_LAYER", "omp"))
     subprocess.run([sys.executable, "-m", "mutmut", "run"], cwd=work, env=env)
     subprocess.run([sys.executable, "-m", "mutmut", "export-cicd-stats"], cwd=work, env=env,
                    capture_output=True)
