@@ -181,6 +181,7 @@ def test_command_line_writes_the_files_and_takes_set(tmp_path):
                                        "--set", "simulation.end_time=5e-5"])
     assert result.exit_code == 0, result.output
     deck = (out / "in.lammps").read_text()
+    assert deck.splitlines()[0] == "# scene.toml exported by bondem (docs/lammps.md)"
     assert "variable        steps index 500" in deck
     # a run writes something to look at, every save_every (1e-5 s of 1e-7 s steps)
     assert "dump            particles all custom 100 dump.particles.* id type radius" in deck
