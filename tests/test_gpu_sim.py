@@ -206,9 +206,8 @@ def test_numpy_without_row_stack_is_a_clear_error():
     result = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
                             text=True, timeout=120)
     assert result.returncode == 0, result.stderr
-    import numpy
     assert result.stdout.strip() == (
-        f"numba-cuda cannot compile kernels with NumPy {numpy.__version__} (module 'numpy' "
+        f"numba-cuda cannot compile kernels with NumPy {np.__version__} (module 'numpy' "
         "has no attribute 'row_stack'; NVIDIA/numba-cuda#907): install numpy<2.5, as pip "
         "install 'bondem[gpu]' does")
 

@@ -43,7 +43,6 @@ def launch(kernel, n, *args):
     grid = blocks(n)
     prepared = _prepared.get(kernel) if PREPARED_LAUNCH else None
     if prepared is not None and prepared.launch(grid, args):
-        prepared.hits += 1
         return
     kernel[grid, THREADS](*args)
     if PREPARED_LAUNCH and _prepared.get(kernel, True) is not None:
@@ -102,8 +101,8 @@ class PreparedLaunch:
     def __init__(self, overload, n_leaves, arrays, params, scalars, raw_launch):
         self.overload, self.n_leaves, self.arrays = overload, n_leaves, arrays
         self.params, self.scalars, self.raw_launch = params, scalars, raw_launch
-        self.builds = 1   # how often this kernel was prepared, and launched prepared
-        self.hits = 0
+        self.builds = 1   # how often this kernel was prepared (``renewed`` carries both)
+        self.hits = 0     # and launched prepared
 
     @classmethod
     def renewed(cls, kernel, args, old=None, raw_launch=None):
@@ -163,4 +162,5 @@ class PreparedLaunch:
             self.overload._prepare_args(ty, leaves[i], 0, [], one)
             params[slot] = one[0]
         self.raw_launch(grid, params)
+        self.hits += 1
         return True
