@@ -3,7 +3,7 @@ files with known answers (compression between a fixed and a moving plate)."""
 import numpy as np
 import pytest
 
-from bondem.analysis import Results, energy_balance, key_numbers, wall_curve
+from bondem.analysis import Results, energy_balance, force_mismatch, key_numbers, wall_curve
 from bondem.analysis.figures import build_figures
 
 from resultsfile import write_static
@@ -270,6 +270,57 @@ def test_the_mismatch_stops_at_the_peak_and_a_curve_without_load_has_none(tmp_pa
         assert curve["peak_force"] == pytest.approx(scale * peak)
         assert curve["force_mismatch"] == (None if expected is None else
                                            pytest.approx(expected, rel=1e-12))
+
+
+def test_the_whole_history_is_read_past_the_number_of_frames(tmp_path):
+    """A run's history has a row every step, far more than its frames: two plates closing
+    at 10 um per 1e-5 s from z = 1 mm and 5 mm, frames every tenth row (5), history rows
+    every 1e-5 s (41), the lower plate's load rising 0.5 N per row to 17 N at row 34
+    (t = 0.34 ms, after the fourth frame), then falling 1 N per row; the upper plate reads
+    0.1 N more, 0.8 N more at row 25 (between frames). A 42nd row of force and position
+    whose time is not yet written (a writer within a row) does not count."""
+    import h5py
+    j = np.arange(41)
+    push = np.where(j <= 34, 0.5 * j, 17.0 - (j - 34))
+    delta = np.where(j == 25, 0.8, 0.1)
+    force, position = np.zeros((42, 2, 3)), np.zeros((42, 2, 3))
+    force[:41, 0, 2], force[:41, 1, 2] = -push, push + delta
+    force[41, :, 2] = -100.0, 100.0
+    position[:41, 0, 2], position[:41, 1, 2] = 1e-3 + 1e-5 * j, 5e-3 - 1e-5 * j
+    path = _file(tmp_path, "steps.h5", force[:41:10], position[:41:10])
+    with h5py.File(path, "a") as f:
+        f["walls/history/time"] = j * 1e-5
+        f["walls/history/force"] = force
+        f["walls/history/position"] = position
+    with Results(path) as results:
+        assert results.n_frames == 5
+        curve = wall_curve(results)
+        numbers = key_numbers(results)
+    peak = 17.0 + 0.05
+    assert curve["peak_force"] == pytest.approx(peak, rel=1e-12)
+    assert curve["peak_time"] == pytest.approx(3.4e-4, rel=1e-12)
+    assert curve["displacement_at_peak_force"] == pytest.approx(6.8e-4, rel=1e-12)
+    assert curve["gap_at_peak_force"] == pytest.approx(4e-3 - 6.8e-4, rel=1e-12)
+    assert curve["peak_index"] == 3
+    assert curve["force_mismatch"] == pytest.approx(0.8 / peak, rel=1e-12)
+    assert numbers["plate_force_mismatch"] == pytest.approx(0.8 / peak, rel=1e-12)
+    assert numbers["peak_wall_force"] == pytest.approx(peak, rel=1e-12)
+
+
+def test_force_mismatch_is_the_largest_difference_up_to_the_peak_over_its_mean_force():
+    """The one definition the lab and the analysis share: forces of 3, 5, 9.5 and 7 N on
+    one platen against 1, 6, 8.5 and 10 N on the other peak (the mean 9.0 N) at the
+    third sample; the 2 N apart at the first count, the 3 N after the peak do not.
+    At a given peak (a stress's, which need not be the force's) the same up to it."""
+    a, b = np.array([3.0, 5.0, 9.5, 7.0]), np.array([1.0, 6.0, 8.5, 10.0])
+    assert force_mismatch(a, b) == pytest.approx(2.0 / 9.0, rel=1e-15)
+    assert force_mismatch(b, a) == pytest.approx(2.0 / 9.0, rel=1e-15)
+    assert force_mismatch(a, b, peak=1) == pytest.approx(2.0 / 5.5, rel=1e-15)
+    assert force_mismatch(a, b, peak=3) == pytest.approx(3.0 / 8.5, rel=1e-15)
+    assert force_mismatch(np.array([0.0, 1e-3]), np.array([0.0, 3e-3])) == pytest.approx(1.0)
+    assert force_mismatch(np.zeros(3), np.zeros(3)) is None
+    assert force_mismatch([-1.0, -2.0], [-1.0, -3.0]) is None   # never compressed
+    assert force_mismatch([], []) is None
 
 
 def test_the_curve_is_computed_in_double_precision_whatever_the_file_stores(tmp_path):

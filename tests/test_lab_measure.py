@@ -202,10 +202,14 @@ def test_fragments_and_their_table():
     pairs = np.array([[0, 1], [1, 2], [3, 4], [4, 5]])
     mass = np.array([1.0, 1.0, 1.0, 2.0, 2.0, 0.5]) * 1e-6
     radius = np.array([1.0, 1.0, 1.0, 1.26, 1.26, 0.8]) * 1e-3
-    count, largest = measure.fragments(pairs, np.array([True, True, True, False]), mass)
-    assert count == 2 and largest == pytest.approx(4.0 / 7.5, rel=1e-12)
-    count, largest = measure.fragments(pairs, np.array([True, False, False, False]), mass)
-    assert count == 1 and largest == pytest.approx(2.0 / 7.5, rel=1e-12)
+    # pieces {0,1,2}, {3,4}, {5}; then {0,1}, {2}, {3}, {4}, {5}: a loose particle is a
+    # fragment of its own (as in the analysis), the second count is of 2+ particles
+    count, multi, largest = measure.fragments(pairs, np.array([True, True, True, False]),
+                                              mass)
+    assert (count, multi) == (3, 2) and largest == pytest.approx(4.0 / 7.5, rel=1e-12)
+    count, multi, largest = measure.fragments(pairs, np.array([True, False, False, False]),
+                                              mass)
+    assert (count, multi) == (5, 1) and largest == pytest.approx(2.0 / 7.5, rel=1e-12)
     table = measure.fragment_table(pairs, np.array([True, True, True, False]), radius, mass)
     assert table["particles"].tolist() == [2.0, 3.0, 1.0]
     assert table["mass"] == pytest.approx([4e-6, 3e-6, 0.5e-6], rel=1e-12)

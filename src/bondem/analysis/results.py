@@ -119,6 +119,18 @@ class Results:
         """All complete frames of the per-frame dataset ``key`` as an array (F, ...)."""
         return self._dataset(key)[: self.n_frames]
 
+    def wall_history(self):
+        """The walls' per-step history (/walls/history: every step whose wall loads
+        changed, more rows than frames): (time (H,) s, force (H,W,3) N, position (H,W,3)
+        m) in float64, its whole rows (the writer appends time last); None in files
+        without one."""
+        if "walls/history/time" not in self.file:
+            return None
+        count = self._dataset("walls/history/time").shape[0]
+        return tuple(np.asarray(self._dataset(f"walls/history/{name}")[:count],
+                                dtype=np.float64)
+                     for name in ("time", "force", "position"))
+
     def frame(self, key, frame):
         """One frame of the per-frame dataset ``key``."""
         return self._dataset(key)[self.frame_index(frame)]

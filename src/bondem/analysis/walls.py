@@ -66,6 +66,23 @@ class _Plates:
         return force_wall, force_partner, 0.5 * (force_wall + force_partner), displacement, gap
 
 
+def force_mismatch(force_a, force_b, peak=None):
+    """The platens' (plates') force mismatch, a quasi-static check (the one definition of
+    analysis, lab and report): the largest |F_a - F_b| up to the peak over the peak's
+    mean force (F_a + F_b) / 2, both compressive forces in N sampled alike; ``peak``: the
+    sample of the peak, by default that of the largest mean force. Dimensionless; None
+    when the mean force at the peak is not positive."""
+    force_a = np.asarray(force_a, dtype=np.float64)
+    force_b = np.asarray(force_b, dtype=np.float64)
+    mean = 0.5 * (force_a + force_b)
+    if mean.size == 0:
+        return None
+    peak = int(np.argmax(mean)) if peak is None else int(peak)
+    if not mean[peak] > 0.0:
+        return None
+    return float(np.max(np.abs(force_a - force_b)[:peak + 1]) / mean[peak])
+
+
 def wall_curve(results, wall=None):
     """Force-displacement curve of the plates of an open ``Results``.
 
@@ -101,26 +118,24 @@ def wall_curve(results, wall=None):
     # The peak between frames: /walls/history holds every step whose wall forces changed,
     # the frames only every save_every (a peak between two frames was read 9 % low).
     peak_time, peak_force, peak_displacement, peak_gap, mismatch = None, None, None, None, None
-    if results.has("walls/history/time") and len(results.frames("walls/history/time")):
-        h_time = np.asarray(results.frames("walls/history/time"), dtype=np.float64)
-        h_wall, h_partner, h_force, h_displacement, h_gap = plates.curve(
-            np.asarray(results.frames("walls/history/force"), dtype=np.float64),
-            np.asarray(results.frames("walls/history/position"), dtype=np.float64))
+    history = results.wall_history()
+    if history is not None and len(history[0]):
+        h_time = history[0]
+        h_wall, h_partner, h_force, h_displacement, h_gap = plates.curve(*history[1:])
         h_peak = int(np.argmax(h_force))
         peak_time, peak_force = float(h_time[h_peak]), float(h_force[h_peak])
         peak_displacement = float(h_displacement[h_peak])
         peak_gap = None if h_gap is None else float(h_gap[h_peak])
-        if partner is not None and peak_force > 0.0:
-            mismatch = float(np.max(np.abs(h_wall - h_partner)[:h_peak + 1]) / peak_force)
+        if partner is not None:
+            mismatch = force_mismatch(h_wall, h_partner, h_peak)
         peak = int(np.argmin(np.abs(results.time - peak_time)))
     else:
         peak = int(np.argmax(compressive))
         peak_time, peak_force = float(results.time[peak]), float(compressive[peak])
         peak_displacement = float(displacement[peak])
         peak_gap = None if gap is None else float(gap[peak])
-        if partner is not None and peak_force > 0.0:
-            mismatch = float(np.max(np.abs(force_wall - force_partner)[:peak + 1])
-                             / peak_force)
+        if partner is not None:
+            mismatch = force_mismatch(force_wall, force_partner, peak)
     out = {"wall": wall, "partner": partner, "time": results.time,
            "displacement": displacement, "gap": gap, "force": compressive,
            "force_wall": force_wall, "force_partner": force_partner,

@@ -12,8 +12,9 @@ SHOWN = ("n_particles", "n_bonds", "ucs", "tensile_strength", "peak_deviator_str
          "breakage_force", "young_modulus_secant", "young_modulus_tangent", "poisson_ratio",
          "strain_at_peak", "crack_initiation_stress", "confining_stress_error",
          "crack_damage_stress", "platen_force_mismatch", "kinetic_energy_ratio",
-         "broken_bonds_final", "fragments", "breakage_energy", "applied_energy",
-         "fragment_size_d50", "loose_particles", "ae_events", "b_value", "steps", "wall_time")
+         "broken_bonds_final", "fragments", "fragments_multi", "breakage_energy",
+         "applied_energy", "fragment_size_d50", "loose_particles", "ae_events", "b_value",
+         "steps", "wall_time")
 
 # Why a number can be missing (NaN) from a test's results, as the command line says it.
 NOT_FOUND = {
@@ -21,7 +22,7 @@ NOT_FOUND = {
     "young_modulus_secant": "the loading curve never reached half its peak stress",
     "young_modulus_tangent": "too few samples around half the peak stress",
     "poisson_ratio": "the loading curve never reached half its peak stress",
-    "platen_force_mismatch": "no sample above 20 % of the peak force",
+    "platen_force_mismatch": "the platens pressed no force at the peak",
     "kinetic_energy_ratio": "no elastic energy was stored",
     "crack_damage_stress": "the volumetric strain did not turn to dilatancy before the peak",
     "b_value": "fewer than 10 AE events, or all of one magnitude",

@@ -119,12 +119,14 @@ def crack_initiation(stress, broken, fraction=0.01):
 
 
 def fragments(pairs, active, mass):
-    """(number of fragments of two or more particles, mass fraction of the largest)."""
+    """(fragments, those of two or more particles, mass fraction of the largest): a
+    fragment is a connected component of the intact bonds, a loose particle one of its
+    own (analysis.fragment_labels: the one definition of analysis, lab and report)."""
     from ..analysis.fragments import fragment_labels
     count, labels = fragment_labels(pairs, active, mass.shape[0], mass)
     sizes = np.bincount(labels, minlength=count)
     weights = np.bincount(labels, weights=mass, minlength=count)
-    return int(np.count_nonzero(sizes >= 2)), float(weights.max() / mass.sum())
+    return count, int(np.count_nonzero(sizes >= 2)), float(weights.max() / mass.sum())
 
 
 def unloading_modulus(strain, stress, loading):

@@ -22,8 +22,9 @@ CAPTIONS = {
               "(the gauge strain turns back after the peak).",
     "fragments": "Fragment size distribution by mass (a fragment's size: the diameter of "
                  "the sphere of its particles' volume): the mass fraction passing each size, "
-                 "the mass per logarithmic size class, and the number of fragments of two or "
-                 "more particles against the energy the plates applied.",
+                 "the mass per logarithmic size class, and the number of fragments (of two or "
+                 "more particles, and all of them with the loose particles) against the "
+                 "energy the plates applied.",
     "ae": "Acoustic emission: AE events (cracks grouped in space and time) against the "
           "platen strain, and the number of events of at least each magnitude with the "
           "b-value's Gutenberg-Richter line.",
@@ -161,9 +162,13 @@ def build_lab_figures(result):
             ax.xaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
         middle.set_xlabel("fragment size (mm)")
         middle.set_ylabel("mass fraction per size class")
-        right.plot(curve["applied_energy"] * 1e3, curve["fragments"])
+        right.plot(curve["applied_energy"] * 1e3, curve["fragments_multi"],
+                   label="of 2+ particles")
+        right.plot(curve["applied_energy"] * 1e3, curve["fragments"], "--",
+                   label="all, loose particles included")
         right.set_xlabel("applied energy (mJ)")
-        right.set_ylabel("fragments of 2+ particles")
+        right.set_ylabel("fragments")
+        right.legend()
         fig.tight_layout()
         figures["fragments"] = fig
     if result.ae is not None and "ae_events" in curve:

@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..analysis.walls import force_mismatch
 from ..contacts import ContactSettings
 from ..physics.contact_linear import LINEAR_REFERENCE_OVERLAP
 from ..model import Material
@@ -371,8 +372,9 @@ UNBONDED_MIN_STRAIN = 0.05
 def _stop(stress, broken, n_bonds, strain, settings, top, pieces=None):
     """Stop rule: past the peak, with at least failure_bonds of the bonds broken (without
     bonds: past a platen strain of UNBONDED_MIN_STRAIN), below post_peak of it, and (an
-    agglomerate: ``pieces`` = (fragments, largest fragment's mass fraction) given) its
-    largest fragment at most largest_fragment of the mass; or at the strain limit."""
+    agglomerate: ``pieces`` = (fragments of 2+ particles, largest fragment's mass
+    fraction) given) its largest fragment at most largest_fragment of the mass; or at the
+    strain limit."""
     if strain >= settings.max_strain:
         return "strain limit"
     # without bonds (an adhesive agglomerate) the fall past the peak, once the platens
@@ -419,7 +421,7 @@ UNITS = {"time": "s", "axial_stress": "Pa", "axial_strain": "1", "platen_strain"
          "young_modulus_secant": "Pa", "young_modulus_tangent": "Pa", "poisson_ratio": "1",
          "crack_initiation_stress": "Pa", "broken_bonds_at_peak": "1",
          "broken_bonds_final": "1", "kinetic_energy_ratio": "1",
-         "platen_force_mismatch": "1", "platen_force_mismatch_max": "1", "fragments": "1",
+         "platen_force_mismatch": "1", "fragments": "1", "fragments_multi": "1",
          "largest_fragment_fraction": "1",
          "strain_rate": "1/s", "time_step": "s", "steps": "1", "wall_time": "s",
          "tensile_strength": "Pa", "ucs": "Pa", "breakage_force": "N",
@@ -545,8 +547,10 @@ def _finish(test, specimen, settings, sim, runner, numbers, stop, notes):
     if curve:
         curve["ae_events"] = np.searchsorted(np.sort(ae["time"]), curve["time"],
                                              side="right").astype(np.float64)
-    count, largest = measure.fragments(sim.model.bond_pairs, state.bond_active, sim.model.mass)
-    numbers.update({"fragments": count, "largest_fragment_fraction": largest,
+    count, multi, largest = measure.fragments(sim.model.bond_pairs, state.bond_active,
+                                              sim.model.mass)
+    numbers.update({"fragments": count, "fragments_multi": multi,
+                    "largest_fragment_fraction": largest,
                     "time_step": sim.time_step, "steps": int(state.step),
                     "wall_time": wall_time, "n_particles": specimen.n_particles,
                     "n_bonds": specimen.n_bonds})
@@ -751,11 +755,12 @@ def _compression(test, specimen, settings, axis, out_dir, scene_text, confining=
                 turns.pop(0)
             row["loading"] = -1.0 if walls[0].motion.held_speed < 0.0 else 1.0
         row["volumetric_strain"] = row["axial_strain"] - 2.0 * row["lateral_strain"]
-        pieces = None   # an agglomerate's: (fragments, largest one's mass fraction)
+        pieces = None   # an agglomerate's: (fragments of 2+, largest one's mass fraction)
         if test == "agglomerate":
-            pieces = measure.fragments(sim.model.bond_pairs, sim.state.bond_active,
-                                       sim.model.mass)
-            row["fragments"] = float(pieces[0])
+            count, multi, largest = measure.fragments(sim.model.bond_pairs,
+                                                      sim.state.bond_active, sim.model.mass)
+            row["fragments"], row["fragments_multi"] = float(count), float(multi)
+            pieces = multi, largest
         tension, compression, shear = probe.broken()
         row.update({"broken_tension": tension, "broken_compression": compression,
                     "broken_shear": shear, "kinetic_ratio": probe.energy_ratio()})
@@ -1005,8 +1010,9 @@ def uniaxial(specimen, settings=None, *, out_dir=None, scene_text="", axis=2):
     strain from the gauge bands (and ``platen_strain`` from the platen gap); lateral strain
     from the particles of the middle band. Numbers: ucs (the peak, Pa), strain_at_peak,
     young_modulus_secant and _tangent at 50 % of the peak (Pa), poisson_ratio,
-    crack_initiation_stress, platen_force_mismatch (largest |F_top - F_bottom| / mean before
-    the peak, above 20 % of it), kinetic_energy_ratio, broken bonds, fragments."""
+    crack_initiation_stress, platen_force_mismatch (analysis.walls.force_mismatch: the
+    largest |F_top - F_bottom| up to the peak over the peak's mean force),
+    kinetic_energy_ratio, broken bonds, fragments."""
     settings = _limits(settings or LabSettings(), "ucs", specimen)
     sim, runner, rate, stop, notes = _compression("ucs", specimen, settings, axis, out_dir,
                                                   scene_text)
@@ -1016,22 +1022,16 @@ def uniaxial(specimen, settings=None, *, out_dir=None, scene_text="", axis=2):
     result.numbers.update({"ucs": result.numbers["peak_stress"], "strain_rate": rate,
                            "cross_section": specimen.cross_section(axis),
                            "height": float(specimen.size()[axis]),
-                           "platen_force_mismatch": _mismatch(result.curve, "axial_stress"),
-        "platen_force_mismatch_max": _mismatch(result.curve, "axial_stress", worst=True)})
+                           "platen_force_mismatch": _mismatch(result.curve, "axial_stress")})
     return _honest(result)
 
 
-def _mismatch(curve, key, worst=False):
-    """Mean (worst=True: largest) of |F_top - F_bottom| / their mean over the samples
-    before the peak above 20 % of it."""
-    stress = curve[key]
-    k = measure.peak(stress)
-    mean = 0.5 * (curve["force_top"] + curve["force_bottom"])
-    live = np.flatnonzero(stress[:k + 1] >= 0.2 * stress[k])
-    if live.size == 0:
-        return math.nan
-    ratio = np.abs(curve["force_top"][live] - curve["force_bottom"][live]) / mean[live]
-    return float(ratio.max() if worst else ratio.mean())
+def _mismatch(curve, key):
+    """The platens' force mismatch (analysis.walls.force_mismatch, the one definition)
+    up to the peak of ``key``; NaN without a compressive force there."""
+    value = force_mismatch(curve["force_top"], curve["force_bottom"],
+                           measure.peak(curve[key]))
+    return math.nan if value is None else value
 
 
 @_rate_checked
@@ -1060,8 +1060,7 @@ def triaxial(specimen, settings=None, *, out_dir=None, scene_text="", axis=2):
         "confining_stress": settings.confining_stress,
         "confining_stress_error": float(np.max(curve["lateral_stress_worst"][:k + 1])),
         "confining_stress_error_final": float(np.max(curve["lateral_stress_worst"])),
-        "platen_force_mismatch": _mismatch(curve, "deviator_stress"),
-        "platen_force_mismatch_max": _mismatch(curve, "deviator_stress", worst=True)})
+        "platen_force_mismatch": _mismatch(curve, "deviator_stress")})
     if settings.unload_at:
         result.numbers["unloading_modulus"] = measure.unloading_modulus(
             curve["axial_strain"], curve["deviator_stress"], curve["loading"])
@@ -1109,8 +1108,7 @@ def brazilian(specimen, settings=None, *, out_dir=None, scene_text=""):
         "crack_initiation_stress": measure.crack_initiation(curve["tensile_stress"], broken),
         "broken_bonds_at_peak": int(broken[k]), "broken_bonds_final": int(broken[-1]),
         "diameter": diameter, "thickness": thickness, "strain_rate": rate,
-        "platen_force_mismatch": _mismatch(curve, "tensile_stress"),
-        "platen_force_mismatch_max": _mismatch(curve, "tensile_stress", worst=True)})
+        "platen_force_mismatch": _mismatch(curve, "tensile_stress")})
     return _honest(result)
 
 
@@ -1145,8 +1143,7 @@ def agglomerate(specimen, settings=None, *, out_dir=None, scene_text=""):
         "strain_at_peak": float(curve["platen_strain"][k]),
         "broken_bonds_at_peak": int(broken[k]), "broken_bonds_final": int(broken[-1]),
         "diameter": float(specimen.size()[2]), "strain_rate": rate,
-        "platen_force_mismatch": _mismatch(curve, "force"),
-        "platen_force_mismatch_max": _mismatch(curve, "force", worst=True)})
+        "platen_force_mismatch": _mismatch(curve, "force")})
     return _honest(result)
 
 
@@ -1212,9 +1209,7 @@ def direct_tension(specimen, settings=None, *, out_dir=None, scene_text="", axis
     result.numbers.update({"tensile_strength": result.numbers["peak_stress"],
                            "strain_rate": rate, "cross_section": area, "height": height,
                            "platen_force_mismatch": _mismatch(result.curve,
-                                                              "tensile_stress"),
-        "platen_force_mismatch_max": _mismatch(result.curve,
-                                                              "tensile_stress", worst=True)})
+                                                              "tensile_stress")})
     return _honest(result)
 
 

@@ -14,8 +14,8 @@ import numpy as np
 
 SHOWN = ("ucs", "tensile_strength", "peak_deviator_stress", "breakage_force",
          "breakage_energy", "fragment_size_d50", "young_modulus_secant", "poisson_ratio",
-         "strain_at_peak", "fragments", "largest_fragment_fraction", "broken_bonds_final",
-         "n_particles", "n_bonds")
+         "strain_at_peak", "fragments", "fragments_multi", "largest_fragment_fraction",
+         "broken_bonds_final", "n_particles", "n_bonds")
 
 
 def ensemble(function, items, *, scheduler="serial", workers=None):
