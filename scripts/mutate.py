@@ -48,7 +48,7 @@ MODULES = {
     "src/bondem/io/protowire.py": ["tests/test_protowire.py"],
     "src/bondem/io/checkpoint.py": ["tests/test_checkpoint.py"],
     "src/bondem/io/_h5guard.py": ["tests/test_h5guard.py"],
-    "src/bondem/io/vtk.py": ["tests/test_vtk_export.py",
+    "src/bondem/io/vtk.py": ["tests/test_vtk_export.py", "tests/test_vtk_format.py",
                              "tests/test_vtk.py::test_bond_stresses_closed_form"],
     "src/bondem/io/grid_files.py": ["tests/test_grid_files.py"],
     "src/bondem/expression.py": ["tests/test_expression.py"],

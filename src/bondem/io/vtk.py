@@ -84,8 +84,6 @@ class _PolyData:
         def data_array(name, values):
             nonlocal offset
             values = np.ascontiguousarray(values)
-            if values.dtype == np.bool_:
-                values = values.astype(np.uint8)
             kind = VTK_TYPES[values.dtype]
             components = values.shape[1] if values.ndim == 2 else 1
             blob = _compressed(values.astype(values.dtype.newbyteorder("<")).tobytes())
@@ -152,13 +150,15 @@ def particles_polydata(position, radius, velocity, angular_velocity, material, f
     n = position.shape[0]
     poly = _PolyData(position)
     poly.set_cells("Verts", np.arange(n), np.ones(n))
+    velocity = np.asarray(velocity, np.float64)
     poly.point_data += [("radius", np.asarray(radius, np.float64)),
-                        ("velocity", np.asarray(velocity, np.float64)),
+                        ("velocity", velocity),
                         ("speed", np.linalg.norm(velocity, axis=1)),
                         ("angular_velocity", np.asarray(angular_velocity, np.float64)),
                         ("material", np.asarray(material, np.int32))]
     if force is not None:
-        poly.point_data += [("force", np.asarray(force, np.float64)),
+        force = np.asarray(force, np.float64)
+        poly.point_data += [("force", force),
                             ("force_magnitude", np.linalg.norm(force, axis=1))]
     if field_force is not None:
         poly.point_data.append(("field_force", np.asarray(field_force, np.float64)))
@@ -186,9 +186,10 @@ def bonds_polydata(position, pairs, active, force, normal_stress, shear_stress,
     poly.set_cells("Lines", pairs[intact], np.full(intact.size, 2))
     order = np.concatenate([broken, intact]).astype(np.int64)
     mode = np.zeros(b, np.int8) if break_mode is None else np.asarray(break_mode, np.int8)
+    force = np.asarray(force, np.float64)
     poly.cell_data += [("bond", order), ("active", active[order].astype(np.uint8)),
                        ("break_mode", np.where(active, 0, mode)[order].astype(np.int8)),
-                       ("force", np.asarray(force, np.float64)[order]),
+                       ("force", force[order]),
                        ("force_magnitude", np.linalg.norm(force, axis=1)[order]),
                        ("normal_stress", np.asarray(normal_stress, np.float64)[order]),
                        ("shear_stress", np.asarray(shear_stress, np.float64)[order])]
@@ -202,6 +203,7 @@ def contacts_polydata(position, radius, i, j, force):
     wall contact from the particle's centre one radius against its force (towards the
     wall); cell data force (N, on particle i), force_magnitude and wall (-1 for pairs,
     else the wall's index)."""
+    force = np.asarray(force, np.float64)   # a float32 floor of 1e-300 would be 0
     wall = j < 0
     other = np.where(wall, 0, j)
     magnitude = np.linalg.norm(force, axis=1)
@@ -211,7 +213,7 @@ def contacts_polydata(position, radius, i, j, force):
     poly = _PolyData(np.concatenate([position[i], end]) if k else np.zeros((0, 3)))
     poly.set_cells("Lines", np.column_stack([np.arange(k), k + np.arange(k)]),
                    np.full(k, 2))
-    poly.cell_data += [("force", np.asarray(force, np.float64)),
+    poly.cell_data += [("force", force),
                        ("force_magnitude", magnitude),
                        ("wall", np.where(wall, -1 - j, -1).astype(np.int32))]
     return poly
