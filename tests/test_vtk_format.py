@@ -12,7 +12,6 @@ from pathlib import Path
 
 import h5py
 import numpy as np
-import pytest
 
 from bondem.io.vtk import (bonds_polydata, contacts_polydata, export_vtk, particles_polydata,
                            walls_polydata)
