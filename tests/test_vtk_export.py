@@ -174,6 +174,10 @@ def test_contact_lines_and_walls(tmp_path):
     np.testing.assert_array_equal(cell_array(data, "wall"), [-1, 1])
     np.testing.assert_array_equal(cell_array(data, "force_magnitude"), [2.0, 3.0])
     assert read(tmp_path / "out" / "contacts_000001.vtp").GetNumberOfLines() == 0
+    # frame 0's one pair, from the start of the rows
+    data = read(tmp_path / "out" / "contacts_000000.vtp")
+    assert data.GetNumberOfLines() == 1
+    np.testing.assert_array_equal(cell_array(data, "force_magnitude"), [1.0])
     assert cell_array(read(tmp_path / "out" / "contacts_000003.vtp"), "wall").tolist() == [0]
 
     with h5py.File(path) as f:

@@ -12,9 +12,10 @@ from pathlib import Path
 
 import h5py
 import numpy as np
+import pytest
 
-from bondem.io.vtk import (bonds_polydata, contacts_polydata, export_vtk, particles_polydata,
-                           walls_polydata)
+from bondem.io.vtk import (bond_stresses, bonds_polydata, contacts_polydata, export_vtk,
+                           particles_polydata, walls_polydata)
 
 TYPES = {"Float64": "<f8", "Float32": "<f4", "Int64": "<i8", "Int32": "<i4", "UInt8": "u1",
          "Int8": "i1"}
@@ -190,6 +191,11 @@ def test_contact_lines_point_from_centre_to_centre_or_towards_the_wall(tmp_path)
     np.testing.assert_allclose(data["force_magnitude"][1], [5e-3, 2e-3, 1e-2, 0.0],
                                rtol=1e-7)
     assert data["wall"][1].tolist() == [-1, 0, 5, 1]
+    # a single particle against a wall: its line ends one radius towards the wall
+    contacts_polydata(position[:1], radius[:1], np.array([0]), np.array([-1]),
+                      np.array([[0.0, -3e-3, 0]])).write(tmp_path / "one.vtp")
+    np.testing.assert_allclose(read_vtp(tmp_path / "one.vtp")["points"][1],
+                               [position[0], position[0] + [0, 0.4e-3, 0]], rtol=1e-12)
     contacts_polydata(position, radius, np.zeros(0, int), np.zeros(0, int),
                       np.zeros((0, 3))).write(tmp_path / "none.vtp")
     out = read_vtp(tmp_path / "none.vtp")
@@ -199,30 +205,34 @@ def test_contact_lines_point_from_centre_to_centre_or_towards_the_wall(tmp_path)
 
 def _geometry():
     """A plane along -x (normal given as (-2, 0, 0)), a mesh of two triangles, then an
-    oblique plane (normal 3 x (0.48, 0.6, 0.64)), as the results file stores them."""
+    oblique plane (normal 3 x (0.48, 0.6, 0.64)) and a plane along z, as the results file
+    stores them."""
     mesh = np.array([[0.0, 0, 0], [1e-3, 0, 0], [0, 1e-3, 0], [1e-3, 1e-3, 0]]) + [0, 0, 4e-3]
-    return {"type": np.array([0, 1, 0]),
-            "point": np.array([[6e-3, 1e-3, 0], [0, 0, 0], [0, 0, -2e-3]]),
-            "normal": np.array([[-2.0, 0, 0], [0, 0, 1], [1.44, 1.8, 1.92]]),
-            "velocity": np.array([[-1.0, 0, 0], [0, 0, 0.5], [0, 0, 0]]),
-            "angular_velocity": np.zeros((3, 3)),
-            "rotation_center": np.array([[0.0, 0, 0], [5e-4, 5e-4, 4e-3], [0, 0, 0]]),
+    return {"type": np.array([0, 1, 0, 0]),
+            "point": np.array([[6e-3, 1e-3, 0], [0, 0, 0], [0, 0, -2e-3], [0, 0, 9e-3]]),
+            "normal": np.array([[-2.0, 0, 0], [0, 0, 1], [1.44, 1.8, 1.92], [0, 0, 1]]),
+            "velocity": np.array([[-1.0, 0, 0], [0, 0, 0.5], [0, 0, 0], [0, 0, 0]]),
+            "angular_velocity": np.zeros((4, 3)),
+            "rotation_center": np.array([[0.0, 0, 0], [5e-4, 5e-4, 4e-3], [0, 0, 0],
+                                         [0, 0, 0]]),
             "mesh1": {"vertices": mesh, "triangles": np.array([[0, 1, 2], [1, 3, 2]])}}
 
 
 def test_planes_and_meshes_in_any_order(tmp_path):
-    """Plane, mesh, plane at t = 2 ms: each plane a square of the given side centred on
-    the projection of the centre, in its plane, moved with its velocity; the mesh's
-    triangles at its moved vertices; each polygon's wall and force."""
+    """Plane, mesh, plane, plane at t = 2 ms: each plane a square of the given side
+    centred on the projection of the centre, in its plane, moved with its velocity; the
+    mesh's triangles at its moved vertices; each polygon's wall and force."""
     geometry, centre, side = _geometry(), np.array([1e-3, 2e-3, 3e-3]), 5e-3
-    force = np.array([[1e-3, 0, 0], [0, 2e-3, 0], [0, 0, 3e-3]], dtype=np.float32)
+    force = np.array([[1e-3, 0, 0], [0, 2e-3, 0], [0, 0, 3e-3], [0, 0, -4e-3]],
+                     dtype=np.float32)
     walls_polydata(geometry, 2e-3, force, centre, side).write(tmp_path / "w.vtp")
     out = read_vtp(tmp_path / "w.vtp")
     polygons, points = cells(out, "Polys"), out["points"][1]
-    assert [len(p) for p in polygons] == [4, 3, 3, 4]
-    assert out["counts"]["NumberOfPoints"] == 12
+    assert [len(p) for p in polygons] == [4, 3, 3, 4, 4]
+    assert out["counts"]["NumberOfPoints"] == 16
     for k, (point, normal) in ((0, ([4e-3, 1e-3, 0], [-1.0, 0, 0])),
-                               (3, ([0, 0, -2e-3], [0.48, 0.6, 0.64]))):
+                               (3, ([0, 0, -2e-3], [0.48, 0.6, 0.64])),
+                               (4, ([0, 0, 9e-3], [0, 0, 1.0]))):
         corners = points[polygons[k]]
         normal = np.asarray(normal)
         # in the plane, centred on the centre's projection, a square of the given side
@@ -237,9 +247,18 @@ def test_planes_and_meshes_in_any_order(tmp_path):
     np.testing.assert_allclose(points[polygons[1]], lifted[[0, 1, 2]], rtol=1e-12, atol=1e-18)
     np.testing.assert_allclose(points[polygons[2]], lifted[[1, 3, 2]], rtol=1e-12, atol=1e-18)
     data = out["cell_data"]
-    assert data["wall"][0] == "Int64" and data["wall"][1].tolist() == [0, 1, 1, 2]
+    assert data["wall"][0] == "Int64" and data["wall"][1].tolist() == [0, 1, 1, 2, 3]
     assert data["force"][0] == "Float64"
-    np.testing.assert_array_equal(data["force"][1], force[[0, 1, 1, 2]])
+    np.testing.assert_array_equal(data["force"][1], force[[0, 1, 1, 2, 3]])
+    # recorded reference points move the walls: a plane's is its point, a mesh's its
+    # centre of rotation (here 1 mm above where it started, and 2 mm along x)
+    recorded = np.array([[5e-3, 1e-3, 0], [2.5e-3, 5e-4, 5e-3], [0, 0, -2e-3], [0, 0, 9e-3]])
+    walls_polydata(geometry, 2e-3, force, centre, side, recorded).write(tmp_path / "r.vtp")
+    out = read_vtp(tmp_path / "r.vtp")
+    polygons, points = cells(out, "Polys"), out["points"][1]
+    moved = geometry["mesh1"]["vertices"] + [2e-3, 0, 1e-3]
+    np.testing.assert_allclose(points[polygons[1]], moved[[0, 1, 2]], rtol=1e-12, atol=1e-18)
+    np.testing.assert_allclose(points[polygons[0]][:, 0], 5e-3, rtol=1e-12)
     # no walls at all: an empty file
     empty = {key: value[:0] for key, value in geometry.items() if key != "mesh1"}
     walls_polydata(empty, 0.0, np.zeros((0, 3)), centre, side).write(tmp_path / "e.vtp")
@@ -354,3 +373,24 @@ def test_masses_clumps_and_periodic_bonds(tmp_path):
     # {0, 1, 2} joined by bond 0 and the clump (5e-6 kg), {3} (4e-6 kg)
     assert frame["point_data"]["fragment"][1].tolist() == [0, 0, 0, 1]
     assert frame["point_data"]["clump"][1].tolist() == [-1, 0, 0, -1]
+
+
+def test_bond_stresses_of_one_bond_no_bond_and_a_bond_of_zero_length():
+    """One bond along y of 0.4 mm diameter pulled by (1, 2, 0) mN: sigma = F_y / A,
+    tau = |F_x| / A; no bonds: empty arrays; coincident particles (no axis): the force
+    counts as shear only, never NaN."""
+    position = np.array([[1e-3, 1e-3, 1e-3], [1e-3, 2e-3, 1e-3], [1e-3, 2e-3, 1e-3]])
+    area = math.pi * 2e-4 ** 2
+    force = np.array([[1e-3, 2e-3, 0.0]])
+    zero = np.zeros((1, 3))
+    sigma, tau = bond_stresses(position, np.array([[0, 1]]), np.array([4e-4]), force, zero,
+                               zero)
+    assert sigma.tolist() == pytest.approx([2e-3 / area], rel=1e-12)
+    assert tau.tolist() == pytest.approx([1e-3 / area], rel=1e-12)
+    sigma, tau = bond_stresses(position, np.zeros((0, 2), int), np.zeros(0), np.zeros((0, 3)),
+                               np.zeros((0, 3)), np.zeros((0, 3)))
+    assert sigma.shape == tau.shape == (0,)
+    sigma, tau = bond_stresses(position, np.array([[1, 2]]), np.array([4e-4]), force, zero,
+                               zero)
+    assert sigma.tolist() == [0.0]
+    assert tau.tolist() == pytest.approx([math.sqrt(5e-6) / area], rel=1e-12)
