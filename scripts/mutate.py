@@ -74,6 +74,7 @@ MODULES = {
         "tests/test_lab_envelope.py::test_series_statistics_are_the_sample_mean_and_deviation"],
     "src/bondem/lab/membrane.py": ["tests/test_lab_membrane.py"],
     "src/bondem/lab/output.py": ["tests/test_lab_output.py"],
+    "src/bondem/analysis/report.py": ["tests/test_analysis_report.py"],
     # the tests that run LAMMPS itself skip where it is not installed
     "src/bondem/io/lammps.py": ["tests/test_lammps_deck.py", "tests/test_lammps_export.py"],
 }

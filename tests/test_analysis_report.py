@@ -1,0 +1,264 @@
+"""The HTML report (bondem.analysis.report) of constructed results files, parsed back: its
+title, the key numbers as key_numbers gives them, the scene's settings with their units
+from the stored TOML, the run's attributes, every figure inlined as a PNG with its
+caption in order, and the lab section from a lab.json beside the results."""
+import base64
+import json
+from html.parser import HTMLParser
+
+import h5py
+import numpy as np
+import pytest
+
+from bondem.analysis import Results, key_numbers
+from bondem.analysis.report import (CAPTIONS, _cell, lab_html, render_html, scene_html,
+                                    wall_caption, write_report)
+from bondem.analysis.summary import format_number
+
+from resultsfile import write_static
+
+
+class Page(HTMLParser):
+    """Tables ({id or position: [[cell text]]}), figures ([(id, alt, PNG bytes, caption)]),
+    headings ([(tag, text)]) and the title of an HTML page."""
+
+    def __init__(self, text):
+        super().__init__()
+        self.tables, self.figures, self.headings, self.items = {}, [], [], []
+        self.title, self._text, self._row, self._table = None, None, None, None
+        self._figure, self._count = None, 0
+        self.feed(text)
+
+    def handle_starttag(self, tag, attrs):
+        attrs = dict(attrs)
+        if tag == "table":
+            self._table = attrs.get("id") or f"table{self._count}"
+            self._count += 1
+            self.tables[self._table] = []
+        elif tag == "tr":
+            self._row = []
+            self.tables[self._table].append(self._row)
+        elif tag in ("td", "th", "h1", "h2", "h3", "title", "figcaption", "li", "p"):
+            self._text = ""
+        elif tag == "figure":
+            self._figure = [attrs.get("id"), None, None, None]
+        elif tag == "img":
+            self._figure[1] = attrs["alt"]
+            prefix = "data:image/png;base64,"
+            assert attrs["src"].startswith(prefix)
+            self._figure[2] = base64.b64decode(attrs["src"][len(prefix):])
+
+    def handle_data(self, data):
+        if self._text is not None:
+            self._text += data
+
+    def handle_endtag(self, tag):
+        if tag in ("td", "th"):
+            self._row.append(self._text)
+        elif tag in ("h1", "h2", "h3"):
+            self.headings.append((tag, self._text))
+        elif tag == "title":
+            self.title = self._text
+        elif tag == "figcaption":
+            self._figure[3] = self._text
+        elif tag == "figure":
+            self.figures.append(tuple(self._figure))
+        elif tag == "li":
+            self.items.append(self._text)
+        elif tag == "table":
+            self._table = None
+        if tag in ("td", "th", "h1", "h2", "h3", "title", "figcaption", "li", "p"):
+            self._text = None
+
+
+SCENE = """
+[simulation]
+end_time = 2e-3
+save_every = 5e-4
+gravity = [0.0, 0.0, -9.81]
+
+[materials.glass]
+density = 2500.0
+young_modulus = 6.5e10
+
+[materials.steel]
+density = 7800.0
+friction = 0.3
+
+[bond_materials.cement]
+normal_strength = 5e6
+
+[particles]
+file = "particles.csv"
+
+[[walls]]
+type = "plane"
+point = [0.0, 0.0, 0.0]
+
+[[walls]]
+normal = [0.0, 0.0, -1.0]
+velocity = [0.0, 0.0, -0.1]
+"""
+
+
+def plates_file(path, *, attrs=None):
+    """Two bonded particles squeezed between a fixed plate (wall 0, z = 0) and one moving
+    down 0.1 mm per frame from z = 3 mm (wall 1); the bond breaks at frame 3 of 5."""
+    k = np.arange(5)
+    force = np.zeros((5, 2, 3))
+    force[:, 1, 2] = [0.0, 1.5, 3.0, 2.0, 0.5]
+    force[:, 0, 2] = -force[:, 1, 2]
+    walls_position = np.zeros((5, 2, 3))
+    walls_position[:, 1, 2] = 3e-3 - 1e-4 * k
+    write_static(path, [[0, 0, 1e-3], [0, 0, 2e-3]], 5e-4, [[0, 1]], (k < 3)[:, None],
+                 time=k * 1e-4, mass=np.array([1e-6, 2e-6]), break_mode=[1],
+                 walls=(force, walls_position))
+    with h5py.File(path, "a") as f:
+        for key, value in (attrs or {}).items():
+            f.attrs[key] = value
+    return path
+
+
+def test_the_report_of_a_run_holds_its_numbers_scene_attributes_and_figures(tmp_path):
+    attrs = {"scene": SCENE, "scene_name": "squeeze.toml", "time_step": 1.23456e-7,
+             "time_step_cause": "bonds", "bondem_version": "9.9", "note": "x" * 300,
+             "box_length": np.ones(3), "periodic": np.zeros(3, bool)}
+    path = plates_file(tmp_path / "run.h5", attrs=attrs)
+    out, numbers = write_report(path, tmp_path / "deep" / "er" / "page.html", frames=(1, -1))
+    assert out == tmp_path / "deep" / "er" / "page.html"
+    with Results(path) as results:
+        assert numbers == key_numbers(results)
+    page = Page(out.read_text(encoding="utf-8"))
+    assert page.title == "bondem: squeeze.toml"
+    assert page.tables["key-numbers"] == [[k.replace("_", " "), format_number(k, v)]
+                                          for k, v in numbers.items()]
+    # the attributes without the scene, its name and the unused box; cut at 200 characters
+    attributes = dict(map(tuple, page.tables["attributes"]))
+    assert attributes["note"] == "x" * 200 and attributes["bondem_version"] == "9.9"
+    assert attributes["time_step"] == str(1.23456e-7)
+    assert "periodic" in attributes
+    assert not {"scene", "scene_name", "box_length"} & set(attributes)
+    # the scene's tables, with units, in the TOML's order
+    tables = [t for key, t in page.tables.items() if key.startswith("table")]
+    simulation, materials, bonds, particles, walls = tables
+    assert simulation == [["key", "value", "unit"], ["end_time", "0.002", "s"],
+                          ["save_every", "0.0005", "s"], ["gravity", "[0, 0, -9.81]", "m/s^2"],
+                          ["time_step", "1.235e-07 (auto; limited by bonds)", "s"]]
+    assert materials == [["name", "density (kg/m^3)", "young_modulus (Pa)", "friction (-)"],
+                         ["glass", "2500", "6.5e+10", "default"],
+                         ["steel", "7800", "default", "0.3"]]
+    assert bonds == [["name", "normal_strength (Pa)"], ["cement", "5e+06"]]
+    assert particles == [["key", "value"], ["file", "particles.csv"]]
+    assert walls == [["wall", "normal", "point", "type", "velocity"],
+                     ["0", "", "[0, 0, 0]", "plane", ""],
+                     ["1", "[0, 0, -1]", "", "", "[0, 0, -0.1]"]]
+    assert [h[1] for h in page.headings if h[0] == "h3"] == [
+        "Simulation and time", "Particle materials", "Bond materials", "Particles",
+        "Walls (m, m/s)"]    # no [bonds] table in the scene
+    # figures in the report's order, each a PNG of its figure's size, with its caption;
+    # the wall's caption names the two plates
+    names = [f[0] for f in page.figures]
+    assert names == [n for n in ("bodies", "fragments", "breakage", "radial", "energy",
+                                 "wall", "fields", "size_distribution") if n in names]
+    assert {"bodies", "fragments", "breakage", "wall"} <= set(names)
+    for name, alt, png, caption in page.figures:
+        assert alt == name and png[:8] == b"\x89PNG\r\n\x1a\n"
+        if name != "wall":
+            assert caption == CAPTIONS[name]
+    with Results(path) as results:
+        from bondem.analysis import wall_curve
+        expected = wall_caption(wall_curve(results))
+    assert dict((f[0], f[3]) for f in page.figures)["wall"] == expected
+    assert "walls 0 and 1" in expected or "walls 1 and 0" in expected
+    assert not [h for h in page.headings if h[1].startswith("Laboratory")]
+
+
+def test_the_default_name_and_place_and_frames_checked_first(tmp_path):
+    folder = tmp_path / "case"
+    folder.mkdir()
+    path = plates_file(folder / "results.h5")
+    out, _ = write_report(path)
+    assert out == folder / "results_report.html"
+    page = Page(out.read_text(encoding="utf-8"))
+    # results.h5 takes its folder's name; no scene stored
+    assert page.title == "bondem: case"
+    assert "(no scene stored in the results file)" in out.read_text()
+    other = plates_file(tmp_path / "drop.h5")
+    assert Page(write_report(other)[0].read_text()).title == "bondem: drop.h5"
+    with pytest.raises(IndexError, match="frame 5 out of range: 5 complete frames"):
+        write_report(other, tmp_path / "never.html", frames=(0, 5))
+    assert not (tmp_path / "never.html").exists()
+
+
+def test_scene_tables_from_toml_and_the_run_attributes():
+    assert scene_html("", {}) == "<p>(no scene stored in the results file)</p>"
+    assert scene_html("[simulation\nx = ", {}) == (
+        "<p>(the scene stored in the results file is not valid TOML)</p>")
+    # a time step given in the scene, reported with the one used
+    page = Page(scene_html("[simulation]\ntime_step = 1e-7\ndamping = 0.1\n",
+                           {"time_step": 9.87654e-8}))
+    assert page.tables["table0"] == [["key", "value", "unit"],
+                                     ["time_step", "9.877e-08 (1e-07; limited by ?)", "s"],
+                                     ["damping", "0.1", "-"]]
+    assert _cell(0.000123456) == "0.0001235" and _cell([1, 2.5, [3.0]]) == "[1, 2.5, [3]]"
+    assert _cell({"a": 1.23456, "b": "x"}) == "a = 1.235, b = x" and _cell(7) == "7"
+
+
+def test_wall_captions_say_what_the_axes_are():
+    two = {"partner": 3, "wall": 1, "displacement": np.array([0.0, 1e-4])}
+    assert wall_caption(two) == (
+        "Compressive force of walls 1 and 3 and their mean against the decrease of the gap "
+        "between them; the first broken bond and the peak of the mean force are marked.")
+    one = {"partner": None, "wall": 2, "displacement": np.array([0.0, 1e-4])}
+    assert wall_caption(one) == ("Compressive force on wall 2 against its travel; the first "
+                                 "broken bond and the peak force are marked.")
+    still = {"partner": None, "wall": 0, "displacement": np.zeros(3)}
+    assert wall_caption(still) == (
+        "Magnitude of the force on wall 0 (it does not move) against time; the first broken "
+        "bond and the peak force are marked.")
+
+
+def test_the_lab_section_from_lab_json_and_its_figures(tmp_path):
+    assert lab_html(tmp_path) == ""
+    png = b"\x89PNG\r\n\x1a\n" + bytes(range(40))
+    (tmp_path / "lab_cracks.png").write_bytes(png)
+    (tmp_path / "lab_ae.png").write_bytes(png[::-1])
+    (tmp_path / "lab.json").write_text(json.dumps({
+        "test": "ucs", "numbers": {"ucs": 1.25e6, "poisson_ratio": None, "steps": 9280},
+        "units": {"ucs": "Pa", "steps": "1"}, "notes": ["stopped: post-peak", "a <b>"],
+        "captions": {"cracks": "Cracks & modes.", "ae": "AE.", "volumetric": "absent"}}))
+    text = lab_html(tmp_path)
+    page = Page(text)
+    assert page.headings == [("h2", "Laboratory test: ucs")]
+    assert page.tables["table0"] == [["quantity", "value", "unit"], ["ucs", "1.25e+06", "Pa"],
+                                     ["poisson ratio", "n/a", ""], ["steps", "9280", "1"]]
+    assert page.items == ["stopped: post-peak", "a <b>"]
+    assert page.figures == [("lab_cracks", "lab cracks", png, "Cracks & modes."),
+                            ("lab_ae", "lab ae", png[::-1], "AE.")]
+    # an older lab.json without captions: the four figures it had, without captions
+    (tmp_path / "lab.json").write_text(json.dumps({"test": "tension", "numbers": {}}))
+    (tmp_path / "lab_specimen.png").write_bytes(png)
+    page = Page(lab_html(tmp_path))
+    assert page.figures == [("lab_cracks", "lab cracks", png, ""),
+                            ("lab_specimen", "lab specimen", png, "")]
+    # the section sits after the key numbers in the page of a lab folder's results
+    path = plates_file(tmp_path / "results.h5")
+    out, _ = write_report(path)
+    headings = [h[1] for h in Page(out.read_text()).headings if h[0] == "h2"]
+    assert headings == ["Key numbers", "Laboratory test: tension", "Scene", "Figures", "Run"]
+
+
+def test_render_html_escapes_and_takes_given_captions():
+    text = render_html("a <title> & more", {"peak_wall_force": 1.23456, "bonds": 3,
+                                            "first_break_time": None},
+                       {"bodies": b"\x89PNG-1"}, {"k<": "v>"}, "",
+                       captions={"bodies": "Mine <here>."}, extra="<h2>Extra</h2>")
+    page = Page(text)
+    assert page.title == "a <title> & more"
+    assert page.tables["key-numbers"] == [["peak wall force", "1.235 N"], ["bonds", "3 bonds"],
+                                          ["first break time", "n/a"]]
+    assert page.tables["attributes"] == [["k<", "v>"]]
+    assert page.figures == [("bodies", "bodies", b"\x89PNG-1", "Mine <here>.")]
+    assert [h[1] for h in page.headings if h[0] == "h2"] == [
+        "Key numbers", "Extra", "Scene", "Figures", "Run"]
+    assert text.startswith("<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">")
