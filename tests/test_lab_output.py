@@ -64,6 +64,10 @@ def test_lab_csv_and_json_hold_the_curve_and_numbers_exactly(tmp_path):
     assert data["notes"] == ["stopped: post-peak"]
     assert data["failed"] is True and data["no_failure"] is None
     assert data["captions"] == CAPTIONS
+    assert (out / "lab.json").read_text().startswith('{\n  "test": "ucs",\n  "numbers": {\n')
+    # no samples: a header of no columns, and no figures
+    write_result(ucs_result(curve={}), tmp_path / "empty", figures=False)
+    assert (tmp_path / "empty" / "lab.csv").read_bytes() == b"\r\n"
     # a test that did not fail, with numbers nested in lists and dicts
     result = ucs_result(no_failure="strain limit",
                         numbers={"pair": (np.int32(3), np.float64(math.inf)),
@@ -83,14 +87,14 @@ def test_the_tables_carry_their_units(tmp_path):
     ae = {"time": np.array([1e-4]), "energy": np.array([4e-9]), "magnitude": np.array([-8.2]),
           "cracks": np.array([2.0])}
     fragments = {"particles": np.array([40.0, 1.0]), "mass": np.array([2e-5, 5e-7]),
-                 "size": np.array([3e-3, 1e-3])}
+                 "size": np.array([3e-3, 1e-3]), "shape_factor": np.array([0.9, 1.0])}
     result = ucs_result(cracks=cracks, ae=ae, fragments=fragments)
     paths = write_result(result, tmp_path, figures=False)
     expected = {"cracks_csv": ("lab_cracks.csv", cracks, "time (s),x (m),mode (1),energy (J),"
                                "twisting_moment (N m),event (1)"),
                 "ae_csv": ("lab_ae.csv", ae, "time (s),energy (J),magnitude (1),cracks (1)"),
                 "fragments_csv": ("lab_fragments.csv", fragments,
-                                  "particles (1),mass (kg),size (m)")}
+                                  "particles (1),mass (kg),size (m),shape_factor (1)")}
     for key, (name, table, header) in expected.items():
         assert paths[key] == tmp_path / name
         with open(tmp_path / name, newline="") as handle:
@@ -99,12 +103,23 @@ def test_the_tables_carry_their_units(tmp_path):
         values = np.array([[float(v) for v in row] for row in rows[1:]])
         np.testing.assert_array_equal(values, np.column_stack(list(table.values())))
     assert (tmp_path / "lab_cracks.csv").read_text().count("\n") == 3
+    # a log without columns: a header of none
+    write_result(ucs_result(cracks={}), tmp_path / "none", figures=False)
+    assert (tmp_path / "none" / "lab_cracks.csv").read_bytes() == b"\r\n"
 
 
 def _line(ax, label):
     found = [line for line in ax.lines if line.get_label() == label]
     assert len(found) == 1, [line.get_label() for line in ax.lines]
     return np.asarray(found[0].get_xdata(), float), np.asarray(found[0].get_ydata(), float)
+
+
+def _style(ax, label):
+    """(line style, marker, colour as RGB) of the one line labelled ``label``."""
+    import matplotlib.colors
+    line, = [line for line in ax.lines if line.get_label() == label]
+    return (line.get_linestyle(), line.get_marker(),
+            tuple(matplotlib.colors.to_rgb(line.get_color())))
 
 
 def test_the_stress_strain_volumetric_and_crack_figures_read_back():
@@ -119,6 +134,10 @@ def test_the_stress_strain_volumetric_and_crack_figures_read_back():
     x, y = _line(ax, "peak 1.3 MPa")
     assert x.tolist() == pytest.approx([0.2]) and y.tolist() == pytest.approx([1.3])
     assert ax.get_xlabel() == "axial strain (%)" and ax.get_ylabel() == "axial stress (MPa)"
+    import matplotlib.colors
+    assert _style(ax, "gauge")[0] == "-" and _style(ax, "platens")[0] == "--"
+    assert _style(ax, "peak 1.3 MPa") == ("None", "o", matplotlib.colors.to_rgb("C3"))
+    assert tuple(figures["stress_strain"].get_size_inches()) == (6.0, 4.0)
     ax = figures["volumetric"].axes[0]
     x, y = ax.lines[0].get_xdata(), ax.lines[0].get_ydata()
     np.testing.assert_allclose(x, STRAIN * 100.0, rtol=1e-15)
@@ -167,7 +186,20 @@ def test_the_agglomerate_figures_in_newtons_and_millimetres():
     x, y = _line(ax, "peak 9 N")
     assert x.tolist() == pytest.approx([0.2]) and y.tolist() == [9.0]
     assert ax.get_xlabel() == "displacement (mm)" and ax.get_ylabel() == "force (N)"
+    assert tuple(figures["fragments"].get_size_inches()) == (12.0, 4.0)
     left, middle, right = figures["fragments"].axes
+    assert [a.get_subplotspec().get_geometry() for a in (left, middle, right)] == [
+        (1, 3, 0, 0), (1, 3, 1, 1), (1, 3, 2, 2)]
+    assert left.lines[0].get_drawstyle() == "steps-post"
+    assert left.get_xlabel() == middle.get_xlabel() == "fragment size (mm)"
+    assert middle.get_ylabel() == "mass fraction per size class"
+    assert middle.get_xscale() == "log" and right.get_ylabel() == "fragments"
+    # eleven logarithmic classes from 0.99 of the smallest to 1.01 of the largest size
+    edges = [patch.get_x() for patch in middle.patches]
+    assert len(edges) == 11
+    np.testing.assert_allclose(edges, np.geomspace(0.495, 4.04, 12)[:-1], rtol=1e-12)
+    np.testing.assert_allclose(middle.patches[-1].get_x() + middle.patches[-1].get_width(),
+                               4.04, rtol=1e-12)
     x, y = left.lines[0].get_xdata(), left.lines[0].get_ydata()
     np.testing.assert_allclose(x, [0.5, 1.5, 4.0], rtol=1e-12)
     np.testing.assert_allclose(y, [0.1, 0.4, 1.0], rtol=1e-12)
@@ -179,7 +211,14 @@ def test_the_agglomerate_figures_in_newtons_and_millimetres():
     np.testing.assert_allclose(x, [0, 0.2, 0.8, 1.4, 1.7], rtol=1e-12)
     assert y.tolist() == [1, 1, 2, 3, 3]
     x, y = _line(right, "all, loose particles included")
+    np.testing.assert_allclose(x, [0, 0.2, 0.8, 1.4, 1.7], rtol=1e-12)
     assert y.tolist() == [1, 1, 4, 9, 12]
+    assert _style(right, "all, loose particles included")[0] == "--"
+    # without the applied energy (or without the table) there is no fragments figure
+    result.curve = {k: v for k, v in curve.items() if k != "applied_energy"}
+    assert "fragments" not in build_lab_figures(result)
+    result.curve, result.fragments = curve, None
+    assert "fragments" not in build_lab_figures(result)
     assert right.get_xlabel() == "applied energy (mJ)"
 
 
@@ -188,7 +227,14 @@ def test_the_ae_figure_counts_events_and_draws_akis_line():
                            -6.9, np.nan])
     result = ucs_result(ae={"magnitude": magnitudes})
     result.curve["ae_events"] = np.array([0.0, 0, 2, 5, 9, 11])
-    ax_left, ax_right = build_lab_figures(result)["ae"].axes
+    figure = build_lab_figures(result)["ae"]
+    assert tuple(figure.get_size_inches()) == (9.0, 4.0)
+    ax_left, ax_right = figure.axes
+    assert [a.get_subplotspec().get_geometry() for a in (ax_left, ax_right)] == [
+        (1, 2, 0, 0), (1, 2, 1, 1)]
+    assert ax_left.get_ylabel() == "AE events" and ax_right.get_xlabel() == "magnitude"
+    assert ax_right.get_ylabel() == "events of at least this magnitude"
+    assert ax_right.get_yscale() == "log"
     x, y = ax_left.lines[0].get_xdata(), ax_left.lines[0].get_ydata()
     np.testing.assert_allclose(x, 125.0 * STRAIN, rtol=1e-15)
     assert y.tolist() == [0, 0, 2, 5, 9, 11]
@@ -196,13 +242,18 @@ def test_the_ae_figure_counts_events_and_draws_akis_line():
     x, y = _line(ax_right, "events")
     finite = np.sort(magnitudes[np.isfinite(magnitudes)])
     assert x.tolist() == finite.tolist() and y.tolist() == list(range(11, 0, -1))
+    assert _style(ax_right, "events")[:2] == ("None", ".")
     b = b_value(finite)
     x, y = _line(ax_right, f"b = {b:.3g}")
+    assert x.tolist() == finite.tolist()
     np.testing.assert_allclose(y, 11 * 10.0 ** (-b * (finite - finite[0])), rtol=1e-12)
     # fewer than ten events: no b-value, no line
     result.ae = {"magnitude": magnitudes[:5]}
     ax_right = build_lab_figures(result)["ae"].axes[1]
     assert [line.get_label() for line in ax_right.lines] == ["events"]
+    # events without their count against strain: no figure
+    del result.curve["ae_events"]
+    assert "ae" not in build_lab_figures(result)
 
 
 def test_particle_modes_take_the_mode_most_of_their_broken_bonds_broke_in():
@@ -225,15 +276,30 @@ def test_the_failure_picture_slices_the_middle_and_draws_the_force_chains():
     position = np.column_stack([np.arange(7) * 1e-3 + 2e-3, y, np.arange(7)[::-1] * 1e-3])
     bonds = np.array([[0, 4], [1, 5], [2, 3], [6, 5]])
     break_mode = np.array([1, 3, 2, 0])
-    contacts = {"i": np.array([0, 1, 0, 2, 6]), "j": np.array([1, 3, 6, -1, 2]),
+    contacts = {"i": np.array([0, 1, 0, 2, 6, 2]), "j": np.array([1, 3, 6, -1, 2, 0]),
                 "force": np.array([[0, 0, 2e-3], [0, 1e-3, 0], [4e-3, 0, 0], [0, 0, 9.0],
-                                   [1e-3, 0, 0]])}
+                                   [1e-3, 0, 0], [0, 3e-3, 0]])}
     result = ucs_result(position=position, bonds=bonds, break_mode=break_mode,
                         radius=np.full(7, 5e-4), contacts=contacts)
     fig = build_lab_figures(result)["specimen"]
+    assert tuple(fig.get_size_inches()) == (10.0, 5.0)
     space, cut = fig.axes
-    np.testing.assert_allclose(np.column_stack(space.collections[0]._offsets3d),
-                               position * 1e3, rtol=1e-12)
+    assert [a.get_subplotspec().get_geometry() for a in (space, cut)] == [(1, 2, 0, 0),
+                                                                           (1, 2, 1, 1)]
+    points = space.collections[0]
+    np.testing.assert_allclose(np.column_stack(points._offsets3d), position * 1e3,
+                               rtol=1e-12)
+    import matplotlib.colors
+    modes = [1, 3, 2, 2, 1, 3, 0]     # every particle's, as particle_modes gives them
+    # (the colours as given: get_facecolor() of a 3D scatter is depth-sorted and shaded)
+    np.testing.assert_allclose(points._facecolors[:, :3],
+                               [matplotlib.colors.to_rgb(MODE_COLOURS[m]) for m in modes])
+    assert points.get_sizes().tolist() == [6] and points.get_depthshade() is True
+    assert (space.get_xlabel(), space.get_ylabel(), space.get_zlabel()) == (
+        "x (mm)", "y (mm)", "z (mm)")
+    # the box in the specimen's proportions: 6 x 10 x 6 mm
+    aspect = np.asarray(space.get_box_aspect())
+    np.testing.assert_allclose(aspect / aspect[1], [0.6, 1.0, 0.6], rtol=1e-9)
     shown = {c.get_label(): c.get_offsets() for c in cut.collections
              if c.get_label() in ("intact", "tension", "compression", "shear")}
     # in the slice: 0 (tension), 1 (shear), 2 (compression), 6 (intact); 3, 4, 5 out
@@ -242,6 +308,8 @@ def test_the_failure_picture_slices_the_middle_and_draws_the_force_chains():
     np.testing.assert_allclose(shown["shear"], position[[1]][:, [0, 2]] * 1e3)
     np.testing.assert_allclose(shown["compression"], position[[2]][:, [0, 2]] * 1e3)
     np.testing.assert_allclose(shown["intact"], position[[6]][:, [0, 2]] * 1e3)
+    assert all(c.get_sizes().tolist() == [12] for c in cut.collections
+               if c.get_label() in shown)
     colours = {c.get_label(): c.get_facecolor()[0] for c in cut.collections
                if c.get_label() in shown}
     import matplotlib.colors
@@ -251,14 +319,34 @@ def test_the_failure_picture_slices_the_middle_and_draws_the_force_chains():
     chains = [c for c in cut.collections if c.get_label() == "contact forces"]
     assert len(chains) == 1
     segments = chains[0].get_segments()
-    # pairs 0-1, 0-6 and 6-2 lie in the slice; 1-3 does not, the wall contact is no pair
-    expected = [(0, 1), (0, 6), (6, 2)]
-    assert len(segments) == 3
+    # pairs 0-1, 0-6, 6-2 and 2-0 lie in the slice; 1-3 does not, the wall contact is
+    # no pair (and its 9 N do not set the scale)
+    expected = [(0, 1), (0, 6), (6, 2), (2, 0)]
+    assert len(segments) == 4
     for segment, (i, j) in zip(segments, expected):
         np.testing.assert_allclose(segment, position[[i, j]][:, [0, 2]] * 1e3, rtol=1e-12)
     np.testing.assert_allclose(chains[0].get_linewidths(),
-                               [0.3 + 3.0 * 0.5, 0.3 + 3.0, 0.3 + 3.0 * 0.25], rtol=1e-12)
+                               [0.3 + 3.0 * 0.5, 0.3 + 3.0, 0.3 + 3.0 * 0.25,
+                                0.3 + 3.0 * 0.75], rtol=1e-12)
+    assert tuple(chains[0].get_color()[0]) == (0.0, 0.0, 0.0, 0.6)
     assert cut.get_xlabel() == "x (mm)" and cut.get_ylabel() == "z (mm)"
+    assert cut.get_title() == "slice through the middle"
+    legend = cut.get_legend()
+    assert legend._loc == 1 and {t.get_fontsize() for t in legend.get_texts()} == {8.0}
+    assert cut.get_aspect() == 1.0
+
+
+def test_the_slice_without_radii_is_a_twentieth_of_the_height_and_inclusive():
+    """Without radii the slice reaches 5 % of the specimen's extent along y either side of
+    the middle (here 15.625 mm +- 0.78125 mm, exact in binary: a particle on the edge is
+    in); without break modes every particle is intact; without contacts no chains."""
+    y = np.array([7.8125, 15.625, 16.40625, 16.4375, 14.84375, 23.4375]) * 1e-3
+    position = np.column_stack([np.arange(6) * 1e-3, y, np.arange(6)[::-1] * 2e-3])
+    result = ucs_result(position=position, bonds=np.zeros((0, 2), int))
+    cut = build_lab_figures(result)["specimen"].axes[1]
+    shown = {c.get_label(): c.get_offsets() for c in cut.collections}
+    assert list(shown) == ["intact"]
+    np.testing.assert_allclose(shown["intact"], position[[1, 2, 4]][:, [0, 2]] * 1e3)
 
 
 def test_write_result_saves_each_figure_as_a_png_of_its_size(tmp_path):

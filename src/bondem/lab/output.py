@@ -88,8 +88,7 @@ def write_result(result, out_dir, figures=True):
 def _write_table(path, table):
     """{column: (K,) array} as CSV with units in the header (lab/cracks.py's UNITS)."""
     from .cracks import UNITS
-    units = {**UNITS, "particles": "1", "mass": "kg", "size": "m", "cracks": "1",
-             "magnitude": "1"}
+    units = {**UNITS, "mass": "kg", "size": "m"}   # any other column: "1"
     columns = list(table)
     with open(path, "w", newline="") as handle:
         writer = csv.writer(handle)
