@@ -75,6 +75,7 @@ MODULES = {
     "src/bondem/lab/membrane.py": ["tests/test_lab_membrane.py"],
     "src/bondem/lab/output.py": ["tests/test_lab_output.py"],
     "src/bondem/analysis/report.py": ["tests/test_analysis_report.py"],
+    "src/bondem/analysis/figures.py": ["tests/test_analysis_figures.py"],
     # the tests that run LAMMPS itself skip where it is not installed
     "src/bondem/io/lammps.py": ["tests/test_lammps_deck.py", "tests/test_lammps_export.py"],
 }
