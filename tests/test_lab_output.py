@@ -214,6 +214,15 @@ def test_the_agglomerate_figures_in_newtons_and_millimetres():
     np.testing.assert_allclose(x, [0, 0.2, 0.8, 1.4, 1.7], rtol=1e-12)
     assert y.tolist() == [1, 1, 4, 9, 12]
     assert _style(right, "all, loose particles included")[0] == "--"
+    # a size just below a class edge stays in its class (sizes drawn in mm)
+    just_below = np.geomspace(0.495, 4.04, 12)[5] * (1 - 5e-4) * 1e-3
+    result.fragments = {"particles": np.array([300.0, 20.0, 1.0]),
+                        "mass": np.array([6.0, 3.0, 1.0]),
+                        "size": np.array([4e-3, just_below, 0.5e-3])}
+    middle = build_lab_figures(result)["fragments"].axes[1]
+    heights = [patch.get_height() for patch in middle.patches]
+    assert heights == pytest.approx([0.1, 0, 0, 0, 0.3, 0, 0, 0, 0, 0, 0.6], abs=1e-15)
+    result.fragments = fragments
     # without the applied energy (or without the table) there is no fragments figure
     result.curve = {k: v for k, v in curve.items() if k != "applied_energy"}
     assert "fragments" not in build_lab_figures(result)
@@ -336,16 +345,25 @@ def test_the_failure_picture_slices_the_middle_and_draws_the_force_chains():
     assert cut.get_aspect() == 1.0
 
 
-def test_the_slice_without_radii_is_a_twentieth_of_the_height_and_inclusive():
+def test_the_slice_reaches_one_diameter_or_a_twentieth_of_the_height():
     """Without radii the slice reaches 5 % of the specimen's extent along y either side of
     the middle (here 15.625 mm +- 0.78125 mm, exact in binary: a particle on the edge is
-    in); without break modes every particle is intact; without contacts no chains."""
+    in), with radii one mean diameter; without break modes every particle is intact;
+    without contacts no chains."""
     y = np.array([7.8125, 15.625, 16.40625, 16.4375, 14.84375, 23.4375]) * 1e-3
     position = np.column_stack([np.arange(6) * 1e-3, y, np.arange(6)[::-1] * 2e-3])
     result = ucs_result(position=position, bonds=np.zeros((0, 2), int))
     cut = build_lab_figures(result)["specimen"].axes[1]
     shown = {c.get_label(): c.get_offsets() for c in cut.collections}
     assert list(shown) == ["intact"]
+    np.testing.assert_allclose(shown["intact"], position[[1, 2, 4]][:, [0, 2]] * 1e3)
+    # with radii of 2^-11 m the slice reaches one diameter, 0.9765625 mm, either side:
+    # 16.6 mm is in, 16.6018 mm (0.9768 mm from the middle) is out
+    position[2, 1], position[3, 1] = 16.6e-3, 16.6018e-3
+    result = ucs_result(position=position, bonds=np.zeros((0, 2), int),
+                        radius=np.full(6, 2.0 ** -11))
+    cut = build_lab_figures(result)["specimen"].axes[1]
+    shown = {c.get_label(): c.get_offsets() for c in cut.collections}
     np.testing.assert_allclose(shown["intact"], position[[1, 2, 4]][:, [0, 2]] * 1e3)
 
 
