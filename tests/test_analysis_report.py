@@ -101,19 +101,24 @@ velocity = [0.0, 0.0, -0.1]
 """
 
 
-def plates_file(path, *, attrs=None):
+def plates_file(path, *, attrs=None, extras=False):
     """Two bonded particles squeezed between a fixed plate (wall 0, z = 0) and one moving
-    down 0.1 mm per frame from z = 3 mm (wall 1); the bond breaks at frame 3 of 5."""
+    down 0.1 mm per frame from z = 3 mm (wall 1); the bond breaks at frame 3 of 5.
+    ``extras``: energy terms and field forces too."""
     k = np.arange(5)
     force = np.zeros((5, 2, 3))
     force[:, 1, 2] = [0.0, 1.5, 3.0, 2.0, 0.5]
     force[:, 0, 2] = -force[:, 1, 2]
     walls_position = np.zeros((5, 2, 3))
     walls_position[:, 1, 2] = 3e-3 - 1e-4 * k
+    energy = ({"kinetic_translational": 1e-6 * k, "work_walls": 1e-6 * k} if extras
+              else None)
     write_static(path, [[0, 0, 1e-3], [0, 0, 2e-3]], 5e-4, [[0, 1]], (k < 3)[:, None],
                  time=k * 1e-4, mass=np.array([1e-6, 2e-6]), break_mode=[1],
-                 walls=(force, walls_position))
+                 walls=(force, walls_position), energy=energy)
     with h5py.File(path, "a") as f:
+        if extras:
+            f["particles/field_force"] = np.ones((5, 2, 3)) * 1e-6
         for key, value in (attrs or {}).items():
             f.attrs[key] = value
     return path
@@ -160,7 +165,8 @@ def test_the_report_of_a_run_holds_its_numbers_scene_attributes_and_figures(tmp_
     names = [f[0] for f in page.figures]
     assert names == [n for n in ("bodies", "fragments", "breakage", "radial", "energy",
                                  "wall", "fields", "size_distribution") if n in names]
-    assert {"bodies", "fragments", "breakage", "wall"} <= set(names)
+    assert names == ["bodies", "fragments", "breakage", "radial", "wall",
+                     "size_distribution"]
     for name, alt, png, caption in page.figures:
         assert alt == name and png[:8] == b"\x89PNG\r\n\x1a\n"
         if name != "wall":
@@ -262,3 +268,88 @@ def test_render_html_escapes_and_takes_given_captions():
     assert [h[1] for h in page.headings if h[0] == "h2"] == [
         "Key numbers", "Extra", "Scene", "Figures", "Run"]
     assert text.startswith("<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">")
+
+
+def _png_size(png):
+    return int.from_bytes(png[16:20], "big"), int.from_bytes(png[20:24], "big")
+
+
+def test_every_figure_that_applies_at_its_size_and_the_bodies_at_the_frames(tmp_path):
+    """Energy terms and field forces add their figures, in the report's order; each PNG at
+    100 dpi; three frames make the bodies figure three panels wide; a periodic run keeps
+    its box's length, a file that only names a box drops it."""
+    path = plates_file(tmp_path / "run.h5", extras=True,
+                       attrs={"periodic": np.array([True, False, False]),
+                              "box_length": np.array([1e-2, 1.0, 1.0])})
+    out, _ = write_report(path, frames=(0, 2, -1))
+    page = Page(out.read_text())
+    assert [f[0] for f in page.figures] == ["bodies", "fragments", "breakage", "radial",
+                                            "energy", "wall", "fields", "size_distribution"]
+    pngs = {f[0]: f[2] for f in page.figures}
+    assert _png_size(pngs["fragments"]) == (600, 360)     # 6 x 3.6 inches at 100 dpi
+    assert _png_size(pngs["bodies"]) == (1080, 380)       # 3 panels of 3.6 x 3.8 inches
+    attributes = dict(map(tuple, page.tables["attributes"]))
+    assert attributes["box_length"] == str(np.array([1e-2, 1.0, 1.0]))
+    named = plates_file(tmp_path / "named.h5", attrs={"box_length": np.ones(3)})
+    page = Page(write_report(named)[0].read_text())
+    assert "box_length" not in dict(map(tuple, page.tables["attributes"]))
+    # no walls: no wall figure, and its caption is not asked for
+    bare = write_static(tmp_path / "bare.h5", [[0, 0, 0], [1e-3, 0, 0]], 3e-4, [[0, 1]],
+                        [[True], [False]], mass=np.ones(2))
+    page = Page(write_report(bare)[0].read_text())
+    assert "wall" not in [f[0] for f in page.figures]
+
+
+def test_the_html_is_written_exactly(monkeypatch):
+    from bondem.analysis.report import _table
+    assert _table([["a", 1.23456], [[1, 2.5], {"k": 0.5}]], ("x<", "y")) == (
+        "<table><tr><th>x&lt;</th><th>y</th></tr><tr><td>a</td><td>1.235</td></tr>\n"
+        "<tr><td>[1, 2.5]</td><td>k = 0.5</td></tr></table>")
+    scene = ("[simulation]\nseed = 3\n[materials.a]\ncolour = 'red'\ndensity = 1.0\n"
+             "[bonds]\nfile = 'b.csv'\n[[walls]]\ntype = 'plane'\n")
+    assert scene_html(scene, {}) == "\n".join([
+        "<h3>Simulation and time</h3><table><tr><th>key</th><th>value</th><th>unit</th></tr>"
+        "<tr><td>seed</td><td>3</td><td></td></tr></table>",
+        "<h3>Particle materials</h3><table><tr><th>name</th><th>colour</th>"
+        "<th>density (kg/m^3)</th></tr><tr><td>a</td><td>red</td><td>1</td></tr></table>",
+        "<h3>Bonds</h3><table><tr><th>key</th><th>value</th></tr>"
+        "<tr><td>file</td><td>b.csv</td></tr></table>",
+        "<h3>Walls (m, m/s)</h3><table><tr><th>wall</th><th>type</th></tr>"
+        "<tr><td>0</td><td>plane</td></tr></table>"])
+    # the stamp in UTC whatever the local zone
+    import time
+    from datetime import datetime, timedelta, timezone
+    monkeypatch.setenv("TZ", "Asia/Tokyo")
+    time.tzset()
+    try:
+        before = datetime.now(timezone.utc).replace(second=0, microsecond=0)
+        text = render_html("t", {"a": 1}, {"x": b"1", "mystery": b"2"}, {"k": 1, "l": 2})
+    finally:
+        monkeypatch.delenv("TZ")
+        time.tzset()
+    import re
+    stamp = re.search(r"<p>bondem report, (\d{4}-\d{2}-\d{2} \d{2}:\d{2}) UTC</p>", text)
+    written = datetime.strptime(stamp.group(1), "%Y-%m-%d %H:%M").replace(tzinfo=timezone.utc)
+    assert before <= written <= before + timedelta(minutes=2)
+    assert '<table id="attributes"><tr><td>k</td><td>1</td></tr>\n<tr><td>l</td>' in text
+    assert '<table id="key-numbers"><tr><td>a</td><td>1</td></tr></table>\n\n<h2>Scene' in text
+    assert '</figcaption></figure>\n<figure id="mystery">' in text
+    assert Page(text).figures[1] == ("mystery", "mystery", b"2", "mystery")
+
+
+def test_the_lab_section_s_html_and_its_defaults(tmp_path):
+    png = b"\x89PNG\r\n\x1a\n" + bytes(8)
+    for name in ("stress_strain", "volumetric"):
+        (tmp_path / f"lab_{name}.png").write_bytes(png)
+    (tmp_path / "lab.json").write_text(json.dumps({"notes": ["a", "b"]}))
+    text = lab_html(tmp_path)
+    data = base64.b64encode(png).decode("ascii")
+    assert text == (
+        '<h2 id="lab">Laboratory test: </h2><table><tr><th>quantity</th><th>value</th>'
+        "<th>unit</th></tr></table><ul><li>a</li><li>b</li></ul>"
+        f'<figure id="lab_stress_strain"><img alt="lab stress_strain" '
+        f'src="data:image/png;base64,{data}"><figcaption></figcaption></figure>'
+        f'<figure id="lab_volumetric"><img alt="lab volumetric" '
+        f'src="data:image/png;base64,{data}"><figcaption></figcaption></figure>')
+    (tmp_path / "lab.json").write_text(json.dumps({"numbers": {"ucs": 2.0}}))
+    assert Page(lab_html(tmp_path)).tables["table0"][1] == ["ucs", "2", ""]
