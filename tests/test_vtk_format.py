@@ -81,12 +81,13 @@ def cells(out, kind):
 
 
 def test_several_blocks_other_dtypes_and_byte_orders_are_written_as_documented(tmp_path):
-    """3000 particles: 72 kB of positions in three 32 KiB blocks; radii in float32,
+    """3000 particles: 72 kB of positions in three 32 KiB blocks; positions and radii in
+    float32,
     velocities big-endian, materials int64, fragments int32, clumps int16: written as
     Float64, Int32 and Int64, little-endian, with the same values."""
     rng = np.random.default_rng(3)
     n = 3000
-    position = rng.normal(size=(n, 3)) * 1e-2
+    position = (rng.normal(size=(n, 3)) * 1e-2).astype(np.float32)
     radius = rng.uniform(1e-4, 2e-4, n).astype(np.float32)
     velocity = rng.normal(size=(n, 3)).astype(">f8")
     spin = rng.normal(size=(n, 3)).astype(np.float32)
