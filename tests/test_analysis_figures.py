@@ -270,3 +270,199 @@ def test_a_file_gets_the_figures_that_apply_and_they_are_saved(tmp_path):
                         np.zeros((0, 2)), np.zeros((1, 0), bool), mass=np.ones(2))
     with Results(bare) as results:
         assert set(build_figures(results)) == {"fragments", "size_distribution", "bodies"}
+
+
+def props(line):
+    """What a reader sees of a line: colour (RGB), width, style, marker and its size,
+    steps."""
+    return (_rgb(line.get_color()), line.get_linewidth(), line.get_linestyle(),
+            line.get_marker(), line.get_markersize(), line.get_drawstyle())
+
+
+def _integer_ticks(axis):
+    return axis.get_major_locator()._integer
+
+
+def _constrained(fig):
+    return type(fig.get_layout_engine()).__name__ == "ConstrainedLayoutEngine"
+
+
+def _legend_style(ax):
+    legend = ax.get_legend()
+    return {t.get_fontsize() for t in legend.get_texts()}, legend._ncols
+
+
+STEP, PLAIN = "steps-post", "default"
+
+
+def test_the_figures_look_as_designed():
+    """Colours, widths, styles and markers of every line, legends, layouts and tick rules:
+    what distinguishes the curves of one figure from each other in print."""
+    series = {"time": TIME, "fragments": np.array([1, 2, 5, 9]),
+              "fragments_multi": np.array([1, 2, 2, 3]),
+              "largest_fraction": np.array([1.0, 0.7, 0.55, 0.4])}
+    fig = plot_fragments(series)
+    ax, right = fig.axes
+    lines = _lines(ax)
+    assert props(lines["all fragments"]) == (_rgb("tab:blue"), 1.5, "-", "None", 6.0, STEP)
+    assert props(lines["fragments of 2+ particles"]) == (_rgb("tab:cyan"), 1.5, "--", "None",
+                                                         6.0, STEP)
+    assert props(right.get_lines()[0]) == (_rgb("tab:red"), 1.5, "-", "None", 6.0, STEP)
+    assert _rgb(right.yaxis.label.get_color()) == _rgb("tab:red")
+    assert _integer_ticks(ax.yaxis) and _constrained(fig)
+    assert _legend_style(ax) == ({8.0}, 1)
+
+    series = {"time": TIME, "broken": np.array([0, 1, 4, 6]),
+              "tension": np.array([0, 1, 3, 4]), "compression": np.array([0, 0, 0, 1]),
+              "shear": np.array([0, 0, 1, 2]), "unknown": np.array([0, 0, 0, 1])}
+    fig = plot_breakage(series)
+    ax = fig.axes[0]
+    lines = _lines(ax)
+    assert props(lines["all"]) == ((0.0, 0.0, 0.0), 1.5, "-", "None", 6.0, STEP)
+    for name in ("tension", "compression", "shear", "unknown"):
+        assert props(lines[name]) == (_rgb(MODE_COLOURS[name]), 1.5, "-", "None", 6.0, STEP)
+    assert _integer_ticks(ax.yaxis) and _constrained(fig)
+    assert _legend_style(ax) == ({8.0}, 1)
+    assert tuple(fig.get_size_inches()) == (6.0, 3.6)
+
+    balance = {"time": TIME, "terms": {"kinetic_translational": np.array([4.0, 3, 2, 1])},
+               "stored": np.array([4.0, 3.5, 3.0, 1.5]), "work": np.zeros(4),
+               "losses": np.zeros(4), "relative_error": np.zeros(4)}
+    fig = plot_energy(balance)
+    ax, low = fig.axes
+    lines = _lines(ax)
+    np.testing.assert_allclose(lines["kinetic translational"].get_xdata(), TIME * 1e3)
+    assert lines["kinetic translational"].get_linewidth() == 1.0
+    assert props(lines["stored"]) == ((0.0, 0.0, 0.0), 2.0, "-", "None", 6.0, PLAIN)
+    np.testing.assert_allclose(lines["stored"].get_xdata(), TIME * 1e3)
+    assert props(lines["stored - work + losses"]) == ((0.0, 0.0, 0.0), 2.0, ":", "None", 6.0,
+                                                      PLAIN)
+    np.testing.assert_allclose(lines["stored - work + losses"].get_xdata(), TIME * 1e3)
+    assert _rgb(low.get_lines()[0].get_color()) == _rgb("tab:purple")
+    assert _legend_style(ax) == ({7.0}, 2) and _constrained(fig)
+    # the residual's panel a third as tall, on the same time axis
+    assert ax.get_position().height == pytest.approx(3 * low.get_position().height, rel=0.05)
+    assert low.get_shared_x_axes().joined(ax, low)
+
+    series = {"time": TIME, "total": np.zeros((4, 3)), "mean": np.zeros(4),
+              "weight_carried": np.full(4, 0.5)}
+    fig = plot_fields(series)
+    top, low = fig.axes
+    lines = _lines(top)
+    for axis in "xyz":
+        assert lines[f"total {axis}"].get_linewidth() == 1.2
+        np.testing.assert_allclose(lines[f"total {axis}"].get_xdata(), TIME * 1e3)
+    assert props(lines["mean |F| per particle"]) == ((0.0, 0.0, 0.0), 1.0, "--", "None", 6.0,
+                                                     PLAIN)
+    np.testing.assert_allclose(lines["mean |F| per particle"].get_xdata(), TIME * 1e3)
+    carried, full = low.get_lines()
+    assert _rgb(carried.get_color()) == _rgb("tab:purple")
+    np.testing.assert_allclose(carried.get_xdata(), TIME * 1e3)
+    assert props(full)[:3] == (_rgb("0.6"), 0.8, ":")
+    assert _legend_style(top) == ({7.0}, 2) and _constrained(fig)
+    assert low.get_shared_x_axes().joined(top, low)
+
+    ax = plot_wall(_curve()).axes[0]
+    lines = _lines(ax)
+    assert props(lines["wall 1 (loading)"])[:3] == (_rgb("tab:blue"), 0.8, "-")
+    assert props(lines["wall 0"])[:3] == (_rgb("tab:green"), 0.8, "-")
+    np.testing.assert_allclose(lines["wall 0"].get_xdata(), [0, 0.1, 0.2, 0.3])
+    np.testing.assert_allclose(lines["wall 1 (loading)"].get_xdata(), [0, 0.1, 0.2, 0.3])
+    assert props(lines["mean of both"])[:3] == ((0.0, 0.0, 0.0), 1.5, "-")
+    assert props(lines["peak 5.5 N"])[:5] == (_rgb("tab:red"), 1.5, "None", "v", 9.0)
+    assert props(lines["first broken bond"])[:5] == (_rgb("tab:orange"), 1.5, "None", "o",
+                                                     8.0)
+    assert _legend_style(ax) == ({8.0}, 1)
+    fig = plot_wall(_curve(partner=None))
+    assert props(fig.axes[0].get_lines()[0])[:3] == ((0.0, 0.0, 0.0), 1.5, "-")
+    assert tuple(fig.get_size_inches()) == (6.0, 3.6) and _constrained(fig)
+
+    data = {"time": 1e-3, "masses": np.array([1e-9, 2e-9]), "cumulative": np.array([0.3, 1.0]),
+            "particles": np.array([1, 20]), "number": np.array([5, 1]),
+            "counts": np.array([20, 1, 1, 1, 1, 1])}
+    fig = plot_size_distribution(data)
+    ax, right = fig.axes
+    assert props(ax.get_lines()[0]) == (_rgb("tab:blue"), 1.5, "-", ".", 6.0, STEP)
+    assert [a.get_subplotspec().get_geometry() for a in (ax, right)] == [(1, 2, 0, 0),
+                                                                         (1, 2, 1, 1)]
+    # twenty particles at most: plain bars at the counts, integer ticks
+    for bar in right.patches:
+        assert _rgb(bar.get_facecolor()) == _rgb("tab:orange")
+        assert _rgb(bar.get_edgecolor()) == (0.0, 0.0, 0.0)
+    assert right.get_xscale() == "linear" and _integer_ticks(right.xaxis)
+    assert _integer_ticks(right.yaxis) and fig._suptitle.get_fontsize() == 9.0
+    assert _constrained(fig)
+    data["particles"] = np.array([1, 21])
+    right = plot_size_distribution(data).axes[1]
+    assert right.get_xscale() == "log"
+    assert right.xaxis.get_major_locator()._base == 10.0
+    assert right.xaxis.get_major_formatter().fmt == "%d"
+    assert _rgb(right.patches[0].get_facecolor()) == _rgb("tab:orange")
+    assert _rgb(right.patches[0].get_edgecolor()) == (0.0, 0.0, 0.0)
+
+    radial = {"edges": np.array([0.0, 0.5, 1.0]), "broken_fraction": np.array([0.2, 0.4])}
+    fig = plot_radial(radial)
+    ax = fig.axes[0]
+    assert _rgb(ax.patches[0].get_facecolor()) == _rgb("tab:orange")
+    assert _rgb(ax.patches[0].get_edgecolor()) == (0.0, 0.0, 0.0)
+    assert ax.get_xlabel() == "bond position r / R (centre of mass to outer radius, t = 0)"
+    assert _constrained(fig)
+
+
+def test_the_body_is_drawn_to_scale_in_tight_limits():
+    """Particles spread along the vertical axis: its limits are the discs' extremes
+    exactly (no margin), the horizontal ones widened about them for equal scales; discs
+    edged in black, their diameters in data units; four and five ticks; no grey among
+    fragments of several particles."""
+    n = 10
+    picture = {"time": 1e-3, "x": np.linspace(0, 1e-3, n), "y": np.linspace(0, 9e-3, n),
+               "depth": np.arange(n) * 1e-4, "radius": np.full(n, 2.5e-4),
+               "labels": np.arange(n), "sizes": np.full(n, 2), "n_fragments": n,
+               "view": "xz"}
+    fig = plot_bodies([picture])
+    ax = fig.axes[0]
+    fig.canvas.draw()
+    assert ax.get_ylim() == pytest.approx((-0.25, 9.25), rel=1e-9)
+    x0, x1 = ax.get_xlim()
+    assert x0 < -0.25 and x1 > 1.25
+    assert (x1 - x0) == pytest.approx(9.5 * ax.bbox.width / ax.bbox.height, rel=1e-6)
+    discs = ax.collections[0]
+    assert _rgb(discs.get_edgecolor()[0]) == (0.0, 0.0, 0.0)
+    assert discs.get_linewidths().tolist() == [0.3]
+    assert discs.get_offset_transform() is ax.transData
+    grey = _rgb(matplotlib.colormaps["tab10"].colors[7])
+    assert grey not in {_rgb(c) for c in discs.get_facecolor()}
+    assert len({_rgb(c) for c in discs.get_facecolor()}) == 9   # the palette's nine
+    assert ax.xaxis.get_major_locator()._nbins == 4
+    assert ax.yaxis.get_major_locator()._nbins == 5
+    assert ax.title.get_fontsize() == 9.0 and _constrained(fig)
+
+
+def test_every_figure_of_a_file_with_walls_energy_and_fields(tmp_path):
+    """A file with walls, energy terms and field forces gets their figures, each with the
+    data the analysis gives; the bodies in the view asked for; saved twice in one
+    folder."""
+    from bondem.analysis import analyze
+    path = _two_pieces(tmp_path / "r.h5", frames=2)
+    import h5py
+    with h5py.File(path, "a") as f:
+        f["walls/force"] = np.array([[[0, 0, 1.0]], [[0, 0, 2.0]]])
+        f["walls/position"] = np.array([[[0, 0, 0.0]], [[0, 0, 1e-4]]])
+        f["energy/kinetic_translational"] = np.array([1e-6, 0.5e-6])
+        f["particles/field_force"] = np.ones((2, 3, 3)) * 1e-6
+    with Results(path) as results:
+        data = analyze(results)
+        figures = build_figures(results, frames=(0,), view="xy", data=data)
+    assert set(figures) == {"fragments", "breakage", "radial", "energy", "wall", "fields",
+                            "size_distribution", "bodies"}
+    for name in ("energy", "wall", "fields"):
+        assert figures[name][1] is data[name]
+        assert isinstance(figures[name][0], matplotlib.figure.Figure)
+    assert figures["energy"][0].axes[0].get_ylabel() == "energy (J)"
+    assert figures["wall"][0].axes[0].get_ylabel() == "compressive force (N)"
+    assert figures["fields"][0].axes[0].get_ylabel() == "fluid/field force (N)"
+    picture, = figures["bodies"][1]
+    assert picture["view"] == "xy" and picture["y"].tolist() == [2e-3, 1e-3, 6e-3]
+    for _ in range(2):
+        written = save_figures(figures, tmp_path / "figs", formats=("png",))
+    assert sorted(written) == sorted(figures)
