@@ -323,7 +323,8 @@ def test_the_html_is_written_exactly(monkeypatch):
     time.tzset()
     try:
         before = datetime.now(timezone.utc).replace(second=0, microsecond=0)
-        text = render_html("t", {"a": 1}, {"x": b"1", "mystery": b"2"}, {"k": 1, "l": 2})
+        text = render_html("t", {"a": 1, "b": 2}, {"x": b"1", "mystery": b"2"},
+                           {"k": 1, "l": 2})
     finally:
         monkeypatch.delenv("TZ")
         time.tzset()
@@ -332,7 +333,9 @@ def test_the_html_is_written_exactly(monkeypatch):
     written = datetime.strptime(stamp.group(1), "%Y-%m-%d %H:%M").replace(tzinfo=timezone.utc)
     assert before <= written <= before + timedelta(minutes=2)
     assert '<table id="attributes"><tr><td>k</td><td>1</td></tr>\n<tr><td>l</td>' in text
-    assert '<table id="key-numbers"><tr><td>a</td><td>1</td></tr></table>\n\n<h2>Scene' in text
+    assert ('<table id="key-numbers"><tr><td>a</td><td>1</td></tr>\n'
+            '<tr><td>b</td><td>2</td></tr></table>\n\n<h2>Scene' in text)
+    assert "<p>(no scene stored in the results file)</p>" in text
     assert '</figcaption></figure>\n<figure id="mystery">' in text
     assert Page(text).figures[1] == ("mystery", "mystery", b"2", "mystery")
 
