@@ -76,6 +76,11 @@ MODULES = {
     "src/bondem/lab/output.py": ["tests/test_lab_output.py"],
     "src/bondem/analysis/report.py": ["tests/test_analysis_report.py"],
     "src/bondem/analysis/figures.py": ["tests/test_analysis_figures.py"],
+    "src/bondem/scene.py": ["tests/test_scene.py", "tests/test_bad_files.py",
+                            "tests/test_model.py", "tests/test_clumps.py",
+                            "tests/test_flow_field.py", "tests/test_wall_motion.py"],
+    "src/bondem/io/results.py": ["tests/test_results.py", "tests/test_contact_output.py",
+                                 "tests/test_bad_files.py", "tests/test_wall_motion.py"],
     # the tests that run LAMMPS itself skip where it is not installed
     "src/bondem/io/lammps.py": ["tests/test_lammps_deck.py", "tests/test_lammps_export.py"],
 }
