@@ -12,7 +12,7 @@ from .walls import force_mismatch, wall_curve
 
 __all__ = ["Results", "analyze", "broken_bond_fraction", "broken_series",
            "count_distribution", "energy_balance", "first_break_time", "force_mismatch",
-           "fragment_labels",
-           "fragment_series", "fragment_sizes", "frame_fragments", "key_numbers",
-           "largest_fragment_fraction", "radial_breakage", "size_distribution", "summarize",
-           "time_series", "wall_curve", "write_fragment_ids"]
+           "fragment_labels", "fragment_series", "fragment_sizes", "frame_fragments",
+           "key_numbers", "largest_fragment_fraction", "radial_breakage",
+           "size_distribution", "summarize", "time_series", "wall_curve",
+           "write_fragment_ids"]

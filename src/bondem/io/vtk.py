@@ -30,6 +30,10 @@ the plane nearest their centroid), each mesh as its triangles, both moved with t
 (translation, and rotation about the mesh's centre). Cell data: wall (index), force (N,
 total force on that wall).
 
+Whatever the results file stores, the arrays are written little-endian as Float64
+(points, every float), Int32 (material, a contact's wall), Int64 (fragment, clump, bond,
+a polygon's wall, cell connectivity and offsets), UInt8 (active) and Int8 (break_mode).
+
 Open ``results.pvd`` in ParaView (Glyph the particles with a Sphere, scale array
 "radius", scale factor 2).
 """
