@@ -388,7 +388,7 @@ def test_the_figures_look_as_designed():
     # twenty particles at most: plain bars at the counts, integer ticks
     for bar in right.patches:
         assert _rgb(bar.get_facecolor()) == _rgb("tab:orange")
-        assert _rgb(bar.get_edgecolor()) == (0.0, 0.0, 0.0)
+        assert tuple(bar.get_edgecolor()) == (0.0, 0.0, 0.0, 1.0)   # drawn, black
     assert right.get_xscale() == "linear" and _integer_ticks(right.xaxis)
     assert _integer_ticks(right.yaxis) and fig._suptitle.get_fontsize() == 9.0
     assert _constrained(fig)
@@ -398,13 +398,13 @@ def test_the_figures_look_as_designed():
     assert right.xaxis.get_major_locator()._base == 10.0
     assert right.xaxis.get_major_formatter().fmt == "%d"
     assert _rgb(right.patches[0].get_facecolor()) == _rgb("tab:orange")
-    assert _rgb(right.patches[0].get_edgecolor()) == (0.0, 0.0, 0.0)
+    assert tuple(right.patches[0].get_edgecolor()) == (0.0, 0.0, 0.0, 1.0)
 
     radial = {"edges": np.array([0.0, 0.5, 1.0]), "broken_fraction": np.array([0.2, 0.4])}
     fig = plot_radial(radial)
     ax = fig.axes[0]
     assert _rgb(ax.patches[0].get_facecolor()) == _rgb("tab:orange")
-    assert _rgb(ax.patches[0].get_edgecolor()) == (0.0, 0.0, 0.0)
+    assert tuple(ax.patches[0].get_edgecolor()) == (0.0, 0.0, 0.0, 1.0)
     assert ax.get_xlabel() == "bond position r / R (centre of mass to outer radius, t = 0)"
     assert _constrained(fig)
 
@@ -430,6 +430,7 @@ def test_the_body_is_drawn_to_scale_in_tight_limits():
     assert _rgb(discs.get_edgecolor()[0]) == (0.0, 0.0, 0.0)
     assert discs.get_linewidths().tolist() == [0.3]
     assert discs.get_offset_transform() is ax.transData
+    assert discs._units == "xy"    # diameters in data units (mm), not points
     grey = _rgb(matplotlib.colormaps["tab10"].colors[7])
     assert grey not in {_rgb(c) for c in discs.get_facecolor()}
     assert len({_rgb(c) for c in discs.get_facecolor()}) == 9   # the palette's nine
