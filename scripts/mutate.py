@@ -76,7 +76,7 @@ MODULES = {
     "src/bondem/lab/output.py": ["tests/test_lab_output.py"],
     "src/bondem/analysis/report.py": ["tests/test_analysis_report.py"],
     "src/bondem/analysis/figures.py": ["tests/test_analysis_figures.py"],
-    "src/bondem/walls.py": ["tests/test_wall_motion.py"],
+    "src/bondem/walls.py": ["tests/test_wall_objects.py"],
     "src/bondem/scene.py": ["tests/test_scene.py", "tests/test_bad_files.py",
                             "tests/test_model.py", "tests/test_clumps.py",
                             "tests/test_flow_field.py", "tests/test_wall_motion.py"],
