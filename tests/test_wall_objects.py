@@ -358,6 +358,7 @@ def test_mesh_vertices_turn_about_a_travelling_centre():
      "rotation_center = (0, 0): expected three finite numbers"),
 ])
 def test_bad_meshes_are_explained(vertices, triangles, kwargs, message):
+    kwargs = dict(kwargs)                        # the parameter's dict is shared
     material = kwargs.pop("material", STEEL)
     assert _message(MeshWall, vertices, triangles, material, **kwargs) == message
 
