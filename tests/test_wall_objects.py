@@ -32,7 +32,7 @@ def _message(call, *args, **kwargs):
 # ---------------------------------------------------------------- rotation
 
 @pytest.mark.parametrize("w, t", [((0.3, -1.1, 2.0), 0.7), ((-4.0, 0.5, 0.25), -0.3),
-                                  ((0.0, 0.0, 9.0), 0.21)])
+                                  ((0.0, 0.0, 9.0), 0.21), ((0.5, 0.2, -0.7), 1.0)])
 def test_rotation_is_the_rotation_vector_w_t(w, t):
     expected = Rotation.from_rotvec(np.multiply(w, t)).as_matrix()
     np.testing.assert_allclose(rotation_matrix(w, t), expected, rtol=0, atol=1e-14)
@@ -86,6 +86,14 @@ def test_profile_displacement_is_the_integral_of_its_velocity(t):
     expected = [quad(lambda s: profile.velocity(s)[k], 0.0, t, points=[0.3, 1.1, 2.0],
                      limit=200, epsabs=1e-14)[0] if t > 0 else 0.0 for k in range(3)]
     np.testing.assert_allclose(profile.displacement(t), expected, rtol=1e-12, atol=1e-15)
+
+
+def test_a_profile_of_whole_numbers_moves_in_floating_point():
+    """Kernels take float64 velocities: integer knots are converted, after the last too."""
+    profile = VelocityProfile([0, 2], [[0, 0, 1], [0, 0, 3]])
+    for t in (1.0, 2.0, 5.0):
+        assert profile.velocity(t).dtype == np.float64
+    assert profile.velocity(1.0)[2] == 2.0 and profile.displacement(3.0)[2] == 7.0
 
 
 def test_a_one_knot_profile_is_a_constant_velocity():
@@ -212,15 +220,19 @@ def test_servo_error_and_reached_at_the_tolerance():
 
 def test_stiffness_servo_takes_pfcs_gain_and_the_cap_while_nothing_touches():
     k = [0.0]
-    servo = _servo(target_force=-5.0, gain=None, stiffness=lambda: k[0], fraction=0.35,
+    servo = _servo(target_force=-0.5, gain=None, stiffness=lambda: k[0], fraction=0.35,
                    max_velocity=0.2)
-    servo.update(_push(-2.0), 1e-5)              # no contact: v_max / |target| per N
-    assert servo.gain == pytest.approx(0.2 / 5.0, rel=1e-15)
-    assert servo.speed == pytest.approx(0.04 * -3.0, rel=1e-13)
+    servo.update(_push(-0.2), 1e-5)              # no contact: v_max / |target| per N
+    assert servo.gain == pytest.approx(0.2 / 0.5, rel=1e-15)
+    assert servo.speed == pytest.approx(0.4 * -0.3, rel=1e-12)
     k[0] = 2.5e6
-    servo.update(_push(-4.99), 1e-5)             # fraction / (k dt)
+    servo.update(_push(-0.499), 1e-5)            # fraction / (k dt)
     assert servo.gain == pytest.approx(0.35 / 25.0, rel=1e-14)
-    assert servo.speed == pytest.approx(0.014 * -0.01, rel=1e-9)
+    assert servo.speed == pytest.approx(0.014 * -0.001, rel=1e-9)
+    k[0] = 0.5                                   # a soft contact (below 1 N/m) all the same
+    servo.update(_push(-0.5001), 1e-2)
+    assert servo.gain == pytest.approx(0.35 / 5e-3, rel=1e-14)
+    assert servo.speed == pytest.approx(70.0 * 1e-4, rel=1e-9)
 
 
 def test_pi_servo_adds_the_integrated_error_and_stops_integrating_at_the_cap():
@@ -239,6 +251,15 @@ def test_pi_servo_adds_the_integrated_error_and_stops_integrating_at_the_cap():
     servo.update(_push(3.1), dt)
     assert servo.speed == pytest.approx(gain * -0.1 + gain * (integral - 0.1 * dt) / ti,
                                         rel=1e-12)
+
+
+def test_pi_servo_exactly_at_the_cap_is_saturated():
+    """Conditional integration: the integral grows only while the output is below its
+    limit; at the limit the controller is saturated. gain 0.25, T_i = dt = 0.5, error 1:
+    0.25 + 0.25 x 0.5 / 0.5 = 0.5 m/s, the cap, in binary-exact numbers."""
+    servo = Servo(target_force=1.0, gain=0.25, integral_time=0.5, max_velocity=0.5)
+    servo.update(np.zeros(3), 0.5)
+    assert servo.speed == 0.5 and servo.integral == 0.0
 
 
 def test_held_servo_ramps_to_its_speed_and_keeps_measuring():
@@ -288,6 +309,9 @@ def test_plane_wall_moves_its_point_and_keeps_a_unit_normal():
     assert np.array_equal(wall.velocity, [0.5, 0.0, -0.25])
     assert np.array_equal(wall.velocity_at(9.0), [0.5, 0.0, -0.25])
     assert wall.extent() == 0.0 and np.array_equal(wall.angular_velocity, np.zeros(3))
+    assert wall.material is STEEL and wall.point.dtype == np.float64
+    assert PlaneWall((0, 0, 1), (0, 0, 1), STEEL, velocity=(1, 0, 0)).velocity.dtype \
+        == np.float64
     rows, types = wall.elements(0.4)
     np.testing.assert_allclose(rows[0], [[0.3, -0.2, 0.2], TILTED, [0, 0, 0]], rtol=1e-15)
     assert rows.shape == (1, 3, 3) and types.tolist() == [PLANE] and types.dtype == np.int8
@@ -308,6 +332,9 @@ def test_a_servo_plane_moves_along_its_own_normal():
     (((0, 0), (0, 0, 1), STEEL), {}, "point = (0, 0): expected three finite numbers"),
     (((0, 0, 0), (0, 0, 1), STEEL), dict(velocity=(0, 0, 1), motion=ConstantVelocity()),
      "give a wall either a constant velocity or a motion, not both"),
+    (((0, 0, 0), (0, 0), STEEL), {}, "normal = (0, 0): expected three finite numbers"),
+    (((0, 0, 0), (0, 0, 1), STEEL), dict(velocity=(0, 1), motion=ConstantVelocity()),
+     "velocity = (0, 1): expected three finite numbers"),
     (((0, 0, 0), (0, 0, 1), STEEL), dict(motion=3.0),
      "motion: expected ConstantVelocity, VelocityProfile or Servo, got 3.0"),
 ])
@@ -338,6 +365,7 @@ def test_mesh_vertices_turn_about_a_travelling_centre():
     rows, types = wall.elements(t)
     np.testing.assert_allclose(rows, (centre + shift + turned)[HALVES], atol=1e-15)
     assert types.tolist() == [TRIANGLE, TRIANGLE] and types.dtype == np.int8
+    assert wall.material is STEEL
 
 
 @pytest.mark.parametrize("vertices, triangles, kwargs, message", [
@@ -350,7 +378,12 @@ def test_mesh_vertices_turn_about_a_travelling_centre():
      "triangles: shape (0, 3); expected (T, 3), T >= 1"),
     (SQUARE, [[0, 1, 4]], {}, "triangles: vertex indices must lie in [0, 3]"),
     (SQUARE, [[0, -1, 2]], {}, "triangles: vertex indices must lie in [0, 3]"),
-    (SQUARE, [[0, 1, 2], [0, 1, 1]], {}, "triangles: triangle 1 has zero area"),
+    (SQUARE + 0.5, [[0, 1, 2], [1, 1, 2]], {}, "triangles: triangle 1 has zero area"),
+    (SQUARE + 0.5, [[2, 3, 2], [0, 1, 2]], {}, "triangles: triangle 0 has zero area"),
+    (SQUARE + 0.5, [[0, 1, 2], [3, 0, 3], [0, 1, 3]], {},
+     "triangles: triangle 1 has zero area"),
+    (SQUARE, HALVES, dict(angular_velocity=(1, 2)),
+     "angular_velocity = (1, 2): expected three finite numbers"),
     (SQUARE, HALVES, dict(material=None), "material: expected a bondem.Material"),
     (SQUARE, HALVES, dict(motion=Servo(target_force=1.0, gain=1.0, max_velocity=1.0)),
      "a servo drives plane walls only"),
@@ -372,12 +405,21 @@ def test_mesh_from_stl_is_scaled_and_bad_files_are_named(tmp_path):
                                rtol=1e-7)
     assert wall.triangles.shape == (2, 3)
     assert np.array_equal(wall.velocity, [0.0, 0.0, -0.1])
+    other = tmp_path / "square.mesh"             # STL whatever the file is called
+    other.write_bytes(path.read_bytes())
+    unscaled = MeshWall.from_stl(other, STEEL)
+    np.testing.assert_allclose(np.sort(unscaled.vertices, axis=0), np.sort(SQUARE, axis=0))
     missing = tmp_path / "none.stl"
     assert _message(MeshWall.from_stl, missing, STEEL) == \
         f"{missing}: cannot read STL file (no such file)"
     bad = tmp_path / "bad.stl"
     bad.write_bytes(b"solid x\nfacet normal 0 0 1\nouter loop\nvertex 1 2\n")
     assert _message(MeshWall.from_stl, bad, STEEL).startswith(f"{bad}: ")
+    broken = tmp_path / "broken.stl"               # a facet of two vertices
+    broken.write_text("solid x\nfacet normal 0 0 1\nouter loop\nvertex 1 2 3\n"
+                      "vertex 4 5 6\nendloop\nendfacet\nendsolid x\n")
+    message = _message(MeshWall.from_stl, broken, STEEL)
+    assert message.startswith(f"{broken}: cannot read as STL (") and message.endswith(")")
 
 
 # ---------------------------------------------------------------- the set of walls
@@ -415,11 +457,14 @@ def test_a_still_wall_set_computes_its_elements_once():
     walls = WallSet(_walls()[:1] + [MeshWall(SQUARE, HALVES, STEEL)])
     assert walls.moving is False
     first = walls.elements(0.0)
+    assert first.shape == (3, 3, 3) and first[0, 0, 2] == -1.0
+    np.testing.assert_allclose(first[1:], SQUARE[HALVES])
     assert walls.elements(5.0) is first
     moving = WallSet(_walls())
     assert moving.elements(0.5) is not moving.elements(0.5)
     assert not np.array_equal(moving.elements(0.5), moving.elements(1.0))
     assert WallSet([PlaneWall((0, 0, 0), (0, 0, 1), STEEL, velocity=(1e-9, 0, 0))]).moving
+    assert WallSet([MeshWall(SQUARE, HALVES, STEEL, angular_velocity=(0, 0, 1e-9))]).moving
 
 
 def test_an_empty_wall_set():
@@ -429,6 +474,7 @@ def test_an_empty_wall_set():
     for values in (walls.velocities(1.0), walls.centers(1.0), walls.positions(1.0),
                    walls.angular_velocity):
         assert values.shape == (0, 3)
+    assert walls.element_type.shape == walls.element_wall.shape == (0,)
     assert walls.element_type.dtype == np.int8 and walls.element_wall.dtype == np.int64
     assert walls.max_displacement(1.0, 0.5) == 0.0
 
@@ -452,6 +498,11 @@ def test_verlet_bound_covers_each_walls_motion():
         pytest.approx(2.0 * math.sqrt(1.25), rel=1e-14)
     assert WallSet([still, mesh, sliding]).max_displacement(2.0, 0.5) == \
         pytest.approx(1.75, rel=1e-14)
+    # two turning meshes: each at its own rate, the larger sweep bounds
+    slow = MeshWall(SQUARE, HALVES, STEEL, angular_velocity=(0.0, 0.0, 0.25),
+                    rotation_center=(0.0, 0.0, 0.0))
+    assert WallSet([mesh, slow]).max_displacement(2.0, 0.5) == \
+        pytest.approx(max(math.sqrt(1.25) * 0.5, math.sqrt(5.0) * 0.125), rel=1e-14)
 
 
 def test_verlet_bound_of_a_servo_from_its_travel_since_the_mark():
@@ -502,19 +553,24 @@ def test_a_resumed_history_skips_the_load_it_ended_with():
     assert len(history) == 1
     # a last row of another number of walls is not the last row
     other = WallHistory(1, last=[[0.0, 0.0, 4.0], [0.0, 0.0, 1.0]])
+    assert np.array_equal(other.last, np.zeros((1, 3)))
     other.record(0.0, [[0.0, 0.0, 0.0]], [[0.0, 0.0, 0.0]])
     assert len(other) == 1
 
 
 def test_a_full_history_drops_its_older_half():
     history = WallHistory(1, max_rows=7)
-    for k in range(9):
+    for k in range(8):
         history.record(float(k), [[float(k) + 1.0, 0.0, 0.0]], [[0.0, 0.0, 0.0]])
     # full at 7 rows: the 8th drops the oldest 3
-    assert history.dropped == 3 and len(history) == 6
+    assert history.dropped == 3 and len(history) == 5
+    for k in range(8, 13):
+        history.record(float(k), [[float(k) + 1.0, 0.0, 0.0]], [[0.0, 0.0, 0.0]])
+    # full again at the 11th: 3 more dropped
+    assert history.dropped == 6 and len(history) == 7
     time, force, _ = history.take()
-    assert time.tolist() == [3.0, 4.0, 5.0, 6.0, 7.0, 8.0]
-    assert force[:, 0, 0].tolist() == [4.0, 5.0, 6.0, 7.0, 8.0, 9.0]
+    assert time.tolist() == [6.0, 7.0, 8.0, 9.0, 10.0, 11.0, 12.0]
+    assert force[:, 0, 0].tolist() == [7.0, 8.0, 9.0, 10.0, 11.0, 12.0, 13.0]
 
 
 # ---------------------------------------------------------------- wall pairs
@@ -555,5 +611,38 @@ def test_wall_pairs_are_every_particle_within_its_radius_and_the_skin():
     assert pairs.dtype == np.int64
     assert sorted(map(tuple, pairs.tolist())) == sorted(expected)
     assert len(expected) > 100 and {e for _, e in expected} == {0, 1, 2}
-    assert build_wall_pairs(position[:0], radius[:0], skin, rows, types).shape == (0, 2)
-    assert build_wall_pairs(position, radius, skin, rows[:0], types[:0]).shape == (0, 2)
+    for empty in (build_wall_pairs(position[:0], radius[:0], skin, rows, types),
+                  build_wall_pairs(position, radius, skin, rows[:0], types[:0])):
+        assert empty.shape == (0, 2) and empty.dtype == np.int64
+
+
+def test_wall_pairs_of_planes_alone():
+    """A floor and a tilted plane, no triangles: a pair wherever -r < d < r + skin; the last
+    particle touches both, so a pair list cut at its end would show."""
+    floor = np.array([[0.0, 0.0, 0.1], [0.0, 0.0, 1.0], [0.0, 0.0, 0.0]])
+    tilted = np.array([[0.3, 0.2, 0.0], TILTED, [0.0, 0.0, 0.0]])
+    rng = np.random.default_rng(11)
+    position = rng.uniform([-1.0, -1.0, -0.2], [1.0, 1.0, 0.6], size=(300, 3))
+    position[-1] = [0.3, 0.2, 0.12]              # 0.02 above the floor, behind the plane
+    radius = rng.uniform(0.01, 0.05, 300)
+    radius[-1] = 0.05
+    for rows in (np.array([floor]), np.array([floor, tilted])):
+        types = np.zeros(rows.shape[0], dtype=np.int8)
+        pairs = build_wall_pairs(position, radius, 0.02, rows, types)
+        expected = [(p, e) for p in range(300) for e in range(rows.shape[0])
+                    if -radius[p] < np.dot(position[p] - rows[e, 0], rows[e, 1])
+                    < radius[p] + 0.02]
+        assert pairs.tolist() == [list(pair) for pair in expected]
+        assert pairs[-1, 0] == 299 and len(expected) > 20
+
+
+def test_wall_pairs_with_a_skin_wider_than_the_particles():
+    """Verlet lists with a skin of 5 radii: a triangle is found up to r + skin away."""
+    triangle = np.array([[[0.0, 0.0, 0.0], [0.002, 0.0, 0.0], [0.0, 0.002, 0.0]]]) + 0.3
+    types = np.array([TRIANGLE], dtype=np.int8)
+    radius = np.full(5, 0.01)
+    # straight above the triangle's inside point (0.3005, 0.3005, 0.3), gaps 0.01 to 0.07
+    position = np.array([[0.3005, 0.3005, 0.3 + 0.01 * (1 + k * 1.5)] for k in range(5)])
+    pairs = build_wall_pairs(position, radius, 0.05, triangle, types)
+    # distance 0.01 + 0.015 k, gap 0.015 k: within the skin of 0.05 for k <= 3
+    assert pairs.tolist() == [[0, 0], [1, 0], [2, 0], [3, 0]]
