@@ -82,6 +82,13 @@ MODULES = {
                             "tests/test_flow_field.py", "tests/test_wall_motion.py"],
     "src/bondem/io/results.py": ["tests/test_results.py", "tests/test_contact_output.py",
                                  "tests/test_bad_files.py", "tests/test_wall_motion.py"],
+    "src/bondem/physics/bond_models.py": ["tests/test_bond_model_rules.py"],
+    "src/bondem/physics/bond_elastic.py": ["tests/test_bond_model_rules.py"],
+    "src/bondem/physics/bond_kelvin.py": ["tests/test_bond_model_rules.py"],
+    "src/bondem/physics/bond_plastic.py": ["tests/test_bond_model_rules.py"],
+    "src/bondem/physics/bond_parallel.py": ["tests/test_bond_model_rules.py"],
+    "src/bondem/physics/bond_concrete.py": ["tests/test_bond_model_rules.py"],
+    "src/bondem/physics/bond_weakening.py": ["tests/test_bond_model_rules.py"],
     # the tests that run LAMMPS itself skip where it is not installed
     "src/bondem/io/lammps.py": ["tests/test_lammps_deck.py", "tests/test_lammps_export.py"],
 }
