@@ -4,6 +4,7 @@ rules that name a wrong key (another model's parameter, a scatter without spread
 MUSEN cannot follow), the Kelvin dashpot's time scale from its definition, and the
 weakening bond's MUSEN words both ways. Every message is compared whole."""
 import math
+import types
 
 import numpy as np
 import pytest
@@ -57,6 +58,7 @@ def test_owners_are_the_models_that_declare_a_key():
         return [m.NAME for m in bond_models.owners(key)]
     assert names("yield_strength") == ["concrete", "creep", "elastic_plastic", "weakening"]
     assert names("viscosity") == ["kelvin"]
+    assert names("tensile_softness") == ["aerogel"]
     assert names("young_modulus") == names("breakage") == []
 
 
@@ -71,6 +73,11 @@ def test_every_number_has_a_unit():
 
 def test_only_the_elastic_bond_keeps_no_state():
     assert [m.NAME for m in bond_models.MODELS if not bond_models.has_state(m)] == ["elastic"]
+    # a model of springs alone (no energy of its own) keeps their columns all the same
+    springs = types.SimpleNamespace(STATE=None, SPRINGS="my_springs")
+    assert bond_models.has_state(springs) is True
+    assert bond_models.has_state(types.SimpleNamespace(STATE=None)) is False
+    assert bond_models.has_state(types.SimpleNamespace(STATE=None, SPRINGS=None)) is False
 
 
 # ---------------------------------------------------------------- the rules
