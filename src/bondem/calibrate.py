@@ -298,9 +298,18 @@ class Table:
         return rows
 
     def start(self):
-        if not self.path.is_file():
-            with open(self.path, "w", newline="") as handle:
-                csv.writer(handle).writerow(self.columns)
+        """Write the header of a new table; on an old one, drop a last row cut by a kill
+        (the next row would be appended to it, and both would be lost to ``read``)."""
+        if self.path.is_file():
+            with open(self.path, "rb+") as handle:
+                text = handle.read()
+                if text.endswith(b"\n"):
+                    return
+                handle.truncate(text.rfind(b"\n") + 1)
+                if b"\n" in text:
+                    return
+        with open(self.path, "w", newline="") as handle:    # new, or its header was cut
+            csv.writer(handle).writerow(self.columns)
 
     def append(self, trial, params, predictions, value):
         row = {"trial": trial, **params, **{t.name: predictions.get(t.name, math.nan)

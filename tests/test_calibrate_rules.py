@@ -1,0 +1,603 @@
+"""Calibration's logic against its definitions, on a lab in closed form (no simulation):
+E = 0.8 E_bond and tensile strength = 0.5 sigma_bond, with the truth far from the middle
+of the bounds (E_bond at 77 % of its log range, sigma_bond at 95 %, where the finite
+difference steps down). The first trial sits at the bounds' (geometric) middle, the
+second is the scaling rules' guess, exact for this lab; the linearised uncertainty is
+the closed form of a forward difference over 5 % of a log range; a table cut by a kill
+resumes; the file's errors name the key. Every message is compared whole."""
+import json
+import math
+
+import numpy as np
+import pytest
+
+import bondem.analysis.calibration as pages
+import bondem.calibrate as calibrate
+from bondem.calibrate import (Calibration, CalibrationFailed, Parameter, Table, Target,
+                              consistent, load_calibration, misfit, reachable,
+                              run_calibration, scaled_guess, summarise)
+from bondem.errors import InputError
+
+E_KEY = "specimen.bond_material.young_modulus"
+S_KEY = "specimen.bond_material.normal_strength"
+T_KEY = "specimen.bond_material.tangential_strength"
+TRUE_E, TRUE_S = 7e8, 2.4e7               # Pa: u = 0.772 and 0.9515 of the log ranges
+SPEC = """
+[specimen]
+lattice = [3, 3, 4]
+radius = 1e-3
+[specimen.material]
+density = 2500.0
+young_modulus = 1e8
+[specimen.bond_material]
+young_modulus = 1e8
+normal_strength = 1e6
+tangential_strength = 1e6
+"""
+FILE = """spec = "lattice.toml"
+budget = 5
+batch = 2
+seed = 3
+[parameters."specimen.bond_material.young_modulus"]
+low = 2e7
+high = 2e9
+log = true
+[parameters."specimen.bond_material.normal_strength"]
+low = 3e5
+high = 3e7
+log = true
+[parameters."specimen.bond_material.tangential_strength"]
+low = 3e5
+high = 3e7
+log = true
+[targets.young_modulus_secant]
+test = "tension"
+value = 5.6e8
+tolerance = 0.03
+[targets.tensile_strength]
+test = "tension"
+value = 1.2e7
+tolerance = 0.05
+"""
+
+
+def closed_form_lab(spec, test, overrides):
+    """The lab's numbers for a tension test of the lattice: E = 0.8 E_bond, strength =
+    0.5 sigma_bond (the tangential strength plays no part in tension)."""
+    return {"young_modulus_secant": 0.8 * overrides[E_KEY],
+            "tensile_strength": 0.5 * overrides[S_KEY], "poisson_ratio": 0.2}
+
+
+@pytest.fixture
+def folder(tmp_path, monkeypatch):
+    (tmp_path / "lattice.toml").write_text(SPEC)
+    (tmp_path / "calib.toml").write_text(FILE)
+    monkeypatch.setattr(calibrate, "evaluate", closed_form_lab)
+    # the figures and page are analysis/calibration.py's (tests/test_calibrate.py)
+    monkeypatch.setattr(pages, "write_figures", lambda *args: None)
+    monkeypatch.setattr(pages, "write_page", lambda *args: None)
+    return tmp_path
+
+
+def _calibration(parameters, targets, **kwargs):
+    return Calibration(__file__, __file__, parameters, targets, **kwargs)
+
+
+# ---------------------------------------------------------------- definitions
+
+def test_a_parameters_place_in_its_bounds():
+    linear = Parameter("a", 2.0, 7.0)
+    assert linear.unit(3.0) == 0.2 and linear.middle() == 4.5
+    log = Parameter("b", 3e5, 3e7, log=True)
+    assert log.unit(3e6) == pytest.approx(0.5, rel=1e-14)
+    assert log.unit(2.4e7) == pytest.approx(math.log(80.0) / math.log(100.0), rel=1e-14)
+    assert log.middle() == pytest.approx(3e6, rel=1e-15)
+
+
+def test_misfit_sums_the_squared_errors_in_tolerances():
+    cal = _calibration([Parameter("a", 0.0, 1.0)],
+                       [Target("ucs", "ucs", 5e6, 0.1), Target("poisson_ratio", "ucs", -0.2,
+                                                                0.25)])
+    # (5.3e6 - 5e6) / 5e5 = 0.6 and (-0.23 + 0.2) / 0.05 = -0.6: |value| in the tolerance
+    assert misfit(cal, {"ucs": 5.3e6, "poisson_ratio": -0.23}) == pytest.approx(0.72,
+                                                                              rel=1e-12)
+    assert misfit(cal, {"ucs": 5.3e6}) == math.inf
+    assert misfit(cal, {"ucs": 5.3e6, "poisson_ratio": math.nan}) == math.inf
+    assert misfit(cal, {"ucs": math.inf, "poisson_ratio": -0.2}) == math.inf
+
+
+def test_consistent_means_every_target_within_its_relative_uncertainty():
+    cal = _calibration([Parameter("a", 0.0, 1.0)],
+                       [Target("ucs", "ucs", 4.0, 0.125), Target("poisson_ratio", "ucs",
+                                                                 -2.0, 0.25)])
+    assert consistent(cal, {"ucs": 4.5, "poisson_ratio": -2.5})       # both at the edge
+    assert consistent(cal, {"ucs": 3.5, "poisson_ratio": -1.5})
+    assert not consistent(cal, {"ucs": 4.5000001, "poisson_ratio": -2.0})
+    assert not consistent(cal, {"ucs": 4.0, "poisson_ratio": -1.4999999})
+    assert not consistent(cal, {"ucs": 4.0})
+    assert not consistent(cal, {"ucs": 4.0, "poisson_ratio": math.nan})
+
+
+def _scaling_case():
+    parameters = [Parameter(E_KEY, 2e7, 2e9, log=True), Parameter(S_KEY, 3e5, 3e7, log=True),
+                  Parameter(T_KEY, 3e5, 1e7, log=True),
+                  Parameter("specimen.material.young_modulus", 1e8, 1e10, log=True),
+                  Parameter("specimen.bond_material.poisson_ratio", 0.1, 0.4)]
+    targets = [Target("young_modulus_secant", "ucs", 5.6e8, 0.03),
+               Target("ucs", "ucs", 1.2e7, 0.05),
+               Target("crack_initiation_stress", "ucs", 4.5e6, 0.1),
+               Target("poisson_ratio", "ucs", 0.25, 0.1)]
+    params = {p.key: p.middle() for p in parameters}
+    predictions = {"young_modulus_secant": 1.6e8, "ucs": 1.5e6,
+                   "crack_initiation_stress": 6e5, "poisson_ratio": 0.3}
+    return _calibration(parameters, targets), params, predictions
+
+
+def test_scaling_rules_guess_moduli_and_strengths_from_one_trial():
+    """E_bond times E_target / E (3.5); every bond strength times the mean of the strength
+    targets' ratios ((8 + 7.5) / 2 = 7.75), clipped to its bounds; the particles' modulus
+    and the bond's Poisson ratio kept."""
+    cal, params, predictions = _scaling_case()
+    guess = scaled_guess(cal, params, predictions)
+    assert guess[E_KEY] == pytest.approx(7e8, rel=1e-14)
+    assert guess[S_KEY] == pytest.approx(3e6 * 7.75, rel=1e-14)
+    assert guess[T_KEY] == 1e7                     # sqrt(3e12) x 7.75 = 1.34e7, clipped
+    assert guess["specimen.material.young_modulus"] == params[
+        "specimen.material.young_modulus"]
+    assert guess["specimen.bond_material.poisson_ratio"] == 0.25
+    # a prediction of zero (or none) scales nothing; a guess below the bounds is clipped
+    cal.targets[0] = Target("young_modulus_secant", "ucs", 1e6, 0.03)
+    guess = scaled_guess(cal, params, {**predictions, "ucs": 0.0})
+    assert guess[E_KEY] == 2e7 and guess[S_KEY] == pytest.approx(3e6 * 7.5, rel=1e-14)
+    unscaled = scaled_guess(cal, params, {"young_modulus_secant": None})
+    assert unscaled == {p.key: params[p.key] for p in cal.parameters}
+
+
+def test_reachable_by_the_scaling_rule():
+    """With every modulus (strength) parameter at its bounds the macro E (strength) can
+    move between prediction x min(low / value) and x max(high / value) over those
+    parameters; a target further than its tolerance beyond is named."""
+    cal, params, predictions = _scaling_case()
+    assert reachable(cal, params, predictions) == []
+    # E: 1.6e8 x [0.1, 10] = [1.6e7, 1.6e9]; 1.6e9 x 1.03 = 1.648e9 is the last reachable
+    cal.targets[0] = Target("young_modulus_secant", "ucs", 1.647e9, 0.03)
+    assert reachable(cal, params, predictions) == []
+    # strengths: the lowest factor from the normal strength's linear bounds (1e5 / 6.55e6),
+    # the highest from the tangential strength's log bounds (sqrt(1e7 / 3e5) = 5.77)
+    cal.parameters[1] = Parameter(S_KEY, 1e5, 1.3e7)
+    params[S_KEY] = 6.55e6
+    cal.targets[1] = Target("ucs", "ucs", 9.09e6, 0.05)
+    cal.targets[2] = Target("crack_initiation_stress", "ucs", 6e5 * 1e5 / 6.55e6 * 0.91, 0.1)
+    assert reachable(cal, params, predictions) == []
+    cal.targets[0] = Target("young_modulus_secant", "ucs", 1.65e9, 0.03)
+    cal.targets[1] = Target("ucs", "ucs", 9.2e6, 0.05)
+    cal.targets[2] = Target("crack_initiation_stress", "ucs", 6e5 * 1e5 / 6.55e6 * 0.89, 0.1)
+    assert reachable(cal, params, predictions) == [
+        "young_modulus_secant = 1.65e+09 lies outside what the bounds of "
+        "specimen.bond_material.young_modulus reach (1.6e+07 to 1.6e+09, by the scaling "
+        "rule)",
+        "ucs = 9.2e+06 lies outside what the bounds of specimen.bond_material."
+        "normal_strength, specimen.bond_material.tangential_strength reach (2.29e+04 to "
+        "8.66e+06, by the scaling rule)",
+        "crack_initiation_stress = 8153 lies outside what the bounds of specimen."
+        "bond_material.normal_strength, specimen.bond_material.tangential_strength reach "
+        "(9160 to 3.464e+06, by the scaling rule)"]
+    # a negative prediction scales to a sorted range
+    cal.targets = [Target("young_modulus_secant", "ucs", -1e9, 0.03)]
+    assert reachable(cal, params, {"young_modulus_secant": -1.6e8}) == []
+    cal.targets = [Target("young_modulus_secant", "ucs", -1.7e9, 0.03)]
+    assert reachable(cal, params, {"young_modulus_secant": -1.6e8}) == [
+        "young_modulus_secant = -1.7e+09 lies outside what the bounds of "
+        "specimen.bond_material.young_modulus reach (-1.6e+09 to -1.6e+07, by the scaling "
+        "rule)"]
+    without = _calibration([Parameter("specimen.material.young_modulus", 1e8, 1e10)],
+                           cal.targets)
+    assert reachable(without, {"specimen.material.young_modulus": 1e9},
+                     {"young_modulus_secant": 1.0}) == []
+
+
+def test_linearised_summary_of_a_lab_in_closed_form():
+    """Targets y = v (1 + k (x - x_best)) of three parameters x on [0, 1] (u = x), k =
+    1/2, 1/3 and 1/15, tolerance 0.1: dy/du in tolerances is k / 0.1, so the uncertainties
+    are 0.2 (identified), 0.3 (weakly) and 1.5 (not identifiable)."""
+    params = [Parameter("x1", 0.0, 1.0), Parameter("x2", 0.0, 1.0),
+              Parameter("x3", 0.0, 1.0)]
+    targets = [Target("ucs", "ucs", 3e6, 0.1), Target("young_modulus_secant", "ucs", 2e9, 0.1),
+               Target("poisson_ratio", "brazilian", 0.2, 0.1)]
+    cal = _calibration(params, targets, check_seeds=[4, 9])
+
+    class Lab:
+        errors = {5: "ucs: boom", -1: "not a trial"}
+
+        def run(self, jobs):
+            out = {}
+            for trial, p in jobs.items():
+                seed = {4: 1.0, 9: 1.2}.get(p.get("specimen.seed"), 1.0)
+                out[trial] = {"ucs": 3e6 * (1 + 0.5 * (p["x1"] - 0.2)) * seed,
+                              "young_modulus_secant": 2e9 * (1 + (p["x2"] - 0.97) / 3),
+                              "poisson_ratio": 0.2 * (1 + (p["x3"] - 0.4) / 15)
+                              if seed == 1.0 else math.nan}
+            return out
+
+    lab = Lab()
+    best = {"x1": 0.2, "x2": 0.97, "x3": 0.4}      # x2 near its top: the step goes down
+    second = {"x1": 0.21, "x2": 0.9, "x3": 0.1}
+    rows = {7: {"trial": 7, **best, **lab.run({0: best})[0], "misfit": 0.0},
+            3: {"trial": 3, **second, **lab.run({0: second})[0], "misfit": 0.5},
+            4: {"trial": 4, **best, "ucs": 9e9, "young_modulus_secant": 2e9,
+                "poisson_ratio": 0.2, "misfit": 9.0}}
+    stages = []
+    summary = summarise(cal, rows, lab, stages.append)
+    verdict = summary["identifiability"]
+    assert verdict["x1"]["uncertainty_of_range"] == pytest.approx(0.2, rel=1e-9)
+    assert verdict["x2"]["uncertainty_of_range"] == pytest.approx(0.3, rel=1e-9)
+    assert verdict["x3"]["uncertainty_of_range"] == pytest.approx(1.5, rel=1e-9)
+    assert [verdict[k]["identifiable"] for k in ("x1", "x2", "x3")] == [True, False, False]
+    assert verdict["x1"]["verdict"] == "identified: the targets fix it to +-20 % of its range"
+    assert verdict["x2"]["verdict"] == "weakly identified: +-30 % of its range"
+    assert verdict["x3"]["verdict"] == \
+        "not identifiable: the targets leave it free over its range"
+    np.testing.assert_allclose(summary["information_eigenvalues"],
+                               [1 / 1.5 ** 2, 1 / 0.3 ** 2, 1 / 0.2 ** 2], rtol=1e-9)
+    # the consistent sets: trials 7 and 3 (trial 4 misses the UCS), best first
+    assert [c["trial"] for c in summary["consistent"]] == [7, 3]
+    assert verdict["x2"]["consistent_spread_of_range"] == pytest.approx(0.07, rel=1e-12)
+    assert verdict["x2"]["consistent_low"] == 0.9 and verdict["x2"]["consistent_high"] == 0.97
+    assert summary["best"] == {"trial": 7, "parameters": best, "misfit": 0.0,
+                               "predictions": {t.name: rows[7][t.name] for t in targets}}
+    # seeds 4 and 9 and the best's own specimen: the population scatter of the three
+    ucs = summary["seed_scatter"]["ucs"]
+    assert ucs["values"] == pytest.approx([3e6, 3.6e6, 3e6], rel=1e-14)
+    assert ucs["std"] == pytest.approx(math.sqrt(2 / 9) * 6e5, rel=1e-12)
+    assert ucs["mean"] == pytest.approx(3.2e6, rel=1e-12)
+    assert summary["warnings"] == [
+        "ucs on specimen seed 9: 3.6e+06, +20.0% off the target 3e+06 (tolerance 10 %): "
+        "the best set meets the target on one specimen only; the scatter between specimens "
+        "is larger than the tolerance (a larger specimen, or a wider tolerance)",
+        "poisson_ratio on specimen seed 9: the run failed"]
+    assert summary["failed"] == {5: "ucs: boom"}
+    assert summary["trials"] == 3 and summary["simulations"] == (3 + 3 + 2) * 2
+    assert stages == ["identifiability: 6 runs, each parameter moved by 5 % of its range",
+                      "seed scatter: 4 runs on specimen seeds [4, 9]"]
+
+
+def test_a_consistent_set_alone_has_no_spread():
+    params = [Parameter("x1", 1.0, 100.0, log=True)]
+    cal = _calibration(params, [Target("ucs", "ucs", 3e6, 0.1)])
+
+    class Lab:
+        errors = {}
+
+        def run(self, jobs):
+            return {k: {"ucs": 3e6 * p["x1"] / 10} for k, p in jobs.items()}
+
+    rows = {0: {"trial": 0, "x1": 10.0, "ucs": 3e6, "misfit": 0.0}}
+    verdict = summarise(cal, rows, Lab())["identifiability"]["x1"]
+    assert math.isnan(verdict["consistent_spread_of_range"])
+    # dy/du over 5 % of two decades, in tolerances: 3e6 (10^0.1 - 1) / 0.05 / 3e5
+    assert verdict["uncertainty_of_range"] == pytest.approx(0.05 * 0.1 / (10 ** 0.1 - 1),
+                                                            rel=1e-9)
+    assert summarise(cal, rows, Lab())["warnings"] == []
+
+
+def test_fewer_targets_than_parameters_is_a_warning():
+    cal = _calibration([Parameter("a", 0, 1), Parameter("b", 0, 1), Parameter("c", 0, 1)],
+                       [Target("ucs", "ucs", 1.0, 0.1), Target("poisson_ratio", "ucs", 0.2,
+                                                               0.1)])
+    assert cal.warnings == [
+        "2 target(s) for 3 parameters: at most 2 combination(s) of the parameters can be "
+        "fixed, and every parameter in a combination the targets leave free is reported "
+        "not identifiable; add targets or calibrate fewer parameters"]
+    cal.parameters = cal.parameters[:2]
+    assert cal.warnings == []
+    assert _calibration(cal.parameters, cal.targets + [Target("x", "brazilian", 1, 1)]
+                        ).tests == ["brazilian", "ucs"]
+
+
+def test_clean_numbers_for_json():
+    assert calibrate._clean({"a": (np.float64(1.5), np.int64(3), math.inf),
+                             "b": [math.nan, {"c": np.float32(0.25)}], "d": "text"}) == \
+        {"a": [1.5, 3, None], "b": [None, {"c": 0.25}], "d": "text"}
+    assert type(calibrate._clean(np.int64(3))) is int
+
+
+# ---------------------------------------------------------------- the table
+
+def test_the_table_keeps_each_trial_exactly_and_passes_over_a_cut_row(tmp_path):
+    cal = _calibration([Parameter(E_KEY, 2e7, 2e9, log=True)],
+                       [Target("ucs", "ucs", 1e6, 0.1), Target("poisson_ratio", "ucs", 0.2,
+                                                               0.1)])
+    table = Table(tmp_path / "t.csv", cal)
+    assert table.read() == {}
+    table.start()
+    table.start()                                  # a second start keeps the file
+    row = table.append(0, {E_KEY: 1 / 3 * 1e9}, {"ucs": 1.1e6}, 0.01)
+    assert row == {"trial": 0, E_KEY: 1 / 3 * 1e9, "ucs": 1.1e6,
+                   "poisson_ratio": pytest.approx(math.nan, nan_ok=True), "misfit": 0.01}
+    table.append(1, {E_KEY: 2e8}, {"ucs": 9e5, "poisson_ratio": 0.21}, math.inf)
+    with open(table.path, "a") as handle:
+        handle.write("2.0,3e8,1.0")                # cut by a kill
+    rows = Table(tmp_path / "t.csv", cal).read()
+    assert list(rows) == [0, 1]
+    assert rows[0][E_KEY] == 1 / 3 * 1e9 and math.isnan(rows[0]["poisson_ratio"])
+    assert rows[1] == {"trial": 1.0, E_KEY: 2e8, "ucs": 9e5, "poisson_ratio": 0.21,
+                       "misfit": math.inf}
+    header = f"trial,{E_KEY},ucs,poisson_ratio,misfit"
+    assert table.path.read_text().splitlines()[0] == header
+    # resumed, the table first drops the cut row: the next row starts a line of its own
+    whole = table.path.read_text()
+    table.start()
+    assert table.path.read_text() == whole[:whole.rindex("\n") + 1]
+    table.append(2, {E_KEY: 3e8}, {"ucs": 1e6, "poisson_ratio": 0.2}, 0.0)
+    assert sorted(Table(table.path, cal).read()) == [0, 1, 2]
+    # a header cut by a kill is written again
+    table.path.write_text(header[:9])
+    table.start()
+    assert table.path.read_text().splitlines() == [header] and table.read() == {}
+
+
+def test_another_calibrations_table_is_refused(tmp_path):
+    path = tmp_path / "t.csv"
+    path.write_text("trial,x,misfit\n0.0,1.0,2.0\n")
+    cal = _calibration([Parameter("y", 0, 1)], [Target("ucs", "ucs", 1.0, 0.1)])
+    with pytest.raises(InputError) as error:
+        Table(path, cal).read()
+    assert str(error.value) == (f"{path}: holds another calibration's table (its columns "
+                                "differ); run afresh with --overwrite")
+
+
+# ---------------------------------------------------------------- a whole calibration
+
+def test_the_second_trial_is_the_scaling_rules_and_hits_the_truth(folder):
+    progress, stages = [], []
+    summary = run_calibration(folder / "calib.toml", folder / "out",
+                              progress=lambda *a: progress.append(a), stage=stages.append)
+    lines = (folder / "out" / "calibration.csv").read_text().splitlines()
+    assert lines[0] == ("trial," + ",".join([E_KEY, S_KEY, T_KEY]) +
+                        ",young_modulus_secant,tensile_strength,misfit")
+    rows = [[float(x) for x in line.split(",")] for line in lines[1:]]
+    assert [r[0] for r in rows] == [0, 1, 2, 3, 4]
+    # trial 0 at the geometric middle of each log range
+    assert rows[0][1:4] == pytest.approx([2e8, 3e6, 3e6], rel=1e-14)
+    assert rows[0][4:6] == pytest.approx([1.6e8, 1.5e6], rel=1e-14)
+    # trial 1: E_bond x 5.6e8 / 1.6e8, strengths x 1.2e7 / 1.5e6, exact for this lab
+    assert rows[1][1:4] == pytest.approx([TRUE_E, TRUE_S, TRUE_S], rel=1e-14)
+    for r in rows:
+        assert 2e7 <= r[1] <= 2e9 and 3e5 <= r[2] <= 3e7 and 3e5 <= r[3] <= 3e7
+        expected = ((r[4] - 5.6e8) / (0.03 * 5.6e8)) ** 2 + ((r[5] - 1.2e7) / 6e5) ** 2
+        assert r[6] == pytest.approx(expected, rel=1e-12, abs=1e-20)
+    assert [p[:2] for p in progress] == [(k, 5) for k in range(1, 6)]
+    assert [p[2] for p in progress] == [r[6] for r in rows]
+    assert summary["best"]["trial"] == 1
+    assert summary["best"]["parameters"] == pytest.approx(
+        {E_KEY: TRUE_E, S_KEY: TRUE_S, T_KEY: TRUE_S}, rel=1e-14)
+    # forward difference over 5 % of two log decades at E (u = 0.77), backward at the
+    # strength (u = 0.95): sigma = 0.05 tol / |10^(+-0.1) - 1|
+    verdict = summary["identifiability"]
+    assert verdict[E_KEY]["uncertainty_of_range"] == pytest.approx(
+        0.05 * 0.03 / (10 ** 0.1 - 1), rel=1e-9)
+    assert verdict[S_KEY]["uncertainty_of_range"] == pytest.approx(
+        0.05 * 0.05 / (1 - 10 ** -0.1), rel=1e-9)
+    assert math.isinf(verdict[T_KEY]["uncertainty_of_range"])
+    assert verdict[E_KEY]["verdict"] == \
+        "identified: the targets fix it to +-0.58 % of its range"
+    assert stages == ["identifiability: 3 runs, each parameter moved by 5 % of its range"]
+    written = json.loads((folder / "out" / "calibration.json").read_text())
+    assert written["best"]["trial"] == 1
+    assert written["identifiability"][T_KEY]["uncertainty_of_range"] is None
+    assert written["simulations"] == 5 + 3
+
+
+def test_each_test_gets_its_own_keys(folder):
+    calls = []
+
+    def lab(spec, test, overrides):
+        calls.append((test, dict(overrides)))
+        return closed_form_lab(spec, test, overrides)
+
+    calibrate.evaluate = lab                         # restored by the fixture's monkeypatch
+    text = (FILE.replace("budget = 5", "budget = 3")
+            + '[tests.tension]\n"test.strain_rate" = 0.02\n')
+    (folder / "calib.toml").write_text(text)
+    run_calibration(folder / "calib.toml", folder / "out")
+    assert len(calls) == 3 + 3 and all(test == "tension" for test, _ in calls)
+    assert all(o["test.strain_rate"] == 0.02 and E_KEY in o for _, o in calls)
+    assert calls[0][1][E_KEY] == pytest.approx(2e8, rel=1e-14)
+
+
+def test_a_killed_calibration_and_a_cut_row_resume_to_the_same_table(folder):
+    whole = run_calibration(folder / "calib.toml", folder / "whole")
+    out = folder / "cut"
+    assert run_calibration(folder / "calib.toml", out, stop_after=3) is None
+    assert len((out / "calibration.csv").read_text().splitlines()) == 4
+    with pytest.raises(InputError) as error:
+        run_calibration(folder / "calib.toml", out)
+    assert str(error.value) == (f"{out}: --out: holds a calibration table; give --resume "
+                                "to continue it or --overwrite to start afresh")
+    with open(out / "calibration.csv", "a") as handle:
+        handle.write("3.0,1.5e8,2")                  # the kill fell within a row
+    resumed = run_calibration(folder / "calib.toml", out, resume=True)
+    assert resumed["best"] == whole["best"]
+    assert resumed["identifiability"] == whole["identifiability"]
+    # the table holds every trial once more: a further resume runs nothing
+    rows = Table(out / "calibration.csv", load_calibration(folder / "calib.toml")).read()
+    assert sorted(rows) == [0, 1, 2, 3, 4]
+    whole_rows = Table(folder / "whole" / "calibration.csv",
+                       load_calibration(folder / "calib.toml")).read()
+    assert rows == whole_rows
+    calibrate.evaluate = None                        # nothing may run now
+    again = run_calibration(folder / "calib.toml", out, resume=True)
+    assert again["best"] == whole["best"]
+
+
+def test_targets_beyond_the_bounds_fail_with_the_scaling_rules_range(folder):
+    text = FILE.replace("value = 5.6e8", "value = 1.7e9")
+    (folder / "calib.toml").write_text(text)
+    with pytest.raises(CalibrationFailed) as error:
+        run_calibration(folder / "calib.toml", folder / "out")
+    assert str(error.value) == (
+        "the targets cannot be met: young_modulus_secant = 1.7e+09 lies outside what the "
+        f"bounds of {E_KEY} reach (1.6e+07 to 1.6e+09, by the scaling rule)")
+
+
+def test_a_first_trial_that_fails_stops_with_its_own_reason(folder):
+    def broken(spec, test, overrides):
+        raise RuntimeError("the specimen could not be packed")
+
+    calibrate.evaluate = broken
+    with pytest.raises(CalibrationFailed) as error:
+        run_calibration(folder / "calib.toml", folder / "out")
+    assert str(error.value) == (
+        "the first trial (every parameter at the middle of its bounds) failed, so the "
+        "scaling rules have nothing to scale: tension: RuntimeError: the specimen could "
+        "not be packed")
+    calibrate.evaluate = lambda spec, test, o: {"young_modulus_secant": 1.6e8}
+    with pytest.raises(CalibrationFailed) as error:
+        run_calibration(folder / "calib.toml", folder / "out2")
+    assert str(error.value).endswith("nothing to scale: no numbers for tensile_strength")
+
+
+def test_targets_the_trials_cannot_meet_end_with_what_the_best_misses(folder):
+    """The lab's strength saturates at 2 MPa: the scaling rule thinks 12 MPa reachable,
+    no trial gets there, and the message gives the best set's misses."""
+    calibrate.evaluate = lambda spec, test, o: {
+        "young_modulus_secant": 0.8 * o[E_KEY],
+        "tensile_strength": 0.5 * min(o[S_KEY], 4e6)}
+    with pytest.raises(CalibrationFailed) as error:
+        run_calibration(folder / "calib.toml", folder / "out")
+    best = json.loads((folder / "out" / "calibration.json").read_text())["best"]
+    e, s = best["predictions"]["young_modulus_secant"], best["predictions"]["tensile_strength"]
+    assert s <= 2e6
+    assert str(error.value) == (
+        f"no parameter set of 5 trials meets every target within its uncertainty; the best "
+        f"misses young_modulus_secant by {100 * (e / 5.6e8 - 1):+.1f} % (tolerance 3 %), "
+        f"tensile_strength by {100 * (s / 1.2e7 - 1):+.1f} % (tolerance 5 %). Widen the "
+        "bounds, raise the budget or check that the targets agree with each other")
+
+
+def test_a_lab_number_the_target_names_is_taken_not_another(folder):
+    """A trial whose run reports no_failure and a NaN strength is a failed trial with the
+    lab's reason."""
+    calibrate.evaluate = lambda spec, test, o: {
+        "young_modulus_secant": 0.8 * o[E_KEY], "tensile_strength": math.nan,
+        "no_failure": "the specimen did not fail before the strain limit"}
+    with pytest.raises(CalibrationFailed) as error:
+        run_calibration(folder / "calib.toml", folder / "out")
+    assert str(error.value).endswith(
+        "nothing to scale: tension: the specimen did not fail before the strain limit, so "
+        "no tensile_strength: a failed trial")
+
+
+# ---------------------------------------------------------------- the file
+
+def test_a_file_of_defaults(folder):
+    text = "\n".join(line for line in FILE.splitlines()
+                     if not line.startswith(("budget", "batch", "seed")))
+    (folder / "calib.toml").write_text(text)
+    cal = load_calibration(folder / "calib.toml")
+    assert (cal.budget, cal.batch, cal.seed, cal.check_seeds, cal.test_overrides) == \
+        (24, 4, 0, [], {})
+    assert cal.spec == (folder / "lattice.toml").resolve() and cal.text == text
+    assert [(p.key, p.low, p.high, p.log) for p in cal.parameters] == [
+        (E_KEY, 2e7, 2e9, True), (S_KEY, 3e5, 3e7, True), (T_KEY, 3e5, 3e7, True)]
+    assert [(t.name, t.test, t.value, t.tolerance) for t in cal.targets] == [
+        ("young_modulus_secant", "tension", 5.6e8, 0.03),
+        ("tensile_strength", "tension", 1.2e7, 0.05)]
+    linear = text.replace("low = 2e7\nhigh = 2e9\nlog = true", "low = -1\nhigh = 2e9")
+    (folder / "calib.toml").write_text(linear)
+    assert load_calibration(folder / "calib.toml").parameters[0] == \
+        Parameter(E_KEY, -1.0, 2e9, False)
+
+
+E_TABLE = f"parameters.{E_KEY}"
+BAD_FILES = [
+    ("budget = 5", "budgets = 5", "budgets",
+     "unknown key 'budgets'; did you mean 'budget'? allowed: spec, budget, batch, seed, "
+     "check_seeds, parameters, targets, tests"),
+    ('spec = "lattice.toml"', "", "spec", "missing: the lab spec file (docs/lab.md)"),
+    ('spec = "lattice.toml"', 'spec = "none.toml"', "spec", "value 'none.toml': no such file"),
+    ("low = 2e7", "lo = 2e7", E_TABLE, "expected a table of low, high, log"),
+    ("low = 2e7", "low = 0", f"{E_TABLE}.low", "value 0: expected a positive number"),
+    ("low = 2e7", 'low = "2e7"', f"{E_TABLE}.low", "value '2e7': expected a positive number"),
+    ("high = 2e9", "high = true", f"{E_TABLE}.high", "value True: expected a positive number"),
+    ("high = 2e9", "high = nan", f"{E_TABLE}.high", "value nan: expected a positive number"),
+    ("high = 2e9", "high = 2e7", f"{E_TABLE}.high", "high 20000000.0 must exceed low "
+                                                    "20000000.0"),
+    ('test = "tension"', 'test = "shear"', "targets.young_modulus_secant.test",
+     "value 'shear'; allowed: ucs, triaxial, brazilian, tension, agglomerate"),
+    ("tolerance = 0.03", "tolerance = 0", "targets.young_modulus_secant.tolerance",
+     "value 0: expected a positive number"),
+    ("value = 5.6e8", "value = 0.0", "targets.young_modulus_secant.value",
+     "a target of 0 has no relative uncertainty"),
+    ("value = 5.6e8", 'value = "big"', "targets.young_modulus_secant.value",
+     "value 'big': expected a number"),
+    ("tolerance = 0.03", "tolerance = 0.03\nunit = 1", "targets.young_modulus_secant",
+     "expected a table of test, value, tolerance"),
+    ("budget = 5", "budget = 2", "budget", "value 2: expected an integer >= 3"),
+    ("budget = 5", "budget = 3.5", "budget", "value 3.5: expected an integer >= 3"),
+    ("batch = 2", "batch = 0", "batch", "value 0: expected an integer >= 1"),
+    ("batch = 2", "batch = true", "batch", "value True: expected an integer >= 1"),
+    ("seed = 3", "seed = -1", "seed", "value -1: expected an integer >= 0"),
+    ("seed = 3", "seed = 3\ncheck_seeds = [1, -2]", "check_seeds",
+     "value [1, -2]: expected a list of integers >= 0"),
+    ("seed = 3", "seed = 3\ncheck_seeds = 4", "check_seeds",
+     "value 4: expected a list of integers >= 0"),
+    ("seed = 3", "seed = 3\ntests = 1", "tests",
+     "expected tables named after tests (ucs, triaxial, brazilian, tension, agglomerate) of "
+     'spec keys and values, e.g. [tests.brazilian] with "specimen.shape" = "disc"'),
+    ("seed = 3", "seed = 3\n[tests.shear]\nx = 1", "tests",
+     "expected tables named after tests (ucs, triaxial, brazilian, tension, agglomerate) of "
+     'spec keys and values, e.g. [tests.brazilian] with "specimen.shape" = "disc"'),
+    ("seed = 3", "seed = 3\ntests = { ucs = 1 }", "tests",
+     "expected tables named after tests (ucs, triaxial, brazilian, tension, agglomerate) of "
+     'spec keys and values, e.g. [tests.brazilian] with "specimen.shape" = "disc"'),
+]
+
+
+@pytest.mark.parametrize("old, new, key, message", BAD_FILES)
+def test_a_bad_file_names_the_key(folder, old, new, key, message):
+    path = folder / "calib.toml"
+    path.write_text(FILE.replace(old, new, 1))
+    with pytest.raises(InputError) as error:
+        load_calibration(path)
+    assert (error.value.file, error.value.key, error.value.reason) == (path, key, message)
+
+
+@pytest.mark.parametrize("cut, key, message", [
+    ("[parameters.", "parameters", "no parameters to calibrate"),
+    ("[targets.", "targets", "no targets")])
+def test_a_file_without_parameters_or_targets(folder, cut, key, message):
+    lines = FILE.splitlines()
+    kept, skipping = [], False
+    for line in lines:
+        if line.startswith("["):
+            skipping = line.startswith(cut)
+        if not skipping:
+            kept.append(line)
+    path = folder / "calib.toml"
+    path.write_text("\n".join(kept) + "\n")
+    with pytest.raises(InputError) as error:
+        load_calibration(path)
+    assert (error.value.key, error.value.reason) == (key, message)
+
+
+def test_unreadable_files_are_named(folder):
+    missing = folder / "none.toml"
+    with pytest.raises(InputError) as error:
+        load_calibration(missing)
+    assert str(error.value) == f"{missing}: cannot read the calibration file (No such file " \
+        "or directory)"
+    bad = folder / "calib.toml"
+    bad.write_text("budget = \n")
+    with pytest.raises(InputError) as error:
+        load_calibration(bad)
+    assert error.value.file == bad and error.value.reason.startswith("not valid TOML: ")
+
+
+def test_a_parameter_the_spec_does_not_have_is_refused_at_loading(folder):
+    path = folder / "calib.toml"
+    path.write_text(FILE.replace(f'[parameters."{T_KEY}"]',
+                                 '[parameters."specimen.bond_material.strenght"]'))
+    with pytest.raises(InputError) as error:
+        load_calibration(path)
+    assert "strenght" in str(error.value)
