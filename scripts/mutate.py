@@ -77,6 +77,7 @@ MODULES = {
     "src/bondem/lab/output.py": ["tests/test_lab_output.py"],
     "src/bondem/analysis/report.py": ["tests/test_analysis_report.py"],
     "src/bondem/analysis/figures.py": ["tests/test_analysis_figures.py"],
+    "src/bondem/analysis/calibration.py": ["tests/test_analysis_calibration.py"],
     "src/bondem/walls.py": ["tests/test_wall_objects.py"],
     "src/bondem/scene.py": ["tests/test_scene.py", "tests/test_bad_files.py",
                             "tests/test_model.py", "tests/test_clumps.py",
