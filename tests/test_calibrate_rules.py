@@ -7,6 +7,8 @@ the closed form of a forward difference over 5 % of a log range; a table cut by 
 resumes; the file's errors name the key. Every message is compared whole."""
 import json
 import math
+import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -64,6 +66,8 @@ tolerance = 0.05
 def closed_form_lab(spec, test, overrides):
     """The lab's numbers for a tension test of the lattice: E = 0.8 E_bond, strength =
     0.5 sigma_bond (the tangential strength plays no part in tension)."""
+    if Path(spec).name != "lattice.toml" or test != "tension":
+        raise ValueError(f"the lab was given {spec!r} and {test!r}")
     return {"young_modulus_secant": 0.8 * overrides[E_KEY],
             "tensile_strength": 0.5 * overrides[S_KEY], "poisson_ratio": 0.2}
 
@@ -73,10 +77,15 @@ def folder(tmp_path, monkeypatch):
     (tmp_path / "lattice.toml").write_text(SPEC)
     (tmp_path / "calib.toml").write_text(FILE)
     monkeypatch.setattr(calibrate, "evaluate", closed_form_lab)
-    # the figures and page are analysis/calibration.py's (tests/test_calibrate.py)
-    monkeypatch.setattr(pages, "write_figures", lambda *args: None)
-    monkeypatch.setattr(pages, "write_page", lambda *args: None)
+    # the figures and page are analysis/calibration.py's (test_analysis_calibration.py):
+    # here only what they are given
+    drawn.clear()
+    monkeypatch.setattr(pages, "write_figures", lambda *args: drawn.append(("figures", args)))
+    monkeypatch.setattr(pages, "write_page", lambda *args: drawn.append(("page", args)))
     return tmp_path
+
+
+drawn = []
 
 
 def _calibration(parameters, targets, **kwargs):
@@ -601,3 +610,375 @@ def test_a_parameter_the_spec_does_not_have_is_refused_at_loading(folder):
     with pytest.raises(InputError) as error:
         load_calibration(path)
     assert "strenght" in str(error.value)
+
+
+# ---------------------------------------------------------------- second round
+
+def test_the_figures_and_page_get_the_calibration_rows_and_summary(folder):
+    summary = run_calibration(folder / "calib.toml", folder / "a" / "b")   # made, parents too
+    (kind, args), (page, page_args) = drawn
+    assert (kind, page) == ("figures", "page")
+    calibration, rows, given, out = args
+    assert calibration.path == folder / "calib.toml" and sorted(rows) == [0, 1, 2, 3, 4]
+    assert given is summary and out == folder / "a" / "b"
+    assert page_args == (calibration, summary, folder / "a" / "b")
+    text = (out / "calibration.json").read_text()
+    assert text.startswith('{\n  "best": {\n    "trial": 1,') and text.endswith("}\n")
+    assert json.loads((out / "calibration_checks.json").read_text())   # the moved runs
+
+
+def test_batches_after_the_two_first_trials(folder, monkeypatch):
+    sizes = []
+    run = calibrate._Evaluator.run
+
+    def counted(self, jobs):
+        sizes.append(len(jobs))
+        return run(self, jobs)
+
+    monkeypatch.setattr(calibrate._Evaluator, "run", counted)
+    (folder / "calib.toml").write_text(FILE.replace("budget = 5", "budget = 8")
+                                       .replace("batch = 2", "batch = 3"))
+    run_calibration(folder / "calib.toml", folder / "out")
+    assert sizes == [1, 1, 3, 3, 3]               # and one run per parameter moved
+
+
+def test_log_bounds_are_searched_on_a_log_scale(folder):
+    """Targets met whatever the parameters: the sampler draws from its prior, which over
+    two decades searched on a log scale puts half the trials below the geometric middle
+    (a linear scale would put 9 % there)."""
+    calibrate.evaluate = lambda spec, test, o: {"young_modulus_secant": 5.6e8,
+                                                "tensile_strength": 1.2e7}
+    (folder / "calib.toml").write_text(FILE.replace("budget = 5", "budget = 40")
+                                       .replace("batch = 2", "batch = 8"))
+    run_calibration(folder / "calib.toml", folder / "out")
+    rows = Table(folder / "out" / "calibration.csv",
+                 load_calibration(folder / "calib.toml")).read()
+    drawn_e = np.array([rows[k][E_KEY] for k in range(2, 40)])
+    assert np.all((drawn_e >= 2e7) & (drawn_e <= 2e9))
+    assert 0.3 < np.mean(drawn_e < 2e8) < 0.7
+
+
+def test_a_calibration_leaves_the_processes_warnings_shown(folder):
+    run_calibration(folder / "calib.toml", folder / "out")
+    with warnings.catch_warnings(record=True) as seen:
+        warnings.warn("shown after a calibration (a warning of its own)", UserWarning)
+    assert len(seen) == 1
+
+
+def test_every_missing_number_of_the_first_trial_is_named(folder):
+    calibrate.evaluate = lambda spec, test, o: {"poisson_ratio": 0.2}
+    with pytest.raises(CalibrationFailed) as error:
+        run_calibration(folder / "calib.toml", folder / "out")
+    assert str(error.value).endswith(
+        "nothing to scale: no numbers for young_modulus_secant, tensile_strength")
+
+
+def test_every_unreachable_target_is_named(folder):
+    (folder / "calib.toml").write_text(FILE.replace("value = 5.6e8", "value = 1.7e9")
+                                       .replace("value = 1.2e7", "value = 2e7"))
+    with pytest.raises(CalibrationFailed) as error:
+        run_calibration(folder / "calib.toml", folder / "out")
+    assert str(error.value) == (
+        "the targets cannot be met: young_modulus_secant = 1.7e+09 lies outside what the "
+        f"bounds of {E_KEY} reach (1.6e+07 to 1.6e+09, by the scaling rule); "
+        "tensile_strength = 2e+07 lies outside what the bounds of "
+        f"{S_KEY}, {T_KEY} reach (1.5e+05 to 1.5e+07, by the scaling rule)")
+
+
+def test_reachability_of_strengths_alone_and_at_its_exact_edges():
+    """Strength parameters without a modulus one are still checked; a target at exactly
+    the tolerance beyond the scaled range (binary-exact numbers) is reachable."""
+    params = [Parameter("specimen.bond_material.normal_strength", 1.0, 4.0)]
+    middle = {params[0].key: 2.0}              # factors 0.5 and 2: the range [1, 4]
+    for value, problems in ((0.5, 0), (6.0, 0), (0.49, 1), (6.01, 1)):
+        cal = _calibration(params, [Target("ucs", "ucs", value, 0.5)])
+        assert len(reachable(cal, middle, {"ucs": 2.0})) == problems, value
+
+
+def _evaluator_case(tmp_path):
+    cal = _calibration([Parameter(E_KEY, 2e7, 2e9, log=True)],
+                       [Target("young_modulus_secant", "tension", 5.6e8, 0.03),
+                        Target("tensile_strength", "tension", 1.2e7, 0.05)])
+    cal.spec = tmp_path / "lattice.toml"
+    return cal
+
+
+def test_kept_runs_hold_the_targets_numbers_and_are_not_run_again(tmp_path, monkeypatch):
+    calls = []
+
+    def lab(spec, test, o):
+        calls.append(o[E_KEY])
+        if o[E_KEY] == 9e8:
+            raise RuntimeError("blew up")
+        return {"young_modulus_secant": 0.8 * o[E_KEY], "poisson_ratio": 0.2,
+                "tensile_strength": math.nan if o[E_KEY] == 3e8 else 1e7,
+                **({"no_failure": "did not fail"} if o[E_KEY] == 3e8 else {})}
+
+    monkeypatch.setattr(calibrate, "evaluate", lab)
+    cal = _evaluator_case(tmp_path)
+    first = calibrate._Evaluator(cal, "serial", None)
+    first.keep(tmp_path / "kept.json")
+    jobs = {-1: {E_KEY: 2e8}, -2: {E_KEY: 3e8}, -3: {E_KEY: 9e8}}
+    got = first.run(jobs)
+    assert got[-1] == {"young_modulus_secant": 1.6e8, "tensile_strength": 1e7}
+    assert first.errors == {-2: "tension: did not fail, so no tensile_strength: a failed "
+                                "trial", -3: "tension: RuntimeError: blew up"}
+    kept = json.loads((tmp_path / "kept.json").read_text())
+    assert sorted(kept.values(), key=len) == [      # no error kept, only the targets' numbers
+        {"young_modulus_secant": 1.6e8, "tensile_strength": 1e7},
+        {"young_modulus_secant": 2.4e8, "tensile_strength": None, "no_failure": "did not fail"}]
+    assert not (tmp_path / "kept.tmp").exists()
+    second = calibrate._Evaluator(cal, "serial", None)
+    second.keep(tmp_path / "kept.json")
+    calls.clear()
+    again = second.run(jobs)
+    assert calls == [9e8]                          # only the failed run again
+    assert again[-1] == got[-1] and again[-2]["young_modulus_secant"] == 2.4e8
+    assert math.isnan(again[-2]["tensile_strength"])   # kept as null, read as NaN
+    # a run is kept by its test and overrides: another value is another run
+    assert second.run({-4: {E_KEY: 2.5e8}})[-4]["young_modulus_secant"] == 2e8
+    broken = calibrate._Evaluator(cal, "serial", None)
+    (tmp_path / "cut.json").write_text('{"["tension", [')
+    broken.keep(tmp_path / "cut.json")
+    assert broken.kept == {}
+
+
+class _Future:
+    def __init__(self, value):
+        self.value = value
+
+    def result(self):
+        return self.value
+
+
+class _Client:
+    """Stands in for a Dask client: runs what is submitted at once."""
+
+    def __init__(self, *args, **kwargs):
+        self.args, self.kwargs, self.submitted, self.closed = args, kwargs, [], False
+
+    def submit(self, function, *args, **kwargs):
+        self.submitted.append((function, args, kwargs))
+        return _Future(function(*args))
+
+    def close(self):
+        self.closed = True
+
+
+def test_a_dask_client_runs_the_same_trials(folder):
+    serial = run_calibration(folder / "calib.toml", folder / "serial")
+    client = _Client()
+    on_dask = run_calibration(folder / "calib.toml", folder / "dask", scheduler=client)
+    assert on_dask["best"] == serial["best"]
+    assert on_dask["identifiability"] == serial["identifiability"]
+    assert len(client.submitted) == 5 + 3
+    function, args, kwargs = client.submitted[0]
+    assert function is calibrate._safe and kwargs == {"pure": False}
+    assert args[0] == (folder / "lattice.toml").resolve() and args[1] == "tension"
+    assert args[2][E_KEY] == pytest.approx(2e8, rel=1e-14)
+    assert client.closed is False                 # the user's client stays open
+
+
+def test_a_local_cluster_of_single_threaded_workers(folder, monkeypatch):
+    import os
+
+    import distributed
+    made = []
+
+    class Cluster(_Client):
+        def __init__(self, *args, **kwargs):
+            super().__init__(*args, **kwargs)
+            made.append(self)
+
+    clients = []
+
+    class Client(_Client):
+        def __init__(self, *args, **kwargs):
+            super().__init__(*args, **kwargs)
+            clients.append(self)
+
+    monkeypatch.setattr(distributed, "LocalCluster", Cluster)
+    monkeypatch.setattr(distributed, "Client", Client)
+    run_calibration(folder / "calib.toml", folder / "out", scheduler=None, workers=3)
+    (cluster,), (client,) = made, clients
+    assert cluster.kwargs == {"n_workers": 3, "threads_per_worker": 1, "processes": True,
+                              "dashboard_address": None,
+                              "env": {"NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}}
+    assert client.args == (cluster,) and len(client.submitted) == 8
+    assert cluster.closed and client.closed
+    monkeypatch.setattr(os, "cpu_count", lambda: 5)
+    run_calibration(folder / "calib.toml", folder / "out2", scheduler=None)
+    assert made[1].kwargs["n_workers"] == 5
+    monkeypatch.setattr(os, "cpu_count", lambda: None)
+    run_calibration(folder / "calib.toml", folder / "out3", scheduler=None)
+    assert made[2].kwargs["n_workers"] == 1
+
+
+def test_a_scheduler_address_and_one_that_cannot_be_reached(folder, monkeypatch):
+    import distributed
+    clients = []
+
+    class Client(_Client):
+        def __init__(self, *args, **kwargs):
+            if args[0] == "tcp://nowhere:1":
+                raise OSError("Timed out trying to connect")
+            super().__init__(*args, **kwargs)
+            clients.append(self)
+
+    monkeypatch.setattr(distributed, "Client", Client)
+    run_calibration(folder / "calib.toml", folder / "out", scheduler="tcp://there:8786")
+    assert clients[0].args == ("tcp://there:8786",) and clients[0].kwargs == {"timeout": "30s"}
+    assert len(clients[0].submitted) == 8 and clients[0].closed is False
+    with pytest.raises(InputError) as error:
+        run_calibration(folder / "calib.toml", folder / "out2", scheduler="tcp://nowhere:1")
+    assert (error.value.key, error.value.reason) == (
+        "--scheduler", "cannot reach the Dask scheduler 'tcp://nowhere:1' (Timed out trying "
+                       "to connect)")
+
+
+def test_evaluate_runs_the_lab_test_on_the_spec_with_the_overrides(tmp_path, monkeypatch):
+    from bondem.lab import RUNNERS
+    (tmp_path / "lattice.toml").write_text(SPEC)
+    seen = []
+
+    class Result:
+        numbers = {"young_modulus_secant": 1.5e8, "tensile_strength": math.nan}
+        no_failure = None
+
+    def tension(specimen, settings):
+        seen.append((specimen, settings))
+        return Result
+
+    monkeypatch.setitem(RUNNERS, "tension", tension)
+    numbers = calibrate.evaluate(tmp_path / "lattice.toml", "tension",
+                                 {E_KEY: 3e8, "test.strain_rate": 0.02})
+    assert numbers is Result.numbers or numbers == Result.numbers
+    ((specimen, settings),) = seen
+    assert specimen.bond_materials[0].young_modulus == 3e8
+    assert specimen.position.shape == (36, 3) and settings.strain_rate == 0.02
+    Result.no_failure = "the specimen did not fail"
+    assert calibrate.evaluate(tmp_path / "lattice.toml", "tension", {})["no_failure"] == \
+        "the specimen did not fail"
+
+
+def test_summary_moves_each_parameter_by_five_percent_of_its_range():
+    """The runs for the Jacobian: one parameter at a time, 5 % of its range up (down from
+    95 % of it on), on a log scale for a log parameter; a moved run that failed gives no
+    information about its parameter."""
+    params = [Parameter("a", 2.0, 7.0), Parameter("b", 1e3, 1e5, log=True),
+              Parameter("c", -3.0, 1.0)]
+    targets = [Target("ucs", "ucs", 4.0, 0.125), Target("poisson_ratio", "ucs", 0.25, 0.125)]
+    cal = _calibration(params, targets)
+    moved = {}
+
+    class Lab:
+        errors = {0: "ucs: the first", 3: "ucs: another", -1: "a moved run"}
+
+        def run(self, jobs):
+            moved.update(jobs)
+            return {k: {"ucs": 4.0 + p["a"] - 3.0,
+                        "poisson_ratio": 0.25 + 0.025 * math.log10(p["b"] / 1e4)
+                        if p["c"] == 0.9 else math.nan}
+                    for k, p in jobs.items()}
+
+    best = {"a": 3.0, "b": 1e4, "c": 0.9}
+    rows = {2: {"trial": 2, **best, "ucs": 4.0, "poisson_ratio": 0.25, "misfit": 0.0},
+            5: {"trial": 5, "a": 3.4, "b": 2e4, "c": 0.0, "ucs": 4.5, "poisson_ratio": 0.28125,
+                "misfit": 1.0}}
+    summary = summarise(cal, rows, Lab())
+    assert moved[-1] == {"a": pytest.approx(3.25, rel=1e-14), "b": 1e4, "c": 0.9}
+    assert moved[-2] == {"a": 3.0, "b": pytest.approx(1e4 * 10 ** 0.1, rel=1e-14), "c": 0.9}
+    assert moved[-3] == {"a": 3.0, "b": 1e4, "c": pytest.approx(0.7, rel=1e-14)}  # u = 0.975
+    verdict = summary["identifiability"]
+    # ucs moves 0.25 (half a tolerance) per 5 % of a's range: sigma = 0.05 / 0.5 = 0.1;
+    # the Poisson ratio 0.0025 (0.08 tolerances) per 5 % of b's two decades: 0.625
+    assert verdict["a"]["uncertainty_of_range"] == pytest.approx(0.1, rel=1e-9)
+    assert verdict["b"]["uncertainty_of_range"] == pytest.approx(0.625, rel=1e-9)
+    assert math.isinf(verdict["c"]["uncertainty_of_range"])     # its moved run failed
+    assert verdict["a"]["best"] == 3.0 and verdict["b"]["best"] == 1e4
+    assert summary["failed"] == {0: "ucs: the first", 3: "ucs: another"}
+    # both rows are consistent (trial 5 at exactly its tolerances)
+    assert summary["consistent"] == [
+        {"trial": 2, "parameters": best, "predictions": {"ucs": 4.0, "poisson_ratio": 0.25}},
+        {"trial": 5, "parameters": {"a": 3.4, "b": 2e4, "c": 0.0},
+         "predictions": {"ucs": 4.5, "poisson_ratio": 0.28125}}]
+    assert summary["targets"] == {"ucs": {"test": "ucs", "value": 4.0, "tolerance": 0.125},
+                                  "poisson_ratio": {"test": "ucs", "value": 0.25,
+                                                    "tolerance": 0.125}}
+
+
+def test_a_seed_at_exactly_its_tolerance_is_no_warning():
+    cal = _calibration([Parameter("a", 0.0, 1.0)], [Target("ucs", "ucs", 4.0, 0.125)],
+                       check_seeds=[1])
+
+    class Lab:
+        errors = {}
+
+        def run(self, jobs):
+            return {k: {"ucs": 4.5 if p.get("specimen.seed") == 1 else 4.0 + p["a"]}
+                    for k, p in jobs.items()}
+
+    rows = {0: {"trial": 0, "a": 0.0, "ucs": 4.0, "misfit": 0.0}}
+    assert summarise(cal, rows, Lab())["warnings"] == []
+
+
+def test_linearised_uncertainty_in_closed_form():
+    from bondem.calibrate import linearised_uncertainty
+    # J^T J = [[4, 2], [2, 2]], its inverse's diagonal (1/2, 1)
+    np.testing.assert_allclose(linearised_uncertainty([[2.0, 1.0], [0.0, 1.0]]),
+                               [math.sqrt(0.5), 1.0], rtol=1e-12)
+    # the same at a scale far below 1: the null space is relative to the largest
+    np.testing.assert_allclose(linearised_uncertainty(np.array([[2.0, 1.0], [0.0, 1.0]])
+                                                      * 1e-7),
+                               [math.sqrt(0.5) * 1e7, 1e7], rtol=1e-9)
+    # a direction 1e-14 as informative as the other is none
+    sigma = linearised_uncertainty([[1e3, 0.0], [0.0, 1e-4]])
+    assert sigma[0] == pytest.approx(1e-3, rel=1e-12) and math.isinf(sigma[1])
+    assert np.all(np.isinf(linearised_uncertainty(np.zeros((2, 3)))))
+    assert linearised_uncertainty(np.zeros((2, 0))).shape == (0,)
+
+
+def test_more_file_rules(folder):
+    path = folder / "calib.toml"
+    ratio = "specimen.bond_material.poisson_ratio"
+    path.write_text(FILE.replace(f'[parameters."{T_KEY}"]\nlow = 3e5\nhigh = 3e7\nlog = true',
+                                 f'[parameters."{ratio}"]\nlow = -0.4\nhigh = -0.1')
+                    .replace("seed = 3", "seed = 3\ncheck_seeds = [0, 3]"))
+    cal = load_calibration(path)
+    assert cal.parameters[2] == Parameter(ratio, -0.4, -0.1, False)
+    assert cal.check_seeds == [0, 3] and cal.path == path
+    path.write_bytes(FILE.encode("latin-1") + "# Größe\n".encode("latin-1"))
+    with pytest.raises(InputError) as error:
+        load_calibration(path)
+    assert error.value.file == path
+    # a test's own keys are checked with the spec when the file is read
+    path.write_text(FILE + '[tests.tension]\n"test.strain_rate" = -1.0\n')
+    with pytest.raises(InputError) as error:
+        load_calibration(path)
+    assert "strain_rate" in str(error.value)
+
+
+def test_no_parameters_or_targets_name_the_file(folder):
+    for cut in ("[parameters.", "[targets."):
+        kept, skipping = [], False
+        for line in FILE.splitlines():
+            if line.startswith("["):
+                skipping = line.startswith(cut)
+            if not skipping:
+                kept.append(line)
+        path = folder / "calib.toml"
+        path.write_text("\n".join(kept) + "\n")
+        with pytest.raises(InputError) as error:
+            load_calibration(path)
+        assert error.value.file == path
+
+
+def test_a_table_killed_in_its_header_or_with_a_bad_middle_row(tmp_path):
+    cal = _calibration([Parameter("a", 0.0, 1.0)], [Target("ucs", "ucs", 1.0, 0.1)])
+    path = tmp_path / "t.csv"
+    path.write_text("")
+    assert Table(path, cal).read() == {}
+    path.write_text("tri")
+    assert Table(path, cal).read() == {}
+    path.write_text("trial,a,ucs,misfit\n0.0,0.5,1.0,0.0\n1.0,0.2\n2.0,0.4,1.1,1.0\n")
+    assert sorted(Table(path, cal).read()) == [0, 2]
