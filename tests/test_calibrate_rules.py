@@ -982,3 +982,25 @@ def test_a_table_killed_in_its_header_or_with_a_bad_middle_row(tmp_path):
     assert Table(path, cal).read() == {}
     path.write_text("trial,a,ucs,misfit\n0.0,0.5,1.0,0.0\n1.0,0.2\n2.0,0.4,1.1,1.0\n")
     assert sorted(Table(path, cal).read()) == [0, 2]
+
+
+def test_the_sampler_learns_from_the_misfits_it_is_told(folder):
+    """After the scaling rules' exact guess, the sampler is told each trial's misfit and
+    draws near the best: its later trials lie far closer to the truth than draws from the
+    prior (log-uniform over two decades: a median of |log10(E / E_true)| about 0.5)."""
+    (folder / "calib.toml").write_text(FILE.replace("budget = 5", "budget = 40")
+                                       .replace("batch = 2", "batch = 4"))
+    run_calibration(folder / "calib.toml", folder / "out")
+    rows = Table(folder / "out" / "calibration.csv",
+                 load_calibration(folder / "calib.toml")).read()
+    late = np.array([rows[k][E_KEY] for k in range(20, 40)])
+    assert np.median(np.abs(np.log10(late / TRUE_E))) < 0.2
+
+
+def test_runs_kept_on_dask_are_not_run_again(folder):
+    run_calibration(folder / "calib.toml", folder / "dask", scheduler=_Client())
+    whole = json.loads((folder / "dask" / "calibration.json").read_text())
+    calibrate.evaluate = None                        # nothing may run now
+    again = run_calibration(folder / "calib.toml", folder / "dask", scheduler=_Client(),
+                            resume=True)
+    assert json.loads(json.dumps(calibrate._clean(again))) == whole
