@@ -21,7 +21,7 @@ matplotlib.use("Agg")
 
 E_KEY = "specimen.bond_material.young_modulus"
 S_KEY = "specimen.bond_material.normal_strength"
-R_KEY = "specimen.bond_material.poisson_ratio"
+R_KEY = "specimen.bond_materials.rock.poisson_ratio"     # a name of four parts
 
 
 def _calibration(tmp_path):
@@ -40,6 +40,7 @@ ROWS = {
     2: {"trial": 2.0, E_KEY: 6.9e8, S_KEY: 2.5e7, R_KEY: 0.13, "misfit": 0.4},
     3: {"trial": 3.0, E_KEY: 3e7, S_KEY: 4e5, R_KEY: 0.39, "misfit": math.inf},
     4: {"trial": 4.0, E_KEY: 1.9e9, S_KEY: 3.1e5, R_KEY: 0.31, "misfit": 2e-9},
+    5: {"trial": 5.0, E_KEY: 9e8, S_KEY: 1e7, R_KEY: 0.2, "misfit": 4e9},
 }
 SUMMARY = {
     "best": {"trial": 1, "misfit": 1.5e-3,
@@ -103,6 +104,9 @@ def test_targets_figure_shows_each_prediction_over_its_target(drawn):
     assert first[:, 1] == pytest.approx([5.7 / 5.6 - 1.12e7 / 5.6e8,
                                          5.7 / 5.6 + 1.12e7 / 5.6e8], rel=1e-12)
     assert [s.get_segments()[0][1, 1] - s.get_segments()[0][0, 1] for s in bars[1:2]] == [0]
+    # caps 4 points wide: drawn as markers 8 points across
+    caps = [line for line in ax.lines if line.get_marker() == "_"]
+    assert len(caps) == 6 and {c.get_markersize() for c in caps} == {8.0}
     (unity,) = [line for line in ax.lines if list(line.get_ydata()) == [1.0, 1.0]]
     assert to_rgba(unity.get_color()) == to_rgba("k") and unity.get_linewidth() == 0.8
     assert [t.get_text() for t in ax.get_xticklabels()] == [
@@ -120,8 +124,9 @@ def test_parameter_figure_shows_every_trial_and_the_consistent_ones(drawn):
     axes = np.array(fig.axes).reshape(3, 3)
     values = {key: np.array([r[key] for r in ROWS.values()]) for key in (E_KEY, S_KEY, R_KEY)}
     keys = [E_KEY, S_KEY, R_KEY]
-    consistent = np.array([False, True, True, False, False])
-    colour = np.log10([3.2e3, 1.5e-3, 0.4, 1e6, 1e-6])    # inf as 1e6, 2e-9 clipped at 1e-6
+    consistent = np.array([False, True, True, False, False, False])
+    # inf as 1e6, 2e-9 clipped at 1e-6 and 4e9 at 1e6
+    colour = np.log10([3.2e3, 1.5e-3, 0.4, 1e6, 1e-6, 1e6])
     for i in range(3):
         for j in range(3):
             ax = axes[i, j]
@@ -157,6 +162,11 @@ def test_parameter_figure_shows_every_trial_and_the_consistent_ones(drawn):
                 assert ax.get_yscale() == ("log" if i < 2 else "linear")
             assert ax.get_xlabel() == (["young_modulus", "normal_strength", "poisson_ratio"][j]
                                        if i == 2 else "")
+            if i == 2:
+                assert ax.xaxis.label.get_fontsize() == 8
+            if j == 0:
+                assert ax.yaxis.label.get_fontsize() == 8
+            assert {t.get_fontsize() for t in ax.xaxis.get_ticklabels()} == {7}
             expected = ("" if j else "young_modulus\n(trials)" if i == 0 else
                         ["young_modulus", "normal_strength", "poisson_ratio"][i])
             assert ax.get_ylabel() == expected
@@ -172,7 +182,11 @@ def test_one_parameter_is_one_histogram(tmp_path, monkeypatch):
                         lambda self, path, **kw: figures.setdefault(Path(path).stem, self))
     calibration = _calibration(tmp_path)
     calibration.parameters = calibration.parameters[2:]
-    write_figures(calibration, ROWS, {**SUMMARY, "seed_scatter": {}}, tmp_path)
+    summary = {k: v for k, v in SUMMARY.items() if k != "seed_scatter"}   # no check seeds
+    write_figures(calibration, ROWS, summary, tmp_path)
+    bars = [c for c in figures["calibration_targets"].axes[0].collections
+            if hasattr(c, "get_segments")]
+    assert [s.get_segments()[0][1, 1] - s.get_segments()[0][0, 1] for s in bars[:2]] == [0, 0]
     fig = figures["calibration_parameters"]
     assert len(fig.axes) == 1 and tuple(fig.get_size_inches()) == pytest.approx((3.2, 3.2))
     assert fig.axes[0].get_ylabel() == "poisson_ratio\n(trials)"
@@ -210,18 +224,20 @@ def test_the_page_holds_the_best_set_the_targets_and_the_figures(drawn):
         (name, name, caption) for name, caption in CAPTIONS.items()]
     for name, _, png, _ in page.figures:
         assert png == (folder / f"{name}.png").read_bytes()
+    assert text.count("</figure><figure") == 1 and "</figure></body>" in text
 
 
 def test_a_page_without_figures_or_warnings(tmp_path):
     calibration = _calibration(tmp_path)
-    summary = {**SUMMARY, "warnings": [], "consistent": []}
-    summary["seed_scatter"] = {"tensile_strength": {}}
+    summary = {k: v for k, v in SUMMARY.items() if k != "warnings"}
+    summary["consistent"] = []
+    summary["seed_scatter"] = {"tensile_strength": {}, "young_modulus_secant": {"mean": 1.0}}
     write_page(calibration, summary, tmp_path)
     text = (tmp_path / "calibration.html").read_text(encoding="utf-8")
     page = Page(text)
     assert page.figures == [] and "warning" not in text
     assert "0 parameter sets\nmeet every target" in text
-    assert list(page.tables.values())[1][2][5] == "n/a"
+    assert [row[5] for row in list(page.tables.values())[1][1:]] == ["n/a"] * 3
     (tmp_path / "calibration_parameters.png").write_bytes(b"\x89PNG only this one")
     write_page(calibration, summary, tmp_path)
     page = Page((tmp_path / "calibration.html").read_text(encoding="utf-8"))
