@@ -80,6 +80,7 @@ MODULES = {
     "src/bondem/analysis/calibration.py": ["tests/test_analysis_calibration.py"],
     "src/bondem/walls.py": ["tests/test_wall_objects.py"],
     "src/bondem/study.py": ["tests/test_study_rules.py"],
+    "src/bondem/lab/specimen.py": ["tests/test_lab_specimen.py"],
     "src/bondem/scene.py": ["tests/test_scene.py", "tests/test_bad_files.py",
                             "tests/test_model.py", "tests/test_clumps.py",
                             "tests/test_flow_field.py", "tests/test_wall_motion.py"],
