@@ -24,6 +24,7 @@ import math
 
 def run(params, case_dir, seed):
     """y = a x + b, a failure where x is negative, an extra entry dropped."""
+    (case_dir / "ran.txt").write_text(str(seed))
     if params["x"] < 0:
         raise ValueError("x below zero\\nsecond line")
     return {"y": params.get("a", 2.0) * params["x"] + 1.0, "label": "ok" + str(seed % 2),
@@ -35,8 +36,8 @@ def partial(params, case_dir, seed):
 '''
 
 
-def _study(folder, body):
-    (folder / "mylab.py").write_text(RUNNER)
+def _study(folder, body, module="mylab"):
+    (folder / f"{module}.py").write_text(RUNNER)
     path = folder / "sweep.toml"
     path.write_text(textwrap.dedent(body))
     return path
@@ -222,7 +223,8 @@ def test_missing_files_are_named(tmp_path):
     path = _study(tmp_path, "[study]\nscene = 'gone.toml'\n")
     with pytest.raises(InputError) as error:
         load_study(path)
-    assert error.value.reason == f"scene file {str(tmp_path / 'gone.toml')!r} not found"
+    assert (error.value.file, error.value.key, error.value.reason) == (
+        path, "study.scene", f"scene file {str(tmp_path / 'gone.toml')!r} not found")
     path.write_text("[study\n")
     with pytest.raises(InputError) as error:
         load_study(path)
@@ -268,6 +270,10 @@ def test_a_case_is_its_runners_quantities_as_numbers(tmp_path, monkeypatch):
     threads = []
     monkeypatch.setattr(numba, "set_num_threads", threads.append)
     row = run_case(study, case, tmp_path / "out")
+    assert (tmp_path / "out" / "cases" / "00003" / "ran.txt").read_text() == \
+        str(case["seed"])
+    assert run_case(study, case, tmp_path / "out")["y"] == 2.0    # its folder there already
+    threads = threads[:2]
     assert threads == [1, 2]                     # one thread for the case, then restored
     assert (tmp_path / "out" / "cases" / "00003").is_dir()
     assert row["y"] == 2.0 and isinstance(row["y"], float)
@@ -295,27 +301,31 @@ def test_a_runner_that_cannot_be_imported_is_named(tmp_path):
 # ---------------------------------------------------------------- the table
 
 def test_the_table_text_and_its_numbers_read_back(tmp_path):
-    table = Table(tmp_path / "t" / "table.csv", ("case", "seed", "x", "name", "status"))
+    table = Table(tmp_path / "t" / "u" / "table.csv", ("case", "seed", "x", "name", "status"))
     table.open(resume=False)
     assert table.path.read_text() == "case,seed,x,name,status\n"
-    assert not (tmp_path / "t" / "table.tmp").exists()
+    assert not (tmp_path / "t" / "u" / "table.tmp").exists()
     table.append({"case": "00001", "seed": np.int64(12), "x": 1 / 3, "name": "a,b",
                   "status": "ok"})
     table.append({"case": "00000", "seed": 7, "x": np.float32(0.25), "name": "0123",
                   "status": "ok"})
     table.append({"case": "00001", "seed": 12, "x": -2.0, "name": "-5", "status": "ok"})
+    table.append({"case": "00003", "seed": 1, "x": 0.5, "status": "ok"})    # no name
+    assert table.path.read_text().splitlines()[-1] == "00003,1,0.5,,ok"
     assert table.path.read_text().splitlines()[1] == '00001,12,0.3333333333333333,"a,b",ok'
-    rows = table.rows()
+    rows = table.rows()[:2]
     assert rows == [{"case": "00000", "seed": 7, "x": 0.25, "name": 123.0, "status": "ok"},
                     {"case": "00001", "seed": 12, "x": -2.0, "name": -5, "status": "ok"}]
     assert isinstance(rows[1]["name"], int) and isinstance(rows[0]["name"], float)
     columns = table_columns(table.path)
-    assert columns["x"].dtype == np.float64 and list(columns["case"]) == ["00000", "00001"]
-    assert columns["status"].dtype == object
+    assert columns["x"].dtype == np.float64
+    assert list(columns["case"]) == ["00000", "00001", "00003"]
+    assert columns["status"].dtype == object and list(columns["status"]) == ["ok"] * 3
+    assert columns["name"].dtype == object and list(columns["name"]) == [123.0, -5, ""]
     # a row cut by a crash: not read, and cut off when the table is opened to resume
     with open(table.path, "a") as handle:
         handle.write("00002,5,1.0")
-    assert [r["case"] for r in read_table(table.path)] == ["00000", "00001"]
+    assert [r["case"] for r in read_table(table.path)] == ["00000", "00001", "00003"]
     whole = table.path.read_text()
     table.open(resume=True)
     assert table.path.read_text() == whole[:whole.rindex("\n") + 1]
@@ -328,11 +338,15 @@ def test_the_table_text_and_its_numbers_read_back(tmp_path):
 
 def test_another_studys_table_is_refused(tmp_path):
     path = tmp_path / "table.csv"
-    path.write_text("case,seed,z\n")
+    path.write_text("case,seed,z\n00000,1,2.0\n")
     with pytest.raises(InputError) as error:
         Table(path, ("case", "seed", "x")).open(resume=True)
     assert str(error.value) == (f"{path}: existing table has columns ['case,seed,z'], the "
                                 "study has ['case', 'seed', 'x']; use another --out")
+    one = tmp_path / "one.csv"
+    one.write_text("case,seed,x\n00000,1,2.5\n")
+    assert {k: v.tolist() for k, v in table_columns(one).items()} == \
+        {"case": ["00000"], "seed": [1.0], "x": [2.5]}
 
 
 # ---------------------------------------------------------------- a whole study
@@ -344,6 +358,7 @@ def test_a_serial_study_and_its_resume(tmp_path):
     rows = read_table(table)
     assert [r["case"] for r in rows] == [f"{k:05d}" for k in range(12)]
     failed = [r for r in rows if r["x"] == -1.0]
+    assert [r["seed"] for r in failed] == [c["seed"] for c in cases(load_study(path))[8:]]
     assert len(failed) == 4 and all(
         r["status"] == "error: ValueError: x below zero second line" for r in failed)
     assert all(math.isnan(r["y"]) and math.isnan(r["wall_time"]) for r in failed)
@@ -363,6 +378,11 @@ def test_a_serial_study_and_its_resume(tmp_path):
     assert run_study(done, scheduler="serial", progress=False, resume=True,
                      out_dir=tmp_path / "sweep") == table
     assert table.read_text() == before
+    # run afresh (no resume): the table again, every case run once more
+    run_study(path, scheduler="serial", progress=False)
+    assert len(table.read_text().splitlines()) == 13
+    assert [r["case"] for r in read_table(table)] == [f"{k:05d}" for k in range(12)]
+    assert pending_cases(load_study(path), tmp_path / "none.csv") == cases(load_study(path))
     with pytest.raises(InputError) as error:
         run_study(path, scheduler="serial", workers=0, progress=False)
     assert (error.value.key, error.value.reason) == (
@@ -376,9 +396,10 @@ def test_a_changed_study_is_refused_on_resume(tmp_path):
     with pytest.raises(InputError) as error:
         run_study(path, scheduler="serial", progress=False, out_dir=tmp_path / "out",
                   resume=True)
-    assert (error.value.key, error.value.reason) == (
-        "x", "case 00000 in the table has x = 0.5, the study gives 0.75: the study changed; "
-             "use another --out")
+    assert (error.value.file, error.value.key, error.value.reason) == (
+        tmp_path / "out" / "table.csv", "x",
+        "case 00000 in the table has x = 0.5, the study gives 0.75: the study changed; "
+        "use another --out")
 
 
 class _Future:
@@ -541,6 +562,7 @@ def test_the_scene_runner_applies_the_case_and_retries_from_a_checkpoint(tmp_pat
         runs.clear()
         runner({}, tmp_path / name, 1)
         assert [(r[3], r[4]) for r in runs] == expected
+        assert all(r[:3] == (f"scene{len(loaded)}", tmp_path / name, False) for r in runs)
     unseeded = resolve_runner(Study(**{**study.__dict__, "seed_key": None}))
     loaded.clear()
     unseeded({"a": 1}, tmp_path / "fresh", 5)
@@ -552,10 +574,11 @@ def test_scene_quantities_from_a_results_file(tmp_path, monkeypatch):
 
     import bondem.analysis.breakage
     import bondem.analysis.fragments
-    monkeypatch.setattr(bondem.analysis.breakage, "broken_bond_fraction", lambda r: 0.25)
-    monkeypatch.setattr(bondem.analysis.fragments, "largest_fragment_fraction",
-                        lambda r: np.float32(0.5))
     path = tmp_path / "results.h5"
+    monkeypatch.setattr(bondem.analysis.breakage, "broken_bond_fraction",
+                        lambda r: 0.25 if r == path else math.nan)
+    monkeypatch.setattr(bondem.analysis.fragments, "largest_fragment_fraction",
+                        lambda r: np.float32(0.5) if r == path else math.nan)
     with h5py.File(path, "w") as handle:
         handle["walls/force"] = np.array([[[3.0, 4.0, 0.0], [0.0, 0.0, -2.0]],
                                           [[0.0, -6.0, 8.0], [1.0, 0.0, 0.0]]])
@@ -568,3 +591,39 @@ def test_scene_quantities_from_a_results_file(tmp_path, monkeypatch):
         handle["time"] = np.zeros(2)
     assert scene_quantities(tmp_path / "none.h5", ("peak_wall_force",)) == \
         {"peak_wall_force": 0.0}
+
+
+def test_a_runner_module_next_to_the_study_file(tmp_path, monkeypatch):
+    import sys
+    monkeypatch.setattr(sys, "path", list(sys.path))
+    monkeypatch.setattr(sys, "modules", dict(sys.modules))
+    study = load_study(_study(tmp_path, SWEEP.replace("mylab:run", "ownlab:run"), "ownlab"))
+    function = resolve_runner(study)
+    assert function.__module__ == "ownlab" and sys.path[0] == str(tmp_path.resolve())
+    resolve_runner(study)
+    assert sys.path.count(str(tmp_path.resolve())) == 1
+
+
+def test_a_scene_runner_missing_a_quantity_is_named(tmp_path, monkeypatch):
+    (tmp_path / "base.toml").write_text("")
+    study = load_study(_study(tmp_path, "[study]\nscene = 'base.toml'\n"))
+    monkeypatch.setattr(study_module._SceneRunner, "__call__",
+                        lambda self, params, case_dir, seed: {"peak_wall_force": 1.0})
+    with pytest.raises(KeyError) as error:
+        run_case(study, cases(study)[0], tmp_path / "out")
+    assert error.value.args[0] == ("runner scene returned no ['broken_bond_fraction', "
+                                   "'largest_fragment_fraction'] for case 00000")
+    assert load_study(_study(tmp_path, "[study]\nscene = 'base.toml'\n")).parameters == {}
+
+
+def test_the_progress_bar_counts_cases(tmp_path, capsys, fake_dask):
+    path = _study(tmp_path, SWEEP)
+    run_study(path, scheduler="serial", out_dir=tmp_path / "a")
+    err = capsys.readouterr().err
+    assert "study: 100%" in err and "12/12" in err and ("case/s" in err or "s/case" in err)
+    run_study(path, scheduler="serial", progress=False, out_dir=tmp_path / "b")
+    assert capsys.readouterr().err == ""
+    run_study(path, workers=1, out_dir=tmp_path / "c")
+    err = capsys.readouterr().err
+    assert "study: 100%" in err and "12/12" in err
+    assert fake_dask["clusters"][0].kwargs["n_workers"] == 1
