@@ -1016,3 +1016,23 @@ def test_runs_kept_on_dask_are_not_run_again(folder):
     again = run_calibration(folder / "calib.toml", folder / "dask", scheduler=_Client(),
                             resume=True)
     assert json.loads(json.dumps(calibrate._clean(again))) == whole
+
+
+def test_a_single_trial_that_failed(folder):
+    """A Calibration made in Python may ask for one trial: when it fails, that is the
+    message (a file asks for at least three, and the second stops at a failed first)."""
+    calibration = load_calibration(folder / "calib.toml")
+    calibration.budget = 1
+    calibrate.evaluate = lambda spec, test, o: {"young_modulus_secant": 1.6e8}
+    with pytest.raises(CalibrationFailed) as error:
+        run_calibration(calibration, folder / "out")
+    assert str(error.value) == "every trial failed; the first: no numbers came back"
+
+    def broken(spec, test, overrides):
+        raise RuntimeError("no specimen")
+
+    calibrate.evaluate = broken
+    with pytest.raises(CalibrationFailed) as error:
+        run_calibration(calibration, folder / "out2")
+    assert str(error.value) == \
+        "every trial failed; the first: tension: RuntimeError: no specimen"

@@ -499,6 +499,11 @@ def run_calibration(calibration, out_dir, *, scheduler="serial", workers=None,
                     progress(finished, calibration.budget, value)
             if len(trials_run) < len(trials):
                 return None   # the planned interruption fell within this batch
+        if not any(math.isfinite(r["misfit"]) for r in rows.values()):
+            # only a Calibration made in Python with a budget of 1 gets here: from the
+            # second trial on, a first trial without numbers stops the calibration
+            first = next(iter(evaluator.errors.values()), "no numbers came back")
+            raise CalibrationFailed(f"every trial failed; the first: {first}")
         evaluator.keep(out_dir / "calibration_checks.json")
         summary = summarise(calibration, rows, evaluator, stage)
     finally:
