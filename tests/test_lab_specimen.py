@@ -5,6 +5,7 @@ and measured, the cylinder cut from it, carving at exact boundaries, random spec
 inside their containers and the same for the same seed, and a scene's body taken whole.
 Every message is compared whole."""
 import math
+import types
 
 import numpy as np
 import pytest
@@ -304,16 +305,11 @@ class _Wall:
         return self.start + self.speed * time * self.normal
 
 
-class _Sim:
-    class state:
-        time = 0.0
-
-
 def test_box_widths_between_each_pair_of_planes_once_per_time():
     walls = [_Wall((1, 0, 0), (-1.0, 0, 0), 0.5), _Wall((-1, 0, 0), (3.0, 0, 0), 0.25),
              _Wall((0, 1, 0), (0, -2.0, 0), 0.0), _Wall((0, -1, 0), (0, 0.5, 0), 1.0),
              _Wall((0, 0, 1), (0, 0, 1.0), 0.0), _Wall((0, 0, -1), (0, 0, 1.5), 0.0)]
-    sim = _Sim()
+    sim = types.SimpleNamespace(state=types.SimpleNamespace(time=0.0))
     width = box_widths(sim, walls)
     assert (width(0), width(1), width(2)) == (4.0, 2.5, 0.5)
     assert [w.asked for w in walls] == [1] * 6      # one look per wall per time
