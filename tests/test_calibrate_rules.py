@@ -587,7 +587,7 @@ def test_a_file_without_parameters_or_targets(folder, cut, key, message):
     path.write_text("\n".join(kept) + "\n")
     with pytest.raises(InputError) as error:
         load_calibration(path)
-    assert (error.value.key, error.value.reason) == (key, message)
+    assert (error.value.file, error.value.key, error.value.reason) == (path, key, message)
 
 
 def test_unreadable_files_are_named(folder):
@@ -967,21 +967,6 @@ def test_more_file_rules(folder):
     with pytest.raises(InputError) as error:
         load_calibration(path)
     assert "strain_rate" in str(error.value)
-
-
-def test_no_parameters_or_targets_name_the_file(folder):
-    for cut in ("[parameters.", "[targets."):
-        kept, skipping = [], False
-        for line in FILE.splitlines():
-            if line.startswith("["):
-                skipping = line.startswith(cut)
-            if not skipping:
-                kept.append(line)
-        path = folder / "calib.toml"
-        path.write_text("\n".join(kept) + "\n")
-        with pytest.raises(InputError) as error:
-            load_calibration(path)
-        assert error.value.file == path
 
 
 def test_a_table_killed_in_its_header_or_with_a_bad_middle_row(tmp_path):
