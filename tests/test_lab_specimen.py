@@ -395,3 +395,118 @@ def test_a_consolidated_specimen_is_carved_to_its_shape():
     assert short.notes[0] == "consolidated to 2e+04 Pa (not reached within the step limit)"
     low, high = short.bounds()
     assert np.all(low >= -1.5e-3 - 1e-12) and np.all(high <= 1.5e-3 + 1e-12)
+
+
+# ---------------------------------------------------------------- second round
+
+def test_whole_numbers_become_the_kernels_types():
+    body = Specimen([[0, 0, 0], [2, 0, 0], [4, 0, 0], [6, 0, 0]], 1, [[0.0, 1.0], [1.0, 2.0],
+                                                                   [2.0, 3.0]], 1,
+                    GLASS, BINDER)
+    assert body.position.dtype == body.radius.dtype == body.bond_diameter.dtype == np.float64
+    assert body.bonds.dtype == np.int64 and body.bonds.tolist() == [[0, 1], [1, 2], [2, 3]]
+    assert body.bond_material_index.tolist() == [0, 0, 0]
+    assert body.position.flags.c_contiguous
+
+
+def test_the_system_keeps_each_particles_and_bonds_material():
+    steel = bondem.Material(density=7800.0, young_modulus=2e11)
+    glue = bondem.BondMaterial(young_modulus=5e8)
+    body = Specimen([[0, 0, 0], [2e-3, 0, 0], [4e-3, 0, 0]], 1e-3, [[0, 1], [1, 2]], 1e-3,
+                    [GLASS, steel], [BINDER, glue], material_index=[0, 1, 0],
+                    bond_material_index=[1, 0])
+    model, _ = body.system()
+    assert model.material.tolist() == [0, 1, 0] and model.bond_material.tolist() == [1, 0]
+    assert model.mass[1] / model.mass[0] == pytest.approx(7800.0 / 2500.0, rel=1e-14)
+    one = Specimen([[0, 0, 0], [2e-3, 0, 0]], 1e-3, [[0, 1]], 1e-3, GLASS, BINDER)
+    assert one.system()[0].bond_pairs.tolist() == [[0, 1]]       # a single bond is kept
+
+
+def test_a_lattice_by_default_and_one_with_centres_on_its_cut():
+    body = lattice_specimen((2, 2, 2), 1e-3, GLASS, BINDER)
+    np.testing.assert_allclose(body.bond_diameter, 2e-3, rtol=1e-15)   # diameter_ratio 1
+    assert body.contact_model == "hertz_mindlin"
+    assert body.materials == [GLASS] and body.bond_materials == [BINDER]
+    # 5 x 5 chains: the centres (+-4 mm, 0) and (0, +-4 mm) lie exactly on the cut
+    square = lattice_specimen((5, 5, 2), 1e-3, GLASS, BINDER, shape="cylinder")
+    rho = np.hypot(square.position[:, 0], square.position[:, 1])
+    assert np.sum(np.isclose(rho, 4e-3)) == 8 and square.n_particles == 2 * 13
+    assert square.notes == ["simple cubic lattice 5 x 5 x 2, spacing 0.002 m, cut to a "
+                            "cylinder of centres within 0.004 m of the axis"]
+
+
+def test_carving_a_thick_disc():
+    r = np.full(3, 0.25)
+    disc = np.array([[1.0, 0.0, 0.0], [0.0, 0.75, 0.0], [0.0, 0.0, 0.75]])
+    assert _inside("disc", [2.0, 2.0], disc, r).tolist() == [False, True, True]
+
+
+def test_the_documented_defaults_of_a_random_specimen():
+    size = [9e-3, 9e-3, 9e-3]           # room enough for the default fraction 0.55
+    default = make_specimen("box", size, particle_radius=5e-4, material=GLASS,
+                            bond_material=BINDER)
+    explicit = make_specimen("box", size, particle_radius=5e-4, material=GLASS,
+                             bond_material=BINDER, solids_fraction=0.55, seed=0, max_gap=0.0,
+                             diameter_ratio=0.5)
+    np.testing.assert_array_equal(default.position, explicit.position)
+    np.testing.assert_array_equal(default.bonds, explicit.bonds)
+    np.testing.assert_allclose(default.bond_diameter, 0.5e-3, rtol=1e-15)
+    assert default.materials == [GLASS] and default.bond_materials == [BINDER]
+    spread = {"type": "table", "radius": [4e-4, 6e-4], "fraction": [0.5, 0.5]}
+    mixed = make_specimen("box", [5e-3] * 3, radius_distribution=spread, material=GLASS,
+                          bond_material=BINDER, max_gap=5e-5, solids_fraction=0.4, seed=5)
+    assert set(np.round(mixed.radius, 12).tolist()) == {4e-4, 6e-4}
+
+
+def test_a_consolidated_specimen_of_two_sizes_is_repeatable_and_reports_progress():
+    spread = {"type": "table", "radius": [4e-4, 5e-4], "fraction": [0.5, 0.5]}
+    seen = []
+    settings = dict(radius_distribution=spread, material=GLASS, bond_material=BINDER,
+                    max_gap=5e-5, solids_fraction=0.35, seed=7, consolidation_stress=2e4,
+                    consolidation_steps=1500)
+    first = make_specimen("box", [4e-3, 4e-3, 4e-3], progress=lambda *a: seen.append(a),
+                          **settings)
+    second = make_specimen("box", [4e-3, 4e-3, 4e-3], **settings)
+    np.testing.assert_array_equal(first.position, second.position)
+    assert [s[:2] for s in seen] == [(0, 1500), (500, 1500), (1000, 1500)]
+    assert set(np.round(first.radius, 12).tolist()) == {4e-4, 5e-4}
+
+
+def test_consolidation_is_frictionless_whatever_the_material():
+    """Hertz contacts without friction, rolling friction, at a restitution of 0.5: the
+    particles' own values do not change the packing, bit for bit."""
+    from bondem.generate import Box, pack_spheres
+    from bondem.lab.specimen import consolidate
+    position, radius = pack_spheres(Box([-1.5e-3] * 3, [1.5e-3] * 3), radius=4e-4,
+                                    solids_fraction=0.35, seed=2)
+    rough = bondem.Material(density=2500.0, young_modulus=1e8, friction=0.6,
+                            rolling_friction=0.2, restitution=0.9)
+    smooth = bondem.Material(density=2500.0, young_modulus=1e8, friction=0.0,
+                             rolling_friction=0.0, restitution=0.5)
+    a, _ = consolidate(position, radius, rough, 2e4, max_steps=1000)
+    b, _ = consolidate(position, radius, smooth, 2e4, max_steps=1000)
+    np.testing.assert_array_equal(a, b)
+    assert not np.array_equal(a, position)
+    unmoved, reached = consolidate(position, radius, smooth, 2e4, max_steps=0)
+    assert reached is False and np.array_equal(unmoved, position)
+
+
+def test_a_scene_without_contacts_gives_a_specimen_without_them(tmp_path):
+    path = tmp_path / "scene.toml"
+    path.write_text("""
+[simulation]
+end_time = 1e-4
+contact_model = "none"
+[materials.glass]
+density = 2500.0
+young_modulus = 1e8
+[bond_materials.binder]
+young_modulus = 3e8
+[particles]
+generator = { shape = "box", low = [-2e-3, -2e-3, -2e-3], high = [2e-3, 2e-3, 2e-3], particle_radius = 5e-4, solids_fraction = 0.4, seed = 3, material = "glass" }
+[bonds]
+max_gap = 1e-4
+diameter_ratio = 0.5
+material = "binder"
+""")
+    assert specimen_from_scene(path).contact_model == "none"
