@@ -510,3 +510,46 @@ diameter_ratio = 0.5
 material = "binder"
 """)
     assert specimen_from_scene(path).contact_model == "none"
+
+
+def test_a_scene_of_two_materials_keeps_each_particles_and_bonds(tmp_path):
+    (tmp_path / "particles.csv").write_text("x,y,z,radius,material\n0.0,0.0,0.0,0.001,glass\n"
+                                            "0.002,0.0,0.0,0.001,steel\n"
+                                            "0.004,0.0,0.0,0.001,glass\n")
+    (tmp_path / "bonds.csv").write_text("i,j,diameter,material\n0,1,0.001,glue\n"
+                                        "1,2,0.0005,binder\n")
+    path = tmp_path / "scene.toml"
+    path.write_text("""
+[simulation]
+end_time = 1e-4
+[materials.glass]
+density = 2500.0
+young_modulus = 1e8
+[materials.steel]
+density = 7800.0
+young_modulus = 2e11
+[bond_materials.binder]
+young_modulus = 1e8
+[bond_materials.glue]
+young_modulus = 3e8
+[particles]
+file = "particles.csv"
+[bonds]
+file = "bonds.csv"
+""")
+    body = specimen_from_scene(path)
+    densities = [body.materials[k].density for k in body.material_index]
+    moduli = [body.bond_materials[k].young_modulus for k in body.bond_material_index]
+    assert densities == [2500.0, 7800.0, 2500.0] and moduli == [3e8, 1e8]
+    assert body.bond_diameter.tolist() == [1e-3, 5e-4]
+    model, _ = body.system()
+    assert model.mass[1] / model.mass[0] == pytest.approx(7800.0 / 2500.0, rel=1e-14)
+
+
+def test_a_consolidated_specimen_depends_on_its_seed():
+    settings = dict(particle_radius=4e-4, material=GLASS, bond_material=BINDER, max_gap=5e-5,
+                    solids_fraction=0.35, consolidation_stress=2e4, consolidation_steps=500)
+    one = make_specimen("box", [3e-3] * 3, seed=1, **settings)
+    other = make_specimen("box", [3e-3] * 3, seed=2, **settings)
+    assert one.n_particles != other.n_particles or \
+        not np.array_equal(one.position, other.position)
