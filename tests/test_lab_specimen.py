@@ -318,9 +318,7 @@ def test_box_widths_between_each_pair_of_planes_once_per_time():
     assert [w.asked for w in walls] == [2] * 6
 
 
-def test_a_scenes_body_as_a_specimen(tmp_path):
-    path = tmp_path / "scene.toml"
-    path.write_text("""
+SCENE = """
 [simulation]
 end_time = 1e-4
 contact_model = "linear"
@@ -337,7 +335,12 @@ particle_radius = 5e-4, solids_fraction = 0.4, seed = 3, material = "glass" }
 max_gap = 1e-4
 diameter_ratio = 0.5
 material = "binder"
-""".replace("\\\n", ""))
+"""
+
+
+def test_a_scenes_body_as_a_specimen(tmp_path):
+    path = tmp_path / "scene.toml"
+    path.write_text(SCENE)
     scene = bondem.scene.load_scene(path)
     body = specimen_from_scene(path, shape="cylinder")
     assert body.shape == "cylinder" and body.contact_model == "linear"
@@ -493,22 +496,7 @@ def test_consolidation_is_frictionless_whatever_the_material():
 
 def test_a_scene_without_contacts_gives_a_specimen_without_them(tmp_path):
     path = tmp_path / "scene.toml"
-    path.write_text("""
-[simulation]
-end_time = 1e-4
-contact_model = "none"
-[materials.glass]
-density = 2500.0
-young_modulus = 1e8
-[bond_materials.binder]
-young_modulus = 3e8
-[particles]
-generator = { shape = "box", low = [-2e-3, -2e-3, -2e-3], high = [2e-3, 2e-3, 2e-3], particle_radius = 5e-4, solids_fraction = 0.4, seed = 3, material = "glass" }
-[bonds]
-max_gap = 1e-4
-diameter_ratio = 0.5
-material = "binder"
-""")
+    path.write_text(SCENE.replace('contact_model = "linear"', 'contact_model = "none"'))
     assert specimen_from_scene(path).contact_model == "none"
 
 

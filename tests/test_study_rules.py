@@ -270,11 +270,10 @@ def test_a_case_is_its_runners_quantities_as_numbers(tmp_path, monkeypatch):
     threads = []
     monkeypatch.setattr(numba, "set_num_threads", threads.append)
     row = run_case(study, case, tmp_path / "out")
+    assert threads == [1, 2]                     # one thread for the case, then restored
     assert (tmp_path / "out" / "cases" / "00003" / "ran.txt").read_text() == \
         str(case["seed"])
     assert run_case(study, case, tmp_path / "out")["y"] == 2.0    # its folder there already
-    threads = threads[:2]
-    assert threads == [1, 2]                     # one thread for the case, then restored
     assert (tmp_path / "out" / "cases" / "00003").is_dir()
     assert row["y"] == 2.0 and isinstance(row["y"], float)
     assert row["label"] == f"ok{case['seed'] % 2}" and "extra" not in row

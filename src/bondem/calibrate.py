@@ -283,9 +283,8 @@ class Table:
         """{trial: row dict of floats} of the rows already there."""
         if not self.path.is_file():
             return {}
-        with open(self.path, "rb") as handle:
-            if b"\n" not in handle.read():
-                return {}      # killed before its header was whole
+        if b"\n" not in self.path.read_bytes():
+            return {}      # killed before its header was whole
         rows = {}
         with open(self.path, newline="") as handle:
             reader = csv.reader(handle)
@@ -303,14 +302,12 @@ class Table:
     def start(self):
         """Write the header of a new table; on an old one, drop a last row cut by a kill
         (the next row would be appended to it, and both would be lost to ``read``)."""
-        if self.path.is_file():
-            with open(self.path, "rb+") as handle:
-                text = handle.read()
-                if text.endswith(b"\n"):
-                    return
-                handle.truncate(text.rfind(b"\n") + 1)
-                if b"\n" in text:
-                    return
+        text = self.path.read_bytes() if self.path.is_file() else b""
+        if b"\n" in text:
+            if not text.endswith(b"\n"):
+                with open(self.path, "rb+") as handle:
+                    handle.truncate(text.rfind(b"\n") + 1)
+            return
         with open(self.path, "w", newline="") as handle:    # new, or its header was cut
             csv.writer(handle).writerow(self.columns)
 
