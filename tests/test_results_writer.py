@@ -261,6 +261,7 @@ def test_a_new_file_has_every_dataset_its_constants_and_attributes(tmp_path):
         assert f["materials/names"].asstr()[()].tolist() == ["glass", "steel"]
         assert "walls/history" not in f and f["walls/force"].shape == (0, 0, 3)
         assert f.attrs["scene"] == "" and f.attrs["backend"] == "cpu"
+        assert f.attrs["scene_name"] == ""
 
 
 def test_big_frames_are_chunked_in_bounded_rows(tmp_path, monkeypatch):
@@ -320,6 +321,8 @@ def test_frames_hold_the_states_appended(written):
     np.testing.assert_array_equal(data["walls/history/position"][:, 0, 0],
                                   -data["walls/history/time"])
     assert data["attrs"]["scene_name"] == "box/a.toml"
+    assert data["walls/geometry/type"].tolist() == [0, 1]
+    np.testing.assert_array_equal(data["walls/geometry/mesh1/triangles"], [[0, 1, 2], [0, 1, 3]])
     assert data["materials/names"].tolist() == ["glass", "steel"]
     assert data["materials/names"].dtype.kind == "U"
 
@@ -425,6 +428,8 @@ def test_resume_cuts_frames_contact_rows_and_later_history(written):
                                        rtol=1e-12)
             assert f["walls/history/force"].shape == (3, 2, 3)
             assert f["bonds/break_mode"][()].tolist() == [0, 1, 3]
+            assert np.isnan(f["bonds/break_time"][0])
+            assert f["bonds/break_time"][1:].tolist() == [1.7e-4, 1.5e-4]
         state.time = 2.5e-4
         writer.append(sim)
     finally:
@@ -500,6 +505,11 @@ def test_files_that_are_not_results_are_named(tmp_path):
     with pytest.raises(UnreadableResults) as error:
         rewrite_results(text)
     assert str(error.value).startswith(f"{text}: not a results file (not HDF5)")
+    cut = tmp_path / "cut.h5"
+    cut.write_bytes(other.read_bytes()[:1000])     # an HDF5 file cut short
+    with pytest.raises(UnreadableResults) as error:
+        open_results(cut)
+    assert str(error.value).startswith(f"{cut}: cannot open as HDF5 (")
     assert not (tmp_path / "other.h5.rewrite").exists()
 
 
@@ -507,6 +517,9 @@ def test_hdf5_reason_is_the_text_in_brackets():
     assert results._hdf5_reason(OSError("Unable to open (file signature not found)")) == \
         "file signature not found"
     assert results._hdf5_reason(OSError("no brackets")) == "no brackets"
+    assert results._hdf5_reason(OSError("Unable to open (bad (nested) thing)")) == \
+        "bad (nested) thing"
+    assert results._hdf5_reason(OSError("Unable to open (error in MAX)")) == "error in MAX"
     error = results._unreadable("x.h5", OSError("Unable to read (truncated)"), "cannot read")
     assert str(error) == "x.h5: cannot read (truncated)"
 
@@ -537,7 +550,166 @@ def test_the_watchman_ends_with_the_writer(tmp_path):
     model, state = system()
     writer = ResultsWriter(tmp_path / "r.h5", FakeSim(model, state))
     guard = writer._guard
-    assert guard is not None and guard.poll() is None
+    import os
+    import time
+    time.sleep(0.3)
+    assert guard is not None and guard.poll() is None     # waits for the writer's pipe
+    assert os.getsid(guard.pid) != os.getsid(0)
     writer.close()
     assert writer._guard is None and guard.poll() is not None
     writer.close()                                    # twice is harmless
+
+
+def test_a_writer_killed_within_a_frame_leaves_a_readable_file(tmp_path):
+    """The watchman lives in a session of its own: killing the writer's whole process
+    group (Ctrl-C in a shell, a batch system) leaves it to clear the "open for write"
+    mark, after which a plain reader opens the file with its whole frames."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+    from pathlib import Path
+    path = tmp_path / "r.h5"
+    child = subprocess.Popen(
+        [sys.executable, "-c", KILLED_WRITER, str(path), str(Path(__file__).parent)],
+        stdout=subprocess.PIPE, start_new_session=True,
+        env={**os.environ, "PYTHONPATH": os.pathsep.join(sys.path)})
+    try:
+        assert child.stdout.readline().strip() == b"within a frame"
+        with pytest.raises(OSError, match="already open for write"):
+            h5py.File(path, "r")
+        with open_results(path) as f:            # a live reader reads through SWMR
+            assert f["time"].shape == (1,)
+    finally:
+        os.killpg(child.pid, signal.SIGKILL)
+        child.wait()
+    for _ in range(100):
+        try:
+            with h5py.File(path, "r") as f:
+                assert f["time"][()].tolist() == [0.0]
+            break
+        except OSError:
+            time.sleep(0.1)
+    else:
+        raise AssertionError("the open-for-write mark was not cleared")
+
+
+KILLED_WRITER = """
+import sys, time
+sys.path.insert(0, sys.argv[2])
+from test_results_writer import FakeSim, system
+from bondem.io.results import ResultsWriter
+model, state = system()
+sim = FakeSim(model, state)
+writer = ResultsWriter(sys.argv[1], sim)
+writer.append(sim)
+handle = writer._open()
+print("within a frame", flush=True)
+time.sleep(60)
+"""
+
+
+def test_a_reader_holding_the_file_does_not_stop_the_writer(tmp_path):
+    """HDFView or a notebook holds the file with HDF5's lock; the writer takes none."""
+    import subprocess
+    import sys
+    model, state = system()
+    sim = FakeSim(model, state)
+    path = tmp_path / "r.h5"
+    with ResultsWriter(path, sim) as writer:
+        writer.append(sim)
+        reader = subprocess.Popen(
+            [sys.executable, "-c", "import sys, time, h5py\nf = h5py.File(sys.argv[1], 'r')\n"
+             "print('reading', flush=True)\ntime.sleep(60)", str(path)],
+            stdout=subprocess.PIPE)
+        try:
+            assert reader.stdout.readline().strip() == b"reading"
+            state.time = 1e-6
+            writer.append(sim)
+        finally:
+            reader.kill()
+            reader.wait()
+    assert read_results(path)["time"].tolist() == [0.0, 1e-6]
+
+
+class DeviceArray:
+    """A device array as numba.cuda gives it: only copy_to_host reads it."""
+
+    def __init__(self, host):
+        self.host = host
+
+    def copy_to_host(self):
+        return self.host.copy()
+
+
+def test_a_gpu_simulations_device_arrays_and_contact_rows(tmp_path):
+    model, state = system()
+    sim = FakeSim(model, state)
+    pulled = []
+    sim.contacts = types.SimpleNamespace(walls=None, _pull_history=pulled.append)
+    sim.backend_name = "gpu"
+    sim.force = DeviceArray(np.arange(12.0).reshape(4, 3))
+    with ResultsWriter(tmp_path / "r.h5", sim) as writer:
+        writer.append(sim)
+        assert pulled == [state]           # the device's contact rows, before they are read
+        sim.backend_name = "cpu"
+        sim.force = np.ones((4, 3))
+        writer.append(sim)
+        assert len(pulled) == 1            # the CPU's rows are the state's own
+    data = read_results(tmp_path / "r.h5")
+    np.testing.assert_array_equal(data["particles/force"][0], np.arange(12.0).reshape(4, 3))
+    bare = types.SimpleNamespace(model=model, state=state, force=np.zeros((4, 3)),
+                                 time_step=1e-7, energy_terms=dict)
+    with ResultsWriter(tmp_path / "bare.h5", bare) as writer:   # no walls, contacts, cause
+        writer.append(bare)
+    with h5py.File(tmp_path / "bare.h5") as f:
+        assert f.attrs["time_step_cause"] == "" and f.attrs["n_walls"] == 0
+        assert f["walls/force"].shape == (1, 0, 3) and f["walls/geometry/type"].shape == (0,)
+        assert "energy" not in f and f["contacts/end"][()].tolist() == [0]
+
+
+def test_one_wall_one_bond_and_one_history_row(tmp_path):
+    model, state = make_system(POSITION[:2], radius=1e-3, material=GLASS, bonds=[[0, 1]],
+                               bond_diameter=5e-4, bond_material=BINDER)
+    state.position[1, 0] += 1e-5
+    sim = FakeSim(model, state, walls=[plane()], energy=())
+    sim.wall_force = np.array([[0.0, 0.0, 2.5]])
+    sim.wall_torque = None
+    sim.wall_positions = None
+    sim.wall_history.record(0.0, np.array([[0.0, 0.0, 1.0]]), np.zeros((1, 3)))
+    path = tmp_path / "r.h5"
+    with ResultsWriter(path, sim, bond_material_names=["glue"]) as writer:
+        writer.append(sim)
+        assert writer.energy_names == []
+    with h5py.File(path) as f:
+        assert f["walls/force"][0].tolist() == [[0.0, 0.0, 2.5]]
+        assert f["walls/torque"][0].tolist() == [[0.0] * 3] == f["walls/position"][0].tolist()
+        assert f["walls/history/force"][()].tolist() == [[[0.0, 0.0, 1.0]]]
+        assert f["bond_materials/names"].asstr()[()].tolist() == ["glue"]
+        assert f["walls/force"].chunks == (1, 1, 3) and f["bonds/force"].chunks == (1, 1, 3)
+        assert f["bonds/break_mode"].attrs["unit"] == "1"
+        expected = hooke(state.position[1] - state.position[0], 3e7, 5e-4,
+                         np.linalg.norm(POSITION[1] - POSITION[0]))
+        np.testing.assert_allclose(f["bonds/force"][0, 0], expected, rtol=1e-12)
+        assert f["bonds/force"][0, 0, 0] > 0.0     # stretched: pulls particle 0 towards 1
+    with ResultsWriter(path, sim, resume_frames=1) as writer:   # a file without energies
+        assert writer.energy_names == [] and writer.n_frames == 1
+    nobonds, state = make_system(POSITION, radius=1e-3, material=GLASS)
+    sim = types.SimpleNamespace(model=nobonds, state=state, force=np.zeros((4, 3)),
+                                time_step=1e-7, energy_terms=dict, walls=None)
+    with ResultsWriter(tmp_path / "n.h5", sim) as writer:
+        writer.append(sim)
+    with h5py.File(tmp_path / "n.h5") as f:
+        assert f["bonds/pairs"].shape == (0, 2) and f["bonds/force"].shape == (1, 0, 3)
+
+
+def test_a_rewrite_that_fails_leaves_the_file_and_names_it(written):
+    path, _, _ = written
+    with h5py.File(path, "r+") as f:
+        del f["walls/history/time"]     # the history's other rows without their times
+    before = path.read_bytes()
+    with pytest.raises(UnreadableResults) as error:
+        rewrite_results(path, history_until=1.0)
+    assert str(error.value).startswith(f"{path}: cannot read (")
+    assert path.read_bytes() == before and not (path.parent / "results.h5.rewrite").exists()
