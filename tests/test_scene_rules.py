@@ -9,6 +9,7 @@ and tests/test_bad_files.py go through the command line."""
 import copy
 import math
 
+import h5py
 import numpy as np
 import pytest
 import tomli_w
@@ -103,6 +104,11 @@ def test_a_scene_builds_its_system_and_options(tmp_path):
                                    "velocity": [0.0] * 3, "angular_velocity": [0.0] * 3,
                                    "offset": [0.0] * 3}
     assert s.data["walls"] == [] and s.data["bond_materials"] == {}
+    assert s.data["materials"]["steel"] == {**BASE["materials"]["steel"],
+                                            **{k: s.data["materials"]["steel"][k] for k in
+                                               s.data["materials"]["steel"]
+                                               if k not in BASE["materials"]["steel"]}}
+    assert s.data["materials"]["glass"]["density"] == 2500.0
 
 
 def test_options_given_reach_the_simulation(tmp_path):
@@ -556,8 +562,9 @@ def test_particles_from_a_file_with_offset_and_velocity(tmp_path):
     assert refused(tmp_path, particles=PARTICLES.replace("steel", "iron")) == (
         f"{file}: particles.material: p.csv line 4: material 'iron' is not defined; "
         "defined materials: glass, steel")
-    assert refused(tmp_path, particles=PARTICLES + "0.1,0.1,0.1,nan,glass\n").startswith(
-        f"{file}: particles.file: ")
+    assert refused(tmp_path, particles=PARTICLES + "0.1,0.1,0.1,-1,glass\n") == (
+        f"{file}: particles.file: {tmp_path / 'p.csv'}: radius: line 6: '-1'; allowed: a "
+        "finite number > 0")
     text = refused(tmp_path, {"particles.offset": [0.0, 0.0, 9000.0]})
     far = 9000.0052
     assert text == (f"{file}: particles.offset: particles lie {far:.3g} m from the origin, "
@@ -647,6 +654,7 @@ def test_bonds_from_a_file(tmp_path):
     assert s.model.bond_material.tolist() == [0, 1]
     np.testing.assert_allclose(s.model.bond_initial_length, [0.0021, 0.0023], rtol=1e-12)
     assert s.model.bond_materials[1].young_modulus == 9e7
+    assert [m.name for m in s.model.bond_materials] == ["binder", "cement"]
 
 
 @pytest.mark.parametrize("rows, message", [
@@ -755,8 +763,11 @@ def test_a_fluid_with_a_velocity_formula_or_local_voidage(tmp_path):
     assert refused(tmp_path, {"fluid": {**fluid, "velocity": ["z", 0.0]}}) == (
         f"{file}: fluid.velocity: expected 3 components (numbers or formulas of x, y, z, t), "
         "got 2")
-    assert refused(tmp_path, {"fluid": {**fluid, "velocity": ["import os", 0, 0]}}).startswith(
-        f"{file}: fluid.velocity: ")
+    assert refused(tmp_path, {"fluid": {**fluid, "velocity": ["import os", 0, 0]}}) == (
+        f"{file}: fluid.velocity: formula 'import os': not an expression (invalid syntax)")
+    from bondem.physics.field_fluid import fluid_array
+    np.testing.assert_array_equal(s.model.fields["fluid"], fluid_array(
+        density=1.2, viscosity=1.8e-5, drag="stokes", buoyancy=True))   # formula: no base
     assert refused(tmp_path, {"fluid": {"velocity": ["z", 0, 0]}}) == (
         f"{file}: fluid.drag: a velocity formula or a local voidage acts through the drag; "
         "allowed: one of " + ", ".join(d for d in __import__(
@@ -897,3 +908,235 @@ def test_a_clump_filled_into_a_mesh_checks_its_numbers(tmp_path):
     (tmp_path / "g.stl").write_text("solid x\nendsolid x\n")
     assert mesh().startswith(f"{tmp_path / 'g.stl'}: particles.generator.clump.file: cannot "
                              "fill it with spheres: ")
+
+
+def test_generated_particles_fill_their_box_moved_by_the_offset(tmp_path):
+    generator = {"shape": "box", "low": [0.0, 0.0, 0.0], "high": [0.01, 0.008, 0.006],
+                 "particle_radius": 6e-4, "solids_fraction": 0.3, "seed": 3,
+                 "material": "steel"}
+    s = scene(tmp_path, {"particles.file": None, "particles.generator": generator,
+                         "particles.offset": [0.1, 0.0, -0.05],
+                         "particles.velocity": [0.0, 0.2, 0.0]})
+    n = s.model.n_particles
+    volume = 0.01 * 0.008 * 0.006
+    assert abs(n * 4 / 3 * np.pi * 6e-4 ** 3 / volume - 0.3) < 0.05
+    position = s.state.position
+    assert np.all(position >= [0.1 + 6e-4 * 0.99, 6e-4 * 0.99, -0.05 + 6e-4 * 0.99])
+    assert np.all(position <= [0.11 - 6e-4 * 0.99, 0.008 - 6e-4 * 0.99, -0.044 - 6e-4 * 0.99])
+    assert s.model.radius.tolist() == [6e-4] * n and s.model.material.tolist() == [1] * n
+    assert np.all(s.state.velocity == [0.0, 0.2, 0.0]) and s.model.fixed.sum() == 0
+    assert s.warnings == [] and s.data["particles"]["generator"]["seed"] == 3
+    # a plane through the generated box names the first particle by its index
+    lowest = int(np.argmin(position[:, 2]))
+    wall = {**PLANE, "point": [0.0, 0.0, float(position[:, 2].min()) + 1e-4]}
+    s = scene(tmp_path, {"particles.file": None, "particles.generator": generator,
+                         "particles.offset": [0.1, 0.0, -0.05], "walls": [wall]})
+    assert s.warnings[0].startswith(f"{tmp_path / 's.toml'}: walls.0: ")
+    first = min(k for k in range(n) if position[k, 2] < float(position[:, 2].min()) + 1e-4
+                + 0.75 * 6e-4 - 1e-12)
+    assert f"(the first: particle {first})" in s.warnings[0] and lowest >= first
+    assert refused(tmp_path, {"particles.file": None, "particles.generator": {
+        **generator, "material": "iron"}}) == (
+        f"{tmp_path / 's.toml'}: particles.generator.material: material 'iron' is not "
+        "defined; defined materials: glass, steel")
+    assert refused(tmp_path, {"particles.colour": "red"}).startswith(
+        f"{tmp_path / 's.toml'}: particles.colour: unknown key 'colour'")
+
+
+TEMPLATE = {"centres": [[0.0, 0.0, 0.0], [0.0005, 0.0, 0.0]], "radii": [0.0005, 0.0004]}
+
+
+def test_a_clump_generator_packs_rigid_clumps_of_the_template(tmp_path):
+    generator = {"shape": "box", "low": [0.0, 0.0, 0.0], "high": [0.006, 0.006, 0.006],
+                 "material": "glass", "clump": TEMPLATE, "solids_fraction": 0.3, "seed": 2}
+    edit = {"particles.file": None, "particles.generator": generator,
+            "particles.offset": [0.02, 0.0, 0.0]}
+    s = scene(tmp_path, edit)
+    model = s.model
+    c = model.n_clumps
+    assert c >= 2 and model.n_particles == 2 * c
+    assert sorted(np.bincount(model.clump_of).tolist()) == [2] * c
+    assert sorted(set(model.radius.tolist())) == [0.0004, 0.0005]
+    # mass: the density times the union of the two spheres (their lens counted once)
+    r1, r2, d = 0.0005, 0.0004, 0.0005
+    lens = np.pi * (r1 + r2 - d) ** 2 * (d * d + 2 * d * (r1 + r2) - 3 * (r1 - r2) ** 2) / (12 * d)
+    union = 4 / 3 * np.pi * (r1 ** 3 + r2 ** 3) - lens
+    np.testing.assert_allclose(model.clump_mass, 2500 * union, rtol=2e-3)
+    members = [np.flatnonzero(model.clump_of == k) for k in range(c)]
+    for k, m in enumerate(members):      # the centre of mass between the members, offset
+        centre = s.state.clump_position[k]
+        assert np.linalg.norm(s.state.position[m] - centre, axis=1).max() < 0.0005
+        assert 0.02 < centre[0] < 0.026
+    heavy = scene(tmp_path, {**edit, "materials.glass.density": 5000.0}).model
+    np.testing.assert_allclose(heavy.clump_mass, 2 * model.clump_mass, rtol=1e-14)
+    np.testing.assert_allclose(heavy.clump_inertia, 2 * model.clump_inertia, rtol=1e-14)
+    np.testing.assert_array_equal(scene(tmp_path, edit).state.position, s.state.position)
+
+
+def test_a_clump_filled_into_a_mesh_loads(tmp_path):
+    import trimesh
+    trimesh.creation.icosphere(radius=1.0).export(tmp_path / "g.stl")
+    generator = {"shape": "box", "low": [0.0, 0.0, 0.0], "high": [0.008, 0.008, 0.008],
+                 "material": "glass", "solids_fraction": 0.2,
+                 "clump": {"file": "g.stl", "spheres": 3, "scale": 1e-3, "resolution": 12}}
+    s = scene(tmp_path, {"particles.file": None, "particles.generator": generator})
+    assert s.model.n_clumps >= 1 and s.model.radius.max() <= 1e-3 * (1 + 1e-9)
+    sizes = np.bincount(s.model.clump_of)
+    assert 2 <= sizes.min() and sizes.max() <= 3
+
+
+def test_a_rigid_clumps_members_and_bonds(tmp_path):
+    """Members of one clump never touch each other (no overlap warning, no bond between
+    them); a free sphere or another clump's member does."""
+    rows = PARTICLES.splitlines()
+    extra = ["0.001,0.002,0.0014,0.001,glass",      # 4: deep in 0
+             "0.0031,0.002,0.0012,0.001,steel",     # 5: deep in 1
+             "0.001,0.0043,0.0016,0.0009,glass"]    # 6: deep in 2
+    clump = (0, -1, 1, -1, 0, 1, -1)
+    table = "\n".join([rows[0] + ",clump"] + [r + f",{k}" for r, k in
+                                              zip(rows[1:] + extra, clump)])
+    s = scene(tmp_path, particles=table)
+    assert s.warnings[0].startswith(f"{tmp_path / 's.toml'}: particles.file: 2 unbonded "
+                                    "particle pair(s) overlap")
+    assert s.model.n_clumps == 2
+    s = scene(tmp_path, {"bond_materials": BINDER, "simulation.contact_model": "none",
+                         "bonds": {"max_gap": 1e-4, "diameter": 2e-4, "material": "binder"}},
+              particles=table)
+    pairs = {tuple(sorted(p)) for p in s.model.bond_pairs.tolist()}
+    assert (0, 4) not in pairs and (2, 5) not in pairs and (1, 5) in pairs and (0, 1) in pairs
+
+
+def test_a_bond_excuses_only_its_own_pair_from_the_overlap_warning(tmp_path):
+    rows = PARTICLES + "0.00205,0.002,0.003,0.0005,glass\n"    # 4: deep in 0 and in 1
+    s = scene(tmp_path, {"bond_materials": BINDER, "bonds": {"file": "b.csv"}}, particles=rows,
+              bonds="i,j,diameter,material\n0,4,0.0002,binder\n")
+    assert len(s.warnings) == 1 and "1 unbonded particle pair(s)" in s.warnings[0]
+    assert "(the most: p.csv line 3 and p.csv line 6, 130%)" in s.warnings[0]
+
+
+def test_two_particles_are_checked_like_many(tmp_path):
+    file = tmp_path / "s.toml"
+    two = "x,y,z,radius,material\n0.001,0.002,0.003,0.001,glass\n0.001,0.002,0.003,0.001,glass\n"
+    assert refused(tmp_path, particles=two).startswith(
+        f"{file}: particles.file: p.csv line 2 and p.csv line 3: particles 0 and 1 are at the "
+        "same place")
+    mm = "x,y,z,radius,material\n0.0,0,0,1.0,glass\n0.4,0,0,1.0,glass\n"
+    s = scene(tmp_path, {"simulation.contact_model": "none", "simulation.end_time": 1.0},
+              particles=mm)
+    assert len(s.warnings) == 1 and "median spacing 0.4 m" in s.warnings[0]
+
+
+@pytest.mark.parametrize("spacing, warned", [(0.4, True), (0.6, False)])
+def test_the_median_spacing_is_to_the_nearest_neighbour(tmp_path, spacing, warned):
+    rows = "x,y,z,radius,material\n" + "".join(f"{spacing * k!r},0,0,1.0,glass\n"
+                                               for k in range(5))
+    s = scene(tmp_path, {"simulation.contact_model": "none", "simulation.end_time": 1.0},
+              particles=rows)
+    assert any("median spacing" in w for w in s.warnings) == warned
+
+
+def test_a_mesh_wall_cutting_a_particle_is_warned_about(tmp_path):
+    import trimesh
+    box = trimesh.creation.box(extents=(10.0, 10.0, 2.0))
+    box.apply_translation((0.0, 0.0, 4.9 + 1.0))         # mm: bottom face at z = 4.9 mm
+    box.export(tmp_path / "lid.stl")
+    s = walls(tmp_path, {"type": "mesh", "file": "lid.stl", "material": "glass",
+                         "scale": 1e-3})
+    assert s.warnings == [
+        f"{tmp_path / 's.toml'}: walls.0: 1 particle(s) overlap the wall by more than 25% of "
+        "their radius at t = 0 (the first: p.csv line 5); the wall will throw them off. Move "
+        "the wall or the particles, or: radii or positions in the wrong unit (all lengths "
+        "are in m)?"]
+
+
+def test_walls_are_checked_where_they_stand_at_t0(tmp_path):
+    wall = {**PLANE, "point": [0.0, 0.0, 0.0052 - 0.33e-3], "velocity": [0.0, 0.0, -0.01]}
+    assert len(walls(tmp_path, wall).warnings) == 1
+
+
+def test_a_velocity_file_sets_the_fluids_grid(tmp_path):
+    velocity = np.zeros((2, 3, 2, 3))
+    velocity[..., 0] = 0.25
+    with h5py.File(tmp_path / "u.h5", "w") as f:
+        f["velocity"] = velocity
+        f["velocity"].attrs["origin"] = [0.0, -0.01, 0.0]
+        f["velocity"].attrs["spacing"] = [0.01, 0.01, 0.01]
+    fluid = {"density": 1.2, "viscosity": 1.8e-5, "drag": "stokes", "velocity_file": "u.h5"}
+    s = scene(tmp_path, {"fluid": fluid})
+    np.testing.assert_array_equal(s.model.flow, velocity)
+    np.testing.assert_array_equal(s.model.flow_box, [0.0, -0.01, 0.0, 0.01, 0.01, 0.01])
+    with h5py.File(tmp_path / "u.h5", "r+") as f:
+        f["velocity"].attrs["spacing"] = [0.01, 0.0, 0.01]
+    text = refused(tmp_path, {"fluid": fluid})
+    assert text.startswith(f"{tmp_path / 'u.h5'}: fluid.velocity_file: ")
+    assert "spacing" in text
+
+
+def test_exact_bounds_of_the_run_and_the_step(tmp_path, monkeypatch):
+    file = tmp_path / "s.toml"
+    auto = scene(tmp_path).simulation_options  # "auto"
+    from bondem.timestep import stable_time_step
+    step, cause = stable_time_step(scene(tmp_path).model, 0.2, False)
+    s = scene(tmp_path, {"simulation.end_time": step})       # one step: allowed
+    assert s.save_every == step and auto["time_step"] == "auto"
+    edit = {"simulation.time_step": 2.0 ** -20, "simulation.end_time": 2.0 ** -10}
+    assert scene(tmp_path, {**edit, "simulation.max_steps": 1024.0})
+    assert refused(tmp_path, {**edit, "simulation.max_steps": 1023.0}).startswith(
+        f"{file}: simulation.end_time: value 0.0009765625 s is 1.02e+03 steps")
+    # a particle exactly FAR_IN_RADII smallest radii from the origin is resolved
+    far = 1e7 * 0.0009
+    rows = PARTICLES + f"0.0,0.0,{far!r},0.001,glass\n"
+    assert scene(tmp_path, {"simulation.contact_model": "none"}, particles=rows)
+    rows = PARTICLES + f"0.0,0.0,{float(np.nextafter(far, 1e9))!r},0.001,glass\n"
+    assert "double precision cannot resolve" in refused(
+        tmp_path, {"simulation.contact_model": "none"}, particles=rows)
+    import bondem.timestep
+    for bad, where in ((math.nan, "bonds"), (0.0, "materials"), (math.inf, "materials")):
+        monkeypatch.setattr(bondem.timestep, "stable_time_step",
+                            lambda model, factor, compat, bad=bad, where=where: (
+                                bad, "bond_axial" if where == "bonds" else "rayleigh"))
+        cause = "bond_axial" if where == "bonds" else "rayleigh"
+        assert refused(tmp_path) == (
+            f"{file}: {where}: the stable time step is {bad!r} s (limited by {cause}): a "
+            "bond diameter, modulus or particle size is out of any physical range")
+
+
+def test_the_smallest_of_several_tiny_radii_is_named(tmp_path):
+    median = float(np.median([1e-3, 1.2e-3, 5e-10, 2e-10, 1.1e-3]))
+    rows = PARTICLES.replace("0.0009,steel", "5e-10,steel") + "0.009,0.009,0.009,2e-10,glass\n"
+    text = refused(tmp_path, particles=rows)
+    assert text.startswith(f"{tmp_path / 's.toml'}: particles.file: p.csv line 6: radius 2e-10 "
+                           f"m is less than 1/1e+06 of the median radius {median:.4g} m")
+    exact = float(np.median([1e-3, 1.2e-3, 0.0, 1.1e-3]))      # the median with any tiny one
+    tiny = exact / 1e6
+    rows = PARTICLES.replace("0.0009,steel", f"{tiny!r},steel")
+    assert float(np.median([1e-3, 1.2e-3, tiny, 1.1e-3])) / 1e6 == tiny
+    s = scene(tmp_path, {"simulation.contact_model": "none", "simulation.end_time": 1e-8},
+              particles=rows)
+    assert s.model.radius[2] == tiny
+
+
+def test_options_that_only_musen_compat_refuses(tmp_path):
+    kelvin = {"glue": {"young_modulus": 5e7, "poisson_ratio": 0.25, "model": "kelvin",
+                       "viscosity": 1e-6, "breakage": "separate"}}
+    assert scene(tmp_path, {"bond_materials": kelvin}).model is not None
+    assert refused(tmp_path, {"bond_materials": kelvin, "simulation.musen_compat": True}) == (
+        f"{tmp_path / 's.toml'}: bond_materials.glue.breakage: musen_compat: MUSEN's Kelvin "
+        "bond breaks by the combined criterion only; breakage = 'separate' is bondem's "
+        "(docs/bond_kelvin.md)")
+
+
+def test_make_simulation_gives_each_run_walls_of_its_own(tmp_path):
+    servo = {"target_force": 1.0, "gain": 1e-5, "max_velocity": 0.05}
+    s = walls(tmp_path, {**PLANE, "servo": servo}, {**PLANE, "point": [0, 0, 0.01],
+                                                    "normal": [0, 0, -1]})
+    first, second = s.make_simulation(), s.make_simulation()
+    assert len(first.walls) == 2 and first.walls[0] is not second.walls[0]
+    assert first.walls[0].motion is not s.simulation_options["walls"][0].motion
+    first.walls[0].motion.travel = 1e-3
+    assert second.walls[0].motion.travel == 0.0 == s.simulation_options["walls"][0].motion.travel
+    assert first.state is not s.state and first.model is s.model
+    np.testing.assert_array_equal(first.state.position, s.state.position)
+    state = s.state.copy()
+    assert s.make_simulation(state).state is state
+    assert s.make_simulation().contacts is not None
