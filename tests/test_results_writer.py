@@ -571,6 +571,10 @@ def test_a_writer_killed_within_a_frame_leaves_a_readable_file(tmp_path):
     import time
     from pathlib import Path
     path = tmp_path / "r.h5"
+    model, state = system()
+    sim = FakeSim(model, state)
+    with ResultsWriter(path, sim) as writer:      # the first frame from this process
+        writer.append(sim)
     child = subprocess.Popen(
         [sys.executable, "-c", KILLED_WRITER, str(path), str(Path(__file__).parent)],
         stdout=subprocess.PIPE, start_new_session=True,
@@ -602,8 +606,7 @@ from test_results_writer import FakeSim, system
 from bondem.io.results import ResultsWriter
 model, state = system()
 sim = FakeSim(model, state)
-writer = ResultsWriter(sys.argv[1], sim)
-writer.append(sim)
+writer = ResultsWriter(sys.argv[1], sim, resume_frames=1)
 handle = writer._open()
 print("within a frame", flush=True)
 time.sleep(60)
@@ -657,6 +660,9 @@ def test_a_gpu_simulations_device_arrays_and_contact_rows(tmp_path):
         sim.force = np.ones((4, 3))
         writer.append(sim)
         assert len(pulled) == 1            # the CPU's rows are the state's own
+        del sim.backend_name               # a Simulation of before the GPU backend: the CPU
+        writer.append(sim)
+        assert len(pulled) == 1
     data = read_results(tmp_path / "r.h5")
     np.testing.assert_array_equal(data["particles/force"][0], np.arange(12.0).reshape(4, 3))
     bare = types.SimpleNamespace(model=model, state=state, force=np.zeros((4, 3)),
@@ -712,4 +718,5 @@ def test_a_rewrite_that_fails_leaves_the_file_and_names_it(written):
     with pytest.raises(UnreadableResults) as error:
         rewrite_results(path, history_until=1.0)
     assert str(error.value).startswith(f"{path}: cannot read (")
+    assert "doesn't exist" in str(error.value)      # HDF5's reason: the dataset missing
     assert path.read_bytes() == before and not (path.parent / "results.h5.rewrite").exists()
