@@ -84,6 +84,7 @@ MODULES = {
     "src/bondem/scene.py": ["tests/test_scene_rules.py"],
     "src/bondem/io/results.py": ["tests/test_results_writer.py", "tests/test_results.py"],
     "src/bondem/io/musen_text.py": ["tests/test_musen_text_rules.py"],
+    "src/bondem/io/musen_mdem.py": ["tests/test_musen_mdem_rules.py"],
     "src/bondem/physics/bond_models.py": ["tests/test_bond_model_rules.py"],
     "src/bondem/physics/bond_elastic.py": ["tests/test_bond_model_rules.py"],
     "src/bondem/physics/bond_kelvin.py": ["tests/test_bond_model_rules.py"],

@@ -415,9 +415,10 @@ def script_of(mdem):
         name = _model_name(model)
         for prefix, key in sorted(_MODEL_KINDS, key=lambda kv: -len(kv[0])):
             if name.startswith(prefix):
-                script.setdefault(key, name)
-                if model.get("params", "").strip():
-                    script.setdefault(key + "_PARAMS", model["params"].strip())
+                if key not in script:    # the first model of a kind, with its own params
+                    script[key] = name
+                    if model.get("params", "").strip():
+                        script[key + "_PARAMS"] = model["params"].strip()
                 break
     if "MODEL_PP" in script:
         script["CONNECTED_PP_CONTACT"] = "1" if manager.get("connected_pp_contact") else "0"
