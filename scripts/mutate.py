@@ -81,6 +81,7 @@ MODULES = {
     "src/bondem/walls.py": ["tests/test_wall_objects.py"],
     "src/bondem/study.py": ["tests/test_study_rules.py"],
     "src/bondem/lab/specimen.py": ["tests/test_lab_specimen.py"],
+    "src/bondem/lab/procedures.py": ["tests/test_lab_procedure_rules.py"],
     "src/bondem/scene.py": ["tests/test_scene_rules.py"],
     "src/bondem/io/results.py": ["tests/test_results_writer.py", "tests/test_results.py"],
     "src/bondem/io/musen_text.py": ["tests/test_musen_text_rules.py"],

@@ -859,8 +859,6 @@ def _confine(specimen, settings, axis, speed, material, wave):
         raise ValueError("a triaxial test needs a box specimen (plane lateral walls) or a "
                          "cylinder (a membrane)")
     sigma = settings.confining_stress
-    if sigma is None:
-        raise ValueError("a triaxial test needs confining_stress (Pa)")
     low, high = specimen.bounds()
     walls = [_servo_plane(point, k, sign, material, sigma)
              for k in [axis] + [k for k in range(3) if k != axis]
@@ -1046,6 +1044,8 @@ def triaxial(specimen, settings=None, *, out_dir=None, scene_text="", axis=2):
     confinement_axial_strain and confinement_lateral_strain: the strains of the isotropic
     stage (extension positive)."""
     settings = _limits(settings or LabSettings(), "triaxial", specimen)
+    if settings.confining_stress is None:   # else it would run as an unconfined test
+        raise ValueError("a triaxial test needs confining_stress (Pa)")
     sim, runner, rate, stop, notes = _compression("triaxial", specimen, settings, axis,
                                                   out_dir, scene_text,
                                                   confining=settings.confining_stress)
