@@ -868,8 +868,8 @@ def test_a_clump_generators_keys_and_ranges(tmp_path):
         f"{file}: particles.generator.clump.file: no such file: {tmp_path / 'g.stl'}")
     for key, value, allowed in (("compact", 0.49, "[0.5, 1]"), ("compact", 1.01, "[0.5, 1]"),
                                 ("compact", True, "[0.5, 1]"),
-                                ("solids_fraction", 0.0, "(0, 0.66]"),
-                                ("solids_fraction", 0.67, "(0, 0.66]"),
+                                ("solids_fraction", 0.0, "(0, 0.66)"),
+                                ("solids_fraction", 0.66, "(0, 0.66)"),
                                 ("max_overlap", 0.0, "(0, 0.05]"),
                                 ("max_overlap", 0.051, "(0, 0.05]")):
         assert generator(**{key: value}) == (
@@ -1140,3 +1140,92 @@ def test_make_simulation_gives_each_run_walls_of_its_own(tmp_path):
     state = s.state.copy()
     assert s.make_simulation(state).state is state
     assert s.make_simulation().contacts is not None
+
+
+def test_more_bond_file_rules(tmp_path):
+    file = tmp_path / "s.toml"
+    bonded = {"bond_materials": TWO_BINDERS, "bonds": {"file": "b.csv"}}
+    assert refused(tmp_path, bonded, bonds="i,j,diameter,material\n0,1,x,binder\n") == (
+        f"{file}: bonds.file: {tmp_path / 'b.csv'}: diameter: line 2: 'x' is not a number")
+    # a repeated particle row bonded to its twin: the bond has no length
+    twin = PARTICLES + "0.0031,0.002,0.003,0.0012,glass\n"
+    assert refused(tmp_path, bonded, particles=twin,
+                   bonds="i,j,diameter,material\n0,1,0.0005,binder\n1,4,0.0005,binder\n") == (
+        f"{file}: bonds.file: b.csv line 3: bond 1 joins particles [1, 4] at the same "
+        "position (initial length 0, must be > 0)")
+    # the first pair bonded twice in sorted order, named at its last repetition
+    assert refused(tmp_path, bonded, bonds="i,j,diameter,material\n0,2,0.0005,binder\n"
+                   "2,3,0.0005,binder\n3,2,0.0005,binder\n2,3,0.0005,binder\n") == (
+        f"{file}: bonds.file: b.csv line 5: particles [2, 3] are bonded more than once "
+        "(duplicate of bond 1)")
+    low = 2.0 / 1e6 * 0.0009
+    s = scene(tmp_path, bonded, bonds=f"i,j,diameter,material\n2,3,{low!r},binder\n")
+    assert s.model.bond_diameter.tolist() == [low]
+    assert refused(tmp_path, bonded, bonds="i,j,diameter,material\n2,3,0.0005,glue\n") == (
+        f"{file}: bonds.material: b.csv line 2: bond material 'glue' is not defined; defined: "
+        "binder, cement")
+    # generated bonds are checked by the same rules, named by the table
+    assert refused(tmp_path, {"bond_materials": BINDER, "simulation.contact_model": "none",
+                              "bonds": {"max_gap": 1.5e-4, "diameter": 0.0025,
+                                        "material": "binder"}}) == (
+        f"{file}: bonds: bond 0 has diameter 0.0025 m, wider than both its particles; "
+        "allowed [2e-09, 0.0024] m")
+
+
+def test_more_value_rules(tmp_path):
+    file = tmp_path / "s.toml"
+    assert scene(tmp_path, {"simulation.time_step": "auto"}).simulation_options[
+        "time_step"] == "auto"
+    fluid = {"density": 1.2, "viscosity": 1.8e-5, "drag": "stokes", "voidage": "local",
+             "voidage_grid": {"low": [0, 0, 0], "high": [0.01, 0.01, 0.01], "cells": [1, 1, 1]}}
+    assert scene(tmp_path, {"fluid": fluid}).simulation_options["flow"] is not None
+    assert refused(tmp_path, {"fluid": {"drag": "stokes"}}) == (
+        f"{file}: fluid.viscosity: drag = 'stokes' needs viscosity > 0 (Pa s)")
+    generator = {"shape": "box", "low": [0, 0, 0], "material": "glass",
+                 "particle_radius": 1e-4}
+    assert refused(tmp_path, {"particles.file": None, "particles.generator": generator}) == (
+        f"{file}: particles.generator.high: None is not a list of three numbers")
+    clump = {"shape": "box", "low": [0, 0, 0], "material": "glass", "clump": TEMPLATE}
+    assert refused(tmp_path, {"particles.file": None, "particles.generator": clump}) == (
+        f"{file}: particles.generator.high: None is not a list of three numbers")
+    bad = {**clump, "high": [0.006] * 3, "clump": {"centres": [[0, 0, 0]], "radii": [-1.0]}}
+    assert refused(tmp_path, {"particles.file": None, "particles.generator": bad}) == (
+        f"{file}: particles.generator.clump: member centres must be finite and radii > 0 (m)")
+    rows = PARTICLES.splitlines()
+    mixed = "\n".join([rows[0] + ",clump"] + [r + f",{k}" for r, k in
+                                              zip(rows[1:], (-1, 0, 0, -1))])
+    assert refused(tmp_path, {"simulation.contact_model": "none"}, particles=mixed) == (
+        f"{file}: particles.file.clump: clump 0: its members have materials [0, 1]; a clump "
+        "has one material")
+
+
+def test_a_clump_generators_bounds_and_its_packing(tmp_path):
+    from bondem.clumps import ClumpTemplate, pack_clumps
+    from bondem.generate import Box
+    generator = {"shape": "box", "low": [0.0, 0.0, 0.0], "high": [0.006, 0.006, 0.006],
+                 "material": "glass", "clump": TEMPLATE, "solids_fraction": 0.3}
+    edit = {"particles.file": None, "particles.generator": generator,
+            "particles.offset": [0.02, 0.0, 0.0]}
+    s = scene(tmp_path, edit)
+    packed = pack_clumps(Box([0.0] * 3, [0.006] * 3),
+                         ClumpTemplate(TEMPLATE["centres"], TEMPLATE["radii"]), 1.0,
+                         solids_fraction=0.3, seed=0, compact=1.0, max_overlap=1e-3)
+    np.testing.assert_array_equal(s.model.clump_mass, 2500 * packed["mass"])
+    np.testing.assert_array_equal(s.state.clump_position, packed["centre"] + [0.02, 0, 0])
+    # the principal moments of the packed clumps' inertia tensors
+    np.testing.assert_allclose(np.sort(s.model.clump_inertia, axis=1),
+                               np.sort(np.linalg.eigvalsh(2500 * packed["inertia"]), axis=1),
+                               rtol=1e-9)
+    for key, value in (("max_overlap", 0.05), ("compact", 0.5), ("compact", 1.0)):
+        assert scene(tmp_path, {**edit, "particles.generator": {**generator, key: value,
+                                                                "solids_fraction": 0.1}})
+
+
+def test_a_mesh_clump_in_metres_needs_no_scale(tmp_path):
+    import trimesh
+    trimesh.creation.icosphere(radius=1e-3).export(tmp_path / "g.stl")
+    generator = {"shape": "box", "low": [0.0, 0.0, 0.0], "high": [0.008, 0.008, 0.008],
+                 "material": "glass", "solids_fraction": 0.2,
+                 "clump": {"file": "g.stl", "spheres": 3, "resolution": 12}}
+    s = scene(tmp_path, {"particles.file": None, "particles.generator": generator})
+    assert s.model.n_clumps >= 1 and s.model.radius.max() <= 1e-3 * (1 + 1e-9)

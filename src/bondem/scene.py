@@ -841,11 +841,13 @@ def _clump_generator(table, path):
     fraction = table.get("solids_fraction", 0.5)
     seed = table.get("seed", 0)
     overlap = table.get("max_overlap", 1e-3)
-    for key, value, low, high in (("solids_fraction", fraction, 0.0, 0.66),
-                                  ("max_overlap", overlap, 0.0, 0.05)):
-        if not _is_number(value) or not low < value <= high:
-            raise InputError(f"{value!r}; allowed range ({low:g}, {high:g}]", file=path,
-                             key=f"{prefix}.{key}")
+    # the packer's own ranges (generate.pack_spheres): solids_fraction below 0.66
+    for key, value, low, high, closed in (("solids_fraction", fraction, 0.0, 0.66, False),
+                                          ("max_overlap", overlap, 0.0, 0.05, True)):
+        if not _is_number(value) or not (low < value <= high if closed else
+                                         low < value < high):
+            raise InputError(f"{value!r}; allowed range ({low:g}, {high:g}"
+                             f"{']' if closed else ')'}", file=path, key=f"{prefix}.{key}")
     if not isinstance(seed, int) or isinstance(seed, bool) or seed < 0:
         raise InputError(f"{seed!r}; allowed: an integer >= 0", file=path,
                          key=f"{prefix}.seed")
