@@ -1229,3 +1229,59 @@ def test_a_mesh_clump_in_metres_needs_no_scale(tmp_path):
                  "clump": {"file": "g.stl", "spheres": 3, "resolution": 12}}
     s = scene(tmp_path, {"particles.file": None, "particles.generator": generator})
     assert s.model.n_clumps >= 1 and s.model.radius.max() <= 1e-3 * (1 + 1e-9)
+
+
+def test_a_kinetic_energy_just_below_the_largest_double(tmp_path):
+    # a 1.3 kg sphere at 1e154 m/s: m v^2 = 1.3e308, below the largest double (1.8e308),
+    # so the run is refused for its step, not for its energy (1.5 m v^2 or m v^3 would
+    # overflow)
+    rows = ("x,y,z,radius,material,vx,vy,vz\n0.0,0,0,0.05,glass,1e154,0,0\n"
+            "0.2,0,0,0.05,glass,0,0,0\n")
+    text = refused(tmp_path, particles=rows)
+    assert text.startswith(f"{tmp_path / 's.toml'}: particles.velocity: a particle at 1e+154 "
+                           "m/s moves ")
+
+
+def test_a_periodic_box_of_exactly_twice_the_cutoff(tmp_path):
+    cutoff = 2.0 * 1.2e-3 + 0.2 * float(np.mean([1e-3, 1.2e-3, 0.9e-3, 1.1e-3]))
+    s = scene(tmp_path, {"simulation.periodic": [False, False, True],
+                         "simulation.box_low": [-1.0, -1.0, 0.0],
+                         "simulation.box_high": [1.0, 1.0, 2.0 * cutoff]})
+    assert s.model.box_length[2] == 2.0 * cutoff
+
+
+@pytest.mark.parametrize("gap, warned", [(0.4, True), (0.6, False)])
+def test_the_spacing_is_to_each_particles_nearest_neighbour(tmp_path, gap, warned):
+    # pairs of particles 3 m apart: each one's nearest neighbour is its partner
+    rows = "x,y,z,radius,material\n" + "".join(
+        f"{3.0 * k + d!r},0,0,1.0,glass\n" for k in range(3) for d in (0.0, gap))
+    s = scene(tmp_path, {"simulation.contact_model": "none", "simulation.end_time": 1.0},
+              particles=rows)
+    assert any("median spacing" in w for w in s.warnings) == warned
+
+
+def test_files_that_are_not_utf8_or_not_a_grid(tmp_path):
+    path = tmp_path / "s.toml"
+    path.write_bytes(b"[simulation]\nend_time = 1e-3 # \xe9\n")
+    with pytest.raises(InputError) as error:
+        load_scene(path)
+    assert str(error.value) == (f"{path}: line 2: byte 0xe9 is not UTF-8 text; save the file "
+                                "as UTF-8")
+    with h5py.File(tmp_path / "u.h5", "w") as f:
+        f["velocity"] = np.zeros((2, 2, 2, 3))
+    fluid = {"density": 1.2, "viscosity": 1.8e-5, "drag": "stokes", "velocity_file": "u.h5"}
+    assert refused(tmp_path, {"fluid": fluid}) == (
+        f"{tmp_path / 'u.h5'}: fluid.velocity_file: no attribute 'origin' (3 numbers, m)")
+
+
+def test_a_mesh_wall_moves_as_its_table_says(tmp_path):
+    import trimesh
+    box = trimesh.creation.box(extents=(10.0, 10.0, 1.0))
+    box.apply_translation((0.0, 0.0, 20.0))
+    box.export(tmp_path / "lid.stl")
+    lid = {"type": "mesh", "file": "lid.stl", "material": "glass", "scale": 1e-3}
+    s = walls(tmp_path, {**lid, "velocity": [0.0, 0.0, -0.01]},
+              {**lid, "velocity_profile": [[0.0, 0, 0, 0], [1e-4, 0, 0, -0.02]]})
+    first, second = s.simulation_options["walls"]
+    assert first.velocity_at(1.0).tolist() == [0.0, 0.0, -0.01]
+    np.testing.assert_allclose(second.velocity_at(5e-5), [0, 0, -0.01], rtol=1e-12)
