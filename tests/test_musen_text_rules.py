@@ -830,3 +830,35 @@ def test_the_package_generator_counts_as_musen(tmp_path):
         with pytest.raises(InputError) as error:
             generate_package(MusenScene(), {**generator, missing: None})
         assert str(error.value) == f"package generator 'g': its {missing} is not in the file"
+
+
+def test_musens_defaults_and_the_scripts_edge_cases(tmp_path):
+    text = (BOND_TEXT.replace("32 binder binder 7 5e7 8 1e6 9 2e6 15 3e6", "32 binder binder")
+            + "33 glass glass 200 0.7\n33 glass sand 200 0.1\n")
+    data, _, _, notes = imported(tmp_path, text, None)
+    assert data["bond_materials"]["binder"] == {
+        "young_modulus": 1e9, "poisson_ratio": 0.2, "normal_strength": 1e7,
+        "tangential_strength": 1e7, "breakage": "combined"}
+    glass = data["materials"]["glass"]
+    assert (glass["restitution"], glass["friction"], glass["rolling_friction"]) == (
+        0.7, 0.45, 0.05)
+    assert not any("sand" in n for n in notes)    # a compound no object uses
+    # END_TIME a whole number of steps: that many, not one more
+    dt = 3e-7
+    assert (34 * dt) / dt == 34.0
+    data, _, _, _ = imported(tmp_path, text, f"END_TIME {34 * dt!r}\nSIMULATION_STEP {dt!r}\n"
+                                             "EXT_ACCEL 0 0 -9.81 5\nVARIABLE_TIME_STEP\n"
+                                             "MODEL_PP ModelPPHertzMindlin\n"
+                                             "CONNECTED_PP_CONTACT 1\n")
+    assert data["simulation"]["end_time"] == 34 * dt
+    assert data["simulation"]["gravity"] == [0.0, 0.0, -9.81]
+    assert data["simulation"]["bonded_contacts"] is True
+    _, _, _, notes = imported(tmp_path, text, "VARIABLE_TIME_STEP\nMODEL_PP "
+                                              "ModelPPHertzMindlin\n")
+    assert not any("VARIABLE_TIME_STEP" in n or "walls follow" in n for n in notes)
+    # the mixed pair's restitution a hair off the mean of the pure pairs is named
+    mean = 0.5 * (0.7 + 0.6)
+    text = TEXT.replace("33 steel glass 200 0.6", f"33 steel glass 200 {mean * (1 + 1e-10)!r}"
+                        "\n33 steel steel 200 0.6")
+    _, _, _, notes = imported(tmp_path, text, None)
+    assert any(n.startswith("interaction glass-steel: restitution") for n in notes)
