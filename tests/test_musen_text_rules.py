@@ -862,3 +862,24 @@ def test_musens_defaults_and_the_scripts_edge_cases(tmp_path):
                         "\n33 steel steel 200 0.6")
     _, _, _, notes = imported(tmp_path, text, None)
     assert any(n.startswith("interaction glass-steel: restitution") for n in notes)
+
+
+def test_a_plane_facing_x_is_a_square_in_its_plane(tmp_path):
+    data = results_data()
+    data["walls/geometry/point"] = np.array([[0.004, 0.001, -0.002]])
+    data["walls/geometry/normal"] = np.array([[-3.0, 0.0, 0.0]])
+    data["walls/position"] = np.repeat(data["walls/geometry/point"][None], 3, axis=0)
+    objects, _ = read_series(export_lines(data, {"walls": [{"type": "plane",
+                                                            "material": "glass"}]}))
+    corners = []
+    for k in (3, 4):
+        point = objects[k][4][0][1]
+        a, b, c = (np.array(point[key][:3]) for key in (12, 31, 16))
+        normal = np.cross(b - a, c - a)
+        assert normal[0] < 0 and np.allclose(normal[1:], 0.0, atol=1e-18)
+        corners += [a, b, c]
+    corners = np.unique(np.round(corners, 15), axis=0)
+    assert corners.shape == (4, 3)
+    np.testing.assert_allclose(corners[:, 0], 0.004, rtol=1e-12)
+    np.testing.assert_allclose(np.sort(np.abs(corners[:, 1:] - [0.001, -0.002]).ravel()),
+                               [0.0085] * 8, rtol=1e-12)
