@@ -584,3 +584,71 @@ def test_an_exported_mdem_holds_the_results_and_a_script(tmp_path):
     assert keys["END_TIME"] == repr(199.5e-6)
     assert script_of(mdem)["SIMULATION_STEP"] == "1e-06"
     del data["particles/clump"]
+
+
+def test_a_written_file_holds_what_musens_simulator_reads(tmp_path):
+    """What MUSEN's text import makes of a scene (its defaults for what text cannot say:
+    a solid compound by 'bondem', an unrotated geometry of scale 1, the simulator's
+    settings), read back from the file bondem writes."""
+    lines = ["0 0 1 1 5 0.001 0.001 23 glass 24 0.5 2.5 2 0 12 0.001 0.002 0.003",
+             "0 1 1 14 23 steel 24 0 1e+300 2 0 12 0 0 0 31 0.01 0.02 0.03 0.04 16 0 0.01 0",
+             "0 2 1 14 23 steel 24 0 1e+300 2 0 12 0 0 1 31 0.01 0 1 0 16 0 0.01 1",
+             "22 -1 -2 -3 4 5 6", "28 1 0 1 1 -0.1 -0.2 -0.3 0.4 0.5 0.6",
+             "32 glass Glass 0 2500", "32 steel Steel 7 2e9",
+             "25 lid key1",
+             "26 1 2 0 1e-3 1 2 3 4 5 6 7 8 9 1e-3 2e-3 -1 -2 -3 -4 -5 -6 -7 -8 -9",
+             "27 2 1 2"]
+    keys = {"MODEL_SB": "ModelSBElastic", "MODEL_SB_PARAMS": "CONSIDER_BREAKAGE 0",
+            "MODEL_PP": "ModelPPJKR", "MODEL_PW": "ModelPWJKR", "END_TIME": "2e-3"}
+    storage, points = mdem_storage(lines, keys)
+    write_mdem(tmp_path / "w.mdem", storage, points)
+    mdem = MdemFile(tmp_path / "w.mdem")
+    info, modules = mdem.info, mdem.modules
+    assert info["version"] == 1 and info["savedTimePoints"] == [0.0]
+    sphere = info["particles"][0]
+    assert (sphere["activity_start"], sphere["activity_end"]) == (0.5, 2.5)
+    assert info["simulation_volume_min"] == {"x": -1.0, "y": -2.0, "z": -3.0}
+    assert info["simulation_volume_max"] == {"x": 4.0, "y": 5.0, "z": 6.0}
+    assert (info["periodic_conditions_enabled"], info.get("periodic_conditions_x", False),
+            info["periodic_conditions_y"], info["periodic_conditions_z"]) == (
+        True, False, True, True)
+    assert info["periodic_conditions_min"] == {"x": -0.1, "y": -0.2, "z": -0.3}
+    assert info["periodic_conditions_max"] == {"x": 0.4, "y": 0.5, "z": 0.6}
+    geometry = info["real_geometry"][0]
+    assert geometry["version"] == 1 and geometry["planes"] == [1, 2]
+    base = geometry["base_geometry"]
+    assert (base["version"], base["name"], base["key"], base["scaling"]) == (
+        1, "lid", "key1", 1.0)
+    assert base["rotation"] == {"v1": {"x": 1.0}, "v2": {"y": 1.0}, "v3": {"z": 1.0}}
+    motion = base["motion"]
+    assert motion["type"] == 1 and len(motion["intervals"]) == 2
+    second = motion["intervals"][1]
+    assert (second["limit1"], second["limit2"]) == (1e-3, 2e-3)
+    assert second["velocity"] == {"x": -1.0, "y": -2.0, "z": -3.0}
+    assert second["rot_center"] == {"x": -4.0, "y": -5.0, "z": -6.0}
+    assert second["rot_velocity"] == {"x": -7.0, "y": -8.0, "z": -9.0}
+    assert motion["intervals"][0]["rot_velocity"] == {"x": 7.0, "y": 8.0, "z": 9.0}
+    compounds = {c["uniqueKey"]: c for c in modules["materials_database"]["compound"]}
+    assert compounds["glass"]["compoundName"] == "Glass"
+    assert (compounds["steel"]["authorName"], compounds["steel"]["phase"]) == ("bondem", 2)
+    simulator = modules["simulator"]
+    assert {k: simulator[k] for k in ("simulator_type", "max_cells_number",
+                                      "verlet_dist_coeff", "verlet_auto_adjust",
+                                      "part_move_limit", "time_step_factor", "end_time")} == {
+        "simulator_type": 1, "max_cells_number": 50, "verlet_dist_coeff": 2.0,
+        "verlet_auto_adjust": True, "part_move_limit": 1e-8, "time_step_factor": 1.01,
+        "end_time": 2e-3}
+    manager = modules["model_manager"]
+    assert manager["version"] == 1 and manager["connected_pp_contact"] is True
+    assert manager["models"] == [
+        {"key": "ModelSBElastic", "path": "ModelSBElastic", "params": "CONSIDER_BREAKAGE 0"},
+        {"key": "ModelPPJKR", "path": "ModelPPJKR"}, {"key": "ModelPWJKR", "path": "ModelPWJKR"}]
+    assert manager["pp_model"] == {"key": "ModelPPJKR", "path": "ModelPPJKR"}
+    assert manager["pw_model"] == {"key": "ModelPWJKR", "path": "ModelPWJKR"}
+    _, objects = next(mdem.time_points())
+    assert objects[1]["quaternion"] == {"q0": 0.01, "q1": 0.02, "q2": 0.03, "q3": 0.04}
+    assert objects[2]["angle_vel"] == {"y": 0.01, "z": 1.0}
+    scene = scene_of(mdem)
+    assert scene.objects[1].quaternion == (0.01, 0.02, 0.03, 0.04)
+    storage, _ = mdem_storage(lines, {"CONNECTED_PP_CONTACT": "0"})
+    assert storage["modules_data"]["model_manager"]["connected_pp_contact"] is False
