@@ -499,8 +499,9 @@ RUN = """\
 2 1e-5 12 0 0 0 15 0.1 0 0 16 0 0 1 2 2e-5 12 0 0 -1e-6 15 0.2 0 0 16 0 0 2
 0 1 1 1 5 0.001 0.001 23 glass 24 0 1e+300 2 0 12 0.002 0 0 2 1e-5 12 0.002 0 0 \
 2 2e-5 12 0.002 0 1e-6
-0 2 1 9 5 0 1 0.0005 0.002 23 binder 24 0 1.5e-5 2 0 12 0 0 0
+0 2 1 9 5 0 1 0.0005 0.002 23 binder 24 0 1e-5 2 0 12 0 0 0
 0 3 1 14 23 glass 24 0 1e+300 2 0 12 -1 -1 -0.002 31 1 -1 -0.002 0 16 0 1 -0.002
+0 4 1 9 5 0 1 0.0005 0.002 23 binder 24 0 0 2 0 12 0 0 0
 32 glass glass 0 2500 7 1e8 10 0.3
 32 binder binder 7 5e7 8 1e6 9 1e6 10 0.3
 33 glass glass 200 0.5 201 0.3 202 0.0
@@ -513,13 +514,17 @@ def test_a_finished_runs_results_become_a_results_file(tmp_path):
                                     "MODEL_PP": "ModelPPHertzMindlin",
                                     "MODEL_PW": "ModelPWHertzMindlin"})
     # MUSEN's own loads at each time point: the bond's force, a wall triangle's force
+    # the bond pulls particle 0 toward 1 at first (tension), then pushes it (compression)
     for k, (t, objects) in enumerate(points):
-        objects[2]["force"] = {"x": 3.0 * (k + 1), "y": 0.5}
+        objects[2]["force"] = {"x": (3.0, -6.0, 9.0)[k], "y": 0.5}
         objects[2]["total_torque"] = 0.25 * k
         objects[2]["angle_vel"] = {"z": 1e-9 * k}
         objects[3]["force"] = {"z": -2.0 * k}
         objects[0]["force"] = {"x": 1.0 * k}
+        # the wall's three corners move up by 1, 2 and 3 x 1e-4 m per time point
         objects[3]["coord"] = {"x": -1.0, "y": -1.0, "z": -0.002 + 1e-4 * k}
+        objects[3]["quaternion"] = {"q0": 1.0, "q1": -1.0, "q2": -0.002 + 2e-4 * k}
+        objects[3]["angle_vel"] = {"y": 1.0, "z": -0.002 + 3e-4 * k}
     write_mdem(tmp_path / "run.mdem", storage, points)
     results, notes = import_mdem_results(tmp_path / "run.mdem", tmp_path / "out")
     assert results == tmp_path / "out" / "results.h5"
@@ -532,19 +537,28 @@ def test_a_finished_runs_results_become_a_results_file(tmp_path):
         np.testing.assert_array_equal(f["particles/velocity"][1, 0], [0.1, 0, 0])
         np.testing.assert_array_equal(f["particles/angular_velocity"][2, 0], [0, 0, 2])
         np.testing.assert_array_equal(f["particles/force"][2, 0], [2.0, 0, 0])
+        # active up to and at the end of its activity interval; the bond already broken
+        # at the first time point is left out
         assert f["bonds/active"][()].tolist() == [[True], [True], [False]]
-        np.testing.assert_array_equal(f["bonds/force"][:, 0], [[3.0, 0.5, 0], [6.0, 0.5, 0],
+        np.testing.assert_array_equal(f["bonds/force"][:, 0], [[3.0, 0.5, 0], [-6.0, 0.5, 0],
                                                                [0, 0, 0]])
-        assert f["bonds/break_time"][()].tolist() == [1.5e-5]
-        # its last saved force pulled particle 0 toward 1 and sheared little: tension
-        assert f["bonds/break_mode"][()].tolist() == [1]
+        assert f["bonds/break_time"][()].tolist() == [1e-5]
+        # its last saved force pushed particle 0 away from 1 and sheared little
+        assert f["bonds/break_mode"][()].tolist() == [2]
         assert np.all(np.isnan(f["bonds/normal_moment"][()]))
         assert np.all(np.isnan(f["bonds/tangential_moment"][()]))
         np.testing.assert_array_equal(f["walls/force"][:, 0], [[0, 0, 0], [0, 0, -2.0],
                                                                [0, 0, -4.0]])
         travel = f["walls/position"][:, 0] - f["walls/position"][0, 0]
-        np.testing.assert_allclose(travel[:, 2], [0.0, 1e-4 / 3, 2e-4 / 3], rtol=1e-9,
-                                   atol=1e-15)
+        np.testing.assert_allclose(travel[:, 2], [0.0, 2e-4, 4e-4], rtol=1e-9, atol=1e-15)
+        np.testing.assert_allclose(travel[:, :2], 0.0, atol=1e-15)
+        from bondem.scene import load_scene
+        start = load_scene(tmp_path / "out" / "scene.toml").make_simulation().wall_positions()
+        np.testing.assert_array_equal(f["walls/position"][0], start)
+        assert f.attrs["scene_name"] == "scene.toml"
+        assert f.attrs["scene"] == (tmp_path / "out" / "scene.toml").read_text()
+        others = [k for k in f["energy"] if not k.startswith("kinetic")]
+        assert others and all(np.isnan(f[f"energy/{k}"][()]).all() for k in others)
         assert np.all(np.isnan(f["walls/torque"][()]))
         np.testing.assert_array_equal(f["musen/bond_total_torque"][()], [[0.0], [0.25], [0.5]])
         assert f["musen/bond_tangential_overlap"][2, 0].tolist() == [0.0, 0.0, 2e-9]
@@ -561,6 +575,16 @@ def test_a_finished_runs_results_become_a_results_file(tmp_path):
                                          musen_version="1.70.0")
     with h5py.File(results) as f:
         assert f.attrs["musen_version"] == "1.70.0"
+    import tomllib
+    assert tomllib.loads((tmp_path / "old" / "scene.toml").read_text())["simulation"][
+        "musen_version"] == "1.70.0"
+    # a time point that stops short of the walls and bonds: they read as absent
+    del points[-1][1][2:]
+    write_mdem(tmp_path / "short.mdem", storage, points)
+    results, _ = import_mdem_results(tmp_path / "short.mdem", tmp_path / "short")
+    with h5py.File(results) as f:
+        assert f["walls/force"][2, 0].tolist() == [0.0, 0.0, 0.0]
+        assert f["particles/position"][2, 1].tolist() == [0.002, 0, 1e-6]
 
 
 def test_an_exported_mdem_holds_the_results_and_a_script(tmp_path):
@@ -652,3 +676,69 @@ def test_a_written_file_holds_what_musens_simulator_reads(tmp_path):
     assert scene.objects[1].quaternion == (0.01, 0.02, 0.03, 0.04)
     storage, _ = mdem_storage(lines, {"CONNECTED_PP_CONTACT": "0"})
     assert storage["modules_data"]["model_manager"]["connected_pp_contact"] is False
+
+
+def test_time_points_split_into_blocks_and_the_headers(tmp_path, monkeypatch):
+    monkeypatch.setattr(mm, "BLOCK_LIMIT", 120)
+    lines = ["0 0 1 1 5 0.001 0.001 23 glass " + " ".join(
+        f"2 {k * 1e-4!r} 12 {k * 1e-6!r} 0 0 15 0.5 0 0" for k in range(12)),
+             "32 glass glass 0 2500"]
+    storage, points = mdem_storage(lines, {})
+    write_mdem(tmp_path / "b.mdem", storage, points)
+    raw = (tmp_path / "b.mdem").read_bytes()
+    assert struct.unpack_from("<4I", raw) == (mm.SIGNATURE, 2, 2, mm.CLUSTER)
+    assert raw[16:mm.HEADER] == b"\0" * (mm.HEADER - 16)
+    for k, name in enumerate((b"simulation info", b"time-dependent")):
+        at = mm.HEADER + k * mm.THREAD_HEADER
+        assert raw[at:at + 64] == name.ljust(64, b"\0")
+        assert struct.unpack_from("<Q", raw, at + 72)[0] == 0
+        offsets = struct.unpack_from(f"<{mm.BLOCKS_PER_THREAD}Q", raw, at + 80)
+        used = [o for o in offsets if o]
+        assert offsets[len(used):] == (0,) * (mm.BLOCKS_PER_THREAD - len(used))
+    mdem = MdemFile(tmp_path / "b.mdem")
+    mdem.check()
+    blocks = mdem.blocks
+    assert len(blocks) >= 3
+    read = list(mdem.time_points())
+    assert [t for t, _ in read] == [k * 1e-4 for k in range(12)]
+    assert [mm.vector(p[0]["coord"])[0] for _, p in read] == [k * 1e-6 for k in range(12)]
+    offset = 0
+    for block in blocks:
+        assert block.get("offset_in_file", 0) == offset and block["format"] == 2
+        data = mdem._thread_bytes(1, offset, block["size"])
+        body = zlib.decompress(data)
+        assert block["uncompressed_size"] == len(body) <= 120 + 60
+        first = mm.decode(body, "ProtoBlockOfTimePoints", mm.TABLES)["time_points"][0]
+        assert block.get("start_time", 0.0) == first.get("time", 0.0)
+        offset += block["size"]
+    assert sum(b["size"] for b in blocks) == struct.unpack_from(
+        "<Q", raw, mm.HEADER + mm.THREAD_HEADER + 64)[0]
+    monkeypatch.setattr(mm, "BLOCKS_PER_THREAD", 0)      # each thread needs one
+    with pytest.raises(ValueError) as error:
+        write_mdem(tmp_path / "big.mdem", storage, points)
+    assert str(error.value) == "too much data for a .mdem file's 118 blocks"
+
+
+def test_the_defaults_of_fields_a_file_leaves_out():
+    """proto3 leaves zeros and empty strings out: a field that is absent is 0 or ""."""
+    info = {"particles": [{"id": 0, "type": 1,
+                           "encoded_properties": struct.pack("<2d", 1e-3, 1e-3)},
+                          {"id": 1, "encoded_properties": b""}],
+            "real_geometry": [{"base_geometry": {"name": "a lid"}}, {}],
+            "real_geometry_v0": [{"tdVal": [{}]}]}
+    materials = {"compound": [{"constProperty": [{"value": 2.0}, {"propertyType": 7}],
+                               "property": [{"correlation": []}]}],
+                 "interaction": [{"compoundKey1": "b"}, {"property": [{}]}]}
+    scene = scene_of(fake({"materials_database": materials}, info))
+    obj = scene.objects[0]
+    assert (obj.compound, obj.active, obj.time, obj.coordinates) == ("", (0.0, 0.0), 0.0,
+                                                                     (0.0, 0.0, 0.0))
+    assert sorted(scene.objects) == [0]
+    assert list(scene.compounds) == [""]
+    props = scene.compounds[""]
+    assert props[7] == 0.0 and math.isnan(props[0])     # the correlation wins
+    assert list(scene.interactions) == [("", "b"), ("", "")]
+    assert list(scene.interactions[("", "")]) == [0]
+    assert scene.geometries == [["a_lid", "", "0 0", []], ["", "", "0 0", []], ["", "", "", []]]
+    assert scene.unmapped == ["geometry : the motion of an old-format geometry is not mapped "
+                              "(the wall is static)"]
