@@ -33,7 +33,9 @@ def lattice():
     return lattice_specimen((3, 3, 5), R, GLASS, BINDER, diameter_ratio=0.5)
 
 
-QUIET = dict(samples=60, rate_check="off")
+# a bound on the steps well above the few thousand each test takes: a run whose stop rule
+# is broken ends in seconds
+QUIET = dict(samples=60, rate_check="off", max_steps=20_000)
 
 
 @pytest.mark.parametrize("key, value, message", [
@@ -493,7 +495,7 @@ def test_the_rate_check():
 # --- tiny lattices, a few hundred steps each ---------------------------------------
 
 def test_direct_tension_of_a_lattice_breaks_at_the_bond_strength(lattice, tmp_path):
-    r = pr.direct_tension(lattice, LabSettings(samples=600, rate_check="off"),
+    r = pr.direct_tension(lattice, LabSettings(samples=600, rate_check="off", max_steps=20_000),
                           out_dir=tmp_path)
     n = r.numbers
     assert n["tensile_strength"] == pytest.approx(STRENGTH, rel=0.03)
@@ -651,3 +653,11 @@ def test_an_agglomerate_between_plates(lattice):
     assert n["loose_particles"] == int(np.count_nonzero(r.fragments["particles"] == 1))
     assert "fragments_multi" in c and r.units["peak_stress"] == "N"
     assert n["fragments"] >= 1
+
+
+def test_a_run_ends_at_its_step_bound(lattice):
+    r = pr.uniaxial(lattice, LabSettings(samples=60, rate_check="off", max_steps=40))
+    assert "stopped: max_steps" in r.notes and r.curve["time"].size == 1   # one sample
+    assert r.no_failure.startswith("the specimen did not fail: stopped at the max_steps")
+    r = pr.direct_tension(lattice, LabSettings(samples=60, rate_check="off", max_steps=40))
+    assert "stopped: max_steps" in r.notes
