@@ -83,7 +83,7 @@ def hooke(stretched, young, diameter, initial):
 def test_bond_force_is_the_stretched_spring_plus_the_tangential_force():
     model, state = system()
     across = POSITION[2] - POSITION[1] - [0.021, 0.0, 0.0]   # the nearest image, -x
-    assert model.bond_initial_length[1] == pytest.approx(np.linalg.norm(across), rel=1e-15)
+    assert model.bond_initial_length[1] == pytest.approx(np.linalg.norm(across), rel=1e-15, abs=0)
     state.position[1] += [-0.0002, 0.0001, 0.0]     # bond 0 shortened, bond 1 stretched
     state.position[3] += [0.0, 0.0, 0.0004]
     state.bond_tangential_force[:] = [[0.0, 0.5, -0.25], [1.5, 0.0, 0.0], [-2.0, 0.0, 3.0]]
