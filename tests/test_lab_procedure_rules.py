@@ -307,6 +307,8 @@ def test_platens_touch_the_ends_and_ramp_to_their_speed(lattice):
 
 
 def test_jaws_are_arcs_of_their_radius_touching_the_disc(lattice):
+    # a disc away from the origin: its centre is no special point
+    lattice = dataclasses.replace(lattice, position=lattice.position + [0.003, -0.002, 0.001])
     low, high = lattice.bounds()
     diameter = high[2] - low[2]
     walls = pr._jaws(lattice, LabSettings(jaws=1.5, ramp=1.0), 0.01, 1e-4, GLASS)
@@ -661,3 +663,26 @@ def test_a_run_ends_at_its_step_bound(lattice):
     assert r.no_failure.startswith("the specimen did not fail: stopped at the max_steps")
     r = pr.direct_tension(lattice, LabSettings(samples=60, rate_check="off", max_steps=40))
     assert "stopped: max_steps" in r.notes
+
+
+def test_a_lattice_cylinder_in_its_membrane(lattice):
+    """The membrane holds sigma_3 on the current lateral surface; the isotropic stage
+    shortens the chains by sigma_3 / E, and loading them gives E = k_n / a."""
+    cylinder = lattice_specimen((5, 5, 5), R, GLASS, BINDER, diameter_ratio=0.5,
+                                shape="cylinder")
+    r = pr.triaxial(cylinder, LabSettings(confining_stress=1e5, max_strain=0.004, **QUIET))
+    c, n = r.curve, r.numbers
+    np.testing.assert_allclose(c["lateral_stress"], 1e5, rtol=1e-9)
+    assert n["confining_stress_error_final"] < 1e-9
+    np.testing.assert_allclose(c["axial_stress"], 0.5 * (c["force_top"] + c["force_bottom"])
+                               / c["cross_section"], rtol=1e-12)
+    np.testing.assert_allclose(c["deviator_stress"], c["axial_stress"] - 1e5, rtol=1e-12)
+    np.testing.assert_allclose(c["lateral_stress_worst"], np.abs(c["lateral_stress"] / 1e5
+                                                                 - 1.0), atol=1e-15)
+    assert n["young_modulus_secant"] == pytest.approx(MODULUS, rel=0.05)
+    assert n["confinement_axial_strain"] == pytest.approx(-1e5 / MODULUS, rel=0.2)
+    assert n["confinement_lateral_strain"] < 0
+    note = next(t for t in r.notes if t.startswith("confined in a membrane to 1e+05 Pa in "))
+    assert note.endswith(f"strains axial {-n['confinement_axial_strain']:.4g}, lateral "
+                         f"{-n['confinement_lateral_strain']:.4g})")
+    assert "not settled" not in note
