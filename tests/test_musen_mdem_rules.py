@@ -164,8 +164,8 @@ def test_a_written_file_reads_back_as_the_text_it_was_written_from(tmp_path):
     mdem.check()
     assert (mdem.version, mdem.cluster) == (2, 4096)
     read = scene_of(mdem)
-    text = read_text(tmp_path / "a.txt") if (tmp_path / "a.txt").write_text(
-        "\n".join(lines) + "\n") else None
+    (tmp_path / "a.txt").write_text("\n".join(lines) + "\n")
+    text = read_text(tmp_path / "a.txt")
     for ident, obj in text.objects.items():
         got = read.objects[ident]
         assert (got.type, got.geometry, got.compound, got.active) == (
@@ -371,8 +371,7 @@ def test_every_kind_of_damage_is_one_line(tmp_path):
     raw = good_file(tmp_path).read_bytes()
     assert damaged(tmp_path, raw[:mm.HEADER + 2 * mm.THREAD_HEADER - 1]) == \
         "too short for a .mdem file (no headers)"
-    MdemFile(tmp_path / "good.mdem")
-    damaged_ok = raw[:mm.HEADER + 2 * mm.THREAD_HEADER]
+    headers_only = raw[:mm.HEADER + 2 * mm.THREAD_HEADER]
     assert damaged(tmp_path, b"\0\0\0\0" + raw[4:]) == \
         "not a MUSEN .mdem file (no 0x12345678 signature)"
     assert damaged(tmp_path, raw[:4] + struct.pack("<I", 3) + raw[8:]) == \
@@ -380,7 +379,7 @@ def test_every_kind_of_damage_is_one_line(tmp_path):
     for threads, cluster in ((1, 4096), (2, 0), (2, 4000)):
         text = damaged(tmp_path, raw[:8] + struct.pack("<2I", threads, cluster) + raw[16:])
         assert text == f"damaged header ({threads} threads, cluster {cluster} bytes)"
-    assert damaged(tmp_path, damaged_ok) == "truncated (a block lies past the end of the file)"
+    assert damaged(tmp_path, headers_only) == "truncated (a block lies past the end of the file)"
     # the first thread's data: its zlib stream cut or flipped
     info = mm.HEADER + 2 * mm.THREAD_HEADER
     size = struct.unpack_from("<Q", raw, mm.HEADER + 64)[0]
