@@ -203,8 +203,10 @@ def test_a_test_that_did_not_fail_has_no_strength():
     assert failed.units["ucs"] == "Pa" and failed.units["axial_stress"] == "Pa"
     chip = pr._honest(result("agglomerate", no_failure=None))
     assert chip.units["peak_stress"] == "N" and chip.units["largest_stress"] == "N"
-    assert pr._honest(LabResult("ucs", {}, {}, {}, {}, [], no_failure="x")).numbers[
-        "largest_stress"] != pr._honest(LabResult("ucs", {}, {}, {}, {}, [])).numbers.get("x")
+    # a test that stopped before any sample: no curve, no peak, and why
+    empty = pr._honest(LabResult("ucs", {}, {}, {}, {}, [], no_failure="x"))
+    assert math.isnan(empty.numbers["largest_stress"]) and empty.no_failure == "x"
+    assert empty.notes == ["no strength: x"]
 
 
 def unit_of(name):
