@@ -356,3 +356,98 @@ def test_the_lab_section_s_html_and_its_defaults(tmp_path):
         f'src="data:image/png;base64,{data}"><figcaption></figcaption></figure>')
     (tmp_path / "lab.json").write_text(json.dumps({"numbers": {"ucs": 2.0}}))
     assert Page(lab_html(tmp_path)).tables["table0"][1] == ["ucs", "2", ""]
+
+
+def _envelope_folder(folder, spec_text):
+    """A ``bondem lab envelope`` folder as write_envelope writes it, for a material of
+    c = 1 MPa, phi = 30 degrees: peaks on sigma_1 = 2 c cos(phi) / (1 - sin(phi))
+    + sigma_3 (1 + sin(phi)) / (1 - sin(phi)) = 3.4641e6 Pa + 3 sigma_3, a third test
+    that did not fail."""
+    import math
+    from bondem.lab.envelope import mohr_coulomb, write_envelope
+    phi, c = math.radians(30.0), 1e6
+    tests = []
+    for s3, failed in ((1e5, None), (4e5, None), (9e5, "strain limit 0.05 reached")):
+        s1 = 2 * c * math.cos(phi) / (1 - math.sin(phi)) + s3 * 3.0
+        tests.append({"confining_stress": s3, "peak_stress": s1, "peak_deviator_stress": s1 - s3,
+                      "strain_at_peak": 0.0123, "young_modulus_secant": 2.5e8,
+                      "confining_stress_error_final": 0.004, "broken_bonds_final": 17.0,
+                      "n_particles": 300.0, "no_failure": failed})
+    spec = folder.parent / "rock.toml"
+    spec.write_text(spec_text)
+    fit = mohr_coulomb([1e5, 4e5], [t["peak_stress"] for t in tests[:2]])
+    write_envelope({"tests": tests, "fit": fit, "failed": {9e5: tests[2]["no_failure"]},
+                    "spec": str(spec), "spec_text": spec_text,
+                    "overrides": {"specimen.seed": 4}}, folder)
+    return spec
+
+
+def test_the_envelope_section_and_report_from_an_envelope_folder(tmp_path):
+    from click.testing import CliRunner
+    from bondem.analysis.report import envelope_html
+    from bondem.cli import main
+    folder = tmp_path / "env"
+    assert envelope_html(folder) == ""
+    spec = _envelope_folder(folder, "[specimen]\nlattice = [3, 3, 6]  # a <b> & c\n")
+    page = Page(envelope_html(folder))
+    assert page.headings == [("h2", "Mohr-Coulomb envelope"), ("h3", "Triaxial tests")]
+    fit = page.tables["table0"]
+    assert fit[0] == ["quantity", "value", "unit"]
+    # the criterion's own c and phi come back (intercept 2 c cos / (1 - sin), slope 3)
+    assert fit[1:] == [["cohesion", "1e+06", "Pa"], ["friction angle", "30", "degree"],
+                       ["r squared", "1", "1"], ["intercept", "3.464e+06", "Pa"],
+                       ["slope", "3", "1"]]
+    tests = page.tables["table1"]
+    assert tests[0] == ["sigma_3 (Pa)", "peak sigma_1 (Pa)", "peak q (Pa)",
+                        "axial strain at peak", "E (secant) (Pa)", "sigma_3 error at the end",
+                        "broken bonds", "failed"]
+    assert tests[1] == ["1e+05", "3.764e+06", "3.664e+06", "0.0123", "2.5e+08", "0.004",
+                        "17", "yes"]
+    assert tests[3][0] == "9e+05" and tests[3][-1] == "strain limit 0.05 reached"
+    assert page.items == ["sigma_3 = 9e+05 Pa is left out of the fit: strain limit 0.05 "
+                          "reached"]
+    png = (folder / "lab_envelope.png").read_bytes()
+    assert png.startswith(b"\x89PNG") and page.figures[0][:3] == (
+        "lab_envelope", "lab envelope", png)
+    # a lab folder holding an envelope too shows both, the lab test first
+    (folder / "lab.json").write_text(json.dumps({"test": "triaxial", "numbers": {}}))
+    assert [h[1] for h in Page(lab_html(folder)).headings] == [
+        "Laboratory test: triaxial", "Mohr-Coulomb envelope", "Triaxial tests"]
+    (folder / "lab.json").unlink()
+    # `bondem report FOLDER`: the page of the envelope and the spec it ran, whole
+    result = CliRunner().invoke(main, ["report", str(folder)])
+    assert result.exit_code == 0, result.output
+    out = folder / "envelope_report.html"
+    assert result.output == f"report -> {out}\n"
+    text = out.read_text()
+    whole = Page(text)
+    assert whole.title == "bondem: Mohr-Coulomb envelope of rock"
+    assert [h[1] for h in whole.headings] == ["bondem: Mohr-Coulomb envelope of rock",
+                                              "Mohr-Coulomb envelope", "Triaxial tests",
+                                              "Lab spec"]
+    assert (f'<pre id="spec">[specimen]\nlattice = [3, 3, 6]  # a &lt;b&gt; &amp; c\n</pre>'
+            in text)
+    assert f"<p>{spec}, with specimen.seed = 4</p>" in text
+    # a folder with neither results.h5 nor an envelope is refused by name
+    (tmp_path / "empty").mkdir()
+    result = CliRunner().invoke(main, ["report", str(tmp_path / "empty")])
+    assert result.exit_code == 2 and "without results.h5" in result.output
+
+
+def test_an_envelope_without_a_line_says_why(tmp_path):
+    from bondem.analysis.report import envelope_html
+    from bondem.lab.envelope import write_envelope
+    tests = [{"confining_stress": s3, "peak_stress": 5e6 + 0.5 * s3, "no_failure": None}
+             for s3 in (1e5, 6e5)]
+    from bondem.lab.envelope import mohr_coulomb
+    fit = mohr_coulomb([1e5, 6e5], [t["peak_stress"] for t in tests])
+    for t in tests:
+        t.update(dict.fromkeys(("peak_deviator_stress", "strain_at_peak", "young_modulus_secant",
+                                "confining_stress_error_final", "broken_bonds_final",
+                                "n_particles"), 1.0))
+    write_envelope({"tests": tests, "fit": fit, "failed": {}}, tmp_path)
+    page = Page(envelope_html(tmp_path))
+    assert page.tables["table0"][1:3] == [["cohesion", "n/a", "Pa"],
+                                          ["friction angle", "n/a", "degree"]]
+    assert page.items == ["No Mohr-Coulomb line: the peaks' sigma_1 rises by 0.5 times "
+                          "sigma_3, less than 1 (no friction)."]

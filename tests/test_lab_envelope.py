@@ -68,6 +68,12 @@ def test_envelope_of_a_parallel_bonded_cylinder_is_a_straight_line(tmp_path):
     assert again["cohesion"] == pytest.approx(fit["cohesion"], rel=1e-12)
     assert (out / "lab_envelope.png").is_file() and (out / "envelope.csv").is_file()
     assert "friction angle" in result.output
+    # the report of the folder the command names: the fit and its spec
+    assert result.output.endswith(f"next: bondem report {out}\n")
+    assert saved["spec"] == str(spec) and saved["spec_text"] == spec.read_text()
+    report = CliRunner().invoke(main, ["report", str(out)])
+    assert report.exit_code == 0, report.output
+    assert f"{fit['cohesion']:.4g}" in (out / "envelope_report.html").read_text()
 
 
 def test_an_envelope_without_failures_is_refused(tmp_path):

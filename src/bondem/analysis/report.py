@@ -108,13 +108,86 @@ def scene_html(scene_text, attrs):
     return "\n".join(parts) or "<p>(no scene stored in the results file)</p>"
 
 
+def _png_figure(path, name, alt, caption):
+    """A <figure> with the PNG file ``path`` inlined ("" when there is no such file)."""
+    if not path.is_file():
+        return ""
+    return (f'<figure id="{name}"><img alt="{alt}" '
+            f'src="data:image/png;base64,{base64.b64encode(path.read_bytes()).decode("ascii")}">'
+            f"<figcaption>{html.escape(caption)}</figcaption></figure>")
+
+
+# envelope.json's test columns shown: (key, heading, unit)
+ENVELOPE_COLUMNS = (("confining_stress", "sigma_3", "Pa"), ("peak_stress", "peak sigma_1", "Pa"),
+                    ("peak_deviator_stress", "peak q", "Pa"),
+                    ("strain_at_peak", "axial strain at peak", "1"),
+                    ("young_modulus_secant", "E (secant)", "Pa"),
+                    ("confining_stress_error_final", "sigma_3 error at the end", "1"),
+                    ("broken_bonds_final", "broken bonds", "1"))
+
+
+def envelope_html(folder):
+    """The "Mohr-Coulomb envelope" section from a ``bondem lab envelope`` folder's
+    envelope.json (the fit: cohesion Pa, friction angle degrees, R^2; each triaxial test's
+    peak) and lab_envelope.png (Mohr circles and the line); empty without envelope.json."""
+    import json
+    path = Path(folder) / "envelope.json"
+    if not path.is_file():
+        return ""
+    data = json.loads(path.read_text())
+    fit, units = data.get("fit", {}), data.get("units", {})
+    rows = [(k.replace("_", " "), "n/a" if fit[k] is None else fit[k], units.get(k, ""))
+            for k in ("cohesion", "friction_angle", "r_squared", "intercept", "slope")
+            if k in fit]
+    notes = []
+    if fit.get("friction_angle") is None and fit.get("slope") is not None:
+        notes.append(f"No Mohr-Coulomb line: the peaks' sigma_1 rises by {fit['slope']:.3g} "
+                     f"times sigma_3, less than 1 (no friction).")
+    tests = data.get("tests", [])
+    cells = [[t.get(k) if t.get(k) is not None else "n/a" for k, _, _ in ENVELOPE_COLUMNS]
+             + [t.get("no_failure") or "yes"] for t in tests]
+    header = [f"{h} ({u})" if u != "1" else h for _, h, u in ENVELOPE_COLUMNS] + ["failed"]
+    notes += [f"sigma_3 = {float(p):.4g} Pa is left out of the fit: {why}"
+              for p, why in data.get("failed", {}).items()]
+    items = "".join(f"<li>{html.escape(n)}</li>" for n in notes)
+    return ('<h2 id="envelope">Mohr-Coulomb envelope</h2>'
+            + _table(rows, ("quantity", "value", "unit"))
+            + "<h3>Triaxial tests</h3>" + _table(cells, header)
+            + (f"<ul>{items}</ul>" if items else "")
+            + _png_figure(Path(folder) / "lab_envelope.png", "lab_envelope", "lab envelope",
+                          "Mohr circles at the peaks of the triaxial tests and the "
+                          "least-squares Mohr-Coulomb line through them."))
+
+
+def write_envelope_report(folder, out=None):
+    """Write the HTML report of a ``bondem lab envelope`` folder (envelope.json): the
+    envelope section and the lab spec it ran, to ``out`` (default envelope_report.html in
+    the folder). Returns the report's path."""
+    import json
+    folder = Path(folder)
+    out = folder / "envelope_report.html" if out is None else Path(out)
+    data = json.loads((folder / "envelope.json").read_text())
+    spec, text = data.get("spec"), data.get("spec_text")
+    body = envelope_html(folder)
+    if text:
+        body += (f"<h2>Lab spec</h2><p>{html.escape(str(spec))}"
+                 + (f", with {html.escape(_cell(data['overrides']))}"
+                    if data.get("overrides") else "")
+                 + f'</p><pre id="spec">{html.escape(text)}</pre>')
+    name = Path(spec).stem if spec else folder.name
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(_page(f"bondem: Mohr-Coulomb envelope of {name}", body), encoding="utf-8")
+    return out
+
+
 def lab_html(folder):
     """The "Laboratory test" section from a ``bondem lab`` folder's lab.json and its
-    figures (empty when the folder holds no lab test)."""
+    figures, and the envelope's (envelope_html) when the folder holds one; empty when it
+    holds neither."""
     import json
     path = Path(folder) / "lab.json"
     if not path.is_file():
-        return ""
+        return envelope_html(folder)
     data = json.loads(path.read_text())
     # lab.json names its figures and their captions (lab/output.py writes them)
     captions = data.get("captions") or dict.fromkeys(
@@ -122,18 +195,13 @@ def lab_html(folder):
     units = data.get("units", {})
     rows = [(k.replace("_", " "), "n/a" if v is None else v, units.get(k, ""))
             for k, v in data.get("numbers", {}).items()]
-    figures = []
-    for name, caption in captions.items():
-        png = Path(folder) / f"lab_{name}.png"
-        if png.is_file():
-            figures.append(f'<figure id="lab_{name}"><img alt="lab {name}" '
-                           f'src="data:image/png;base64,'
-                           f'{base64.b64encode(png.read_bytes()).decode("ascii")}">'
-                           f"<figcaption>{html.escape(caption)}</figcaption></figure>")
+    figures = [_png_figure(Path(folder) / f"lab_{name}.png", f"lab_{name}",
+                           f"lab {name}", caption)
+               for name, caption in captions.items()]
     notes = "".join(f"<li>{html.escape(str(n))}</li>" for n in data.get("notes", []))
     return (f'<h2 id="lab">Laboratory test: {html.escape(str(data.get("test", "")))}</h2>'
             + _table(rows, ("quantity", "value", "unit")) + f"<ul>{notes}</ul>"
-            + "".join(figures))
+            + "".join(figures) + envelope_html(folder))
 
 
 def render_html(title, numbers, images, attrs=None, scene_text="", captions=None,
@@ -155,6 +223,15 @@ def render_html(title, numbers, images, attrs=None, scene_text="", captions=None
         f'{base64.b64encode(png).decode("ascii")}"><figcaption>'
         f"{html.escape(captions.get(name, name))}</figcaption></figure>"
         for name, png in images.items())
+    return _page(title, f"""<h2>Key numbers</h2><table id="key-numbers">{rows}</table>
+{extra}
+<h2>Scene</h2><div id="scene">{scene_html(scene_text, attrs or {})}</div>
+<h2>Figures</h2>{figures}
+<h2>Run</h2><table id="attributes">{meta}</table>""")
+
+
+def _page(title, body):
+    """A whole HTML page: the title, the time it was written, ``body`` (HTML)."""
     stamp = datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M UTC")
     return f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8"><title>{html.escape(title)}</title>
@@ -162,11 +239,7 @@ def render_html(title, numbers, images, attrs=None, scene_text="", captions=None
 table{{border-collapse:collapse}}td{{border:1px solid #ccc;padding:2px 8px}}
 img{{max-width:100%}}figure{{margin:1.5em 0}}figcaption{{color:#444}}</style></head>
 <body><h1>{html.escape(title)}</h1><p>bondem report, {stamp}</p>
-<h2>Key numbers</h2><table id="key-numbers">{rows}</table>
-{extra}
-<h2>Scene</h2><div id="scene">{scene_html(scene_text, attrs or {})}</div>
-<h2>Figures</h2>{figures}
-<h2>Run</h2><table id="attributes">{meta}</table></body></html>
+{body}</body></html>
 """
 
 

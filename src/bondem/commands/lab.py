@@ -143,6 +143,7 @@ def _envelope(spec, out_dir, changes, overwrite, pressures, scheduler, workers):
     paths = write_envelope(summary, out_dir)
     click.echo(f"table:   {paths['csv']}  and {paths['json'].name}")
     click.echo(f"figure:  {paths['figure'].name}")
+    click.echo(f"next: bondem report {out_dir}")
 
 
 def _series(test, spec, out_dir, changes, overwrite, seeds, scheduler, workers):

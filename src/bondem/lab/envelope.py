@@ -62,7 +62,8 @@ def run_envelope(spec, pressures, *, overrides=None, scheduler="serial", workers
     and their Mohr-Coulomb fit. scheduler: "serial" (this process), None (a LocalCluster
     of ``workers`` processes) or a Dask scheduler address. Returns {"tests": [numbers per
     pressure], "fit": mohr_coulomb(...) of the tests that failed, "failed": the
-    pressures whose specimen did not fail (no peak) and why}."""
+    pressures whose specimen did not fail (no peak) and why, "spec", "spec_text",
+    "overrides": what ran (for the report)}."""
     from .series import ensemble
     pressures = [float(p) for p in pressures]
     tests = ensemble(_one, [(str(spec), overrides, p) for p in pressures],
@@ -75,7 +76,8 @@ def run_envelope(spec, pressures, *, overrides=None, scheduler="serial", workers
                                                      for p, why in failed.items()))
     fit = mohr_coulomb([t["confining_stress"] for t in good],
                        [t["peak_stress"] for t in good])
-    return {"tests": tests, "fit": fit, "failed": failed}
+    return {"tests": tests, "fit": fit, "failed": failed, "spec": str(spec),
+            "spec_text": Path(spec).read_text(), "overrides": dict(overrides or {})}
 
 
 def write_envelope(summary, out_dir):
@@ -95,6 +97,7 @@ def write_envelope(summary, out_dir):
     paths["json"].write_text(json.dumps(_json_value({
         "fit": summary["fit"], "tests": summary["tests"],
         "failed": {str(k): v for k, v in summary["failed"].items()},
+        **{k: summary[k] for k in ("spec", "spec_text", "overrides") if k in summary},
         "units": {"cohesion": "Pa", "friction_angle": "degree", "intercept": "Pa",
                   "slope": "1", "r_squared": "1"}}), indent=2) + "\n")
     import matplotlib
