@@ -425,7 +425,7 @@ def test_the_envelope_section_and_report_from_an_envelope_folder(tmp_path):
     assert [h[1] for h in whole.headings] == ["bondem: Mohr-Coulomb envelope of rock",
                                               "Mohr-Coulomb envelope", "Triaxial tests",
                                               "Lab spec"]
-    assert (f'<pre id="spec">[specimen]\nlattice = [3, 3, 6]  # a &lt;b&gt; &amp; c\n</pre>'
+    assert ('<pre id="spec">[specimen]\nlattice = [3, 3, 6]  # a &lt;b&gt; &amp; c\n</pre>'
             in text)
     assert f"<p>{spec}, with specimen.seed = 4</p>" in text
     # a folder with neither results.h5 nor an envelope is refused by name
