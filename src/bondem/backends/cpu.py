@@ -411,13 +411,21 @@ def column_sums(a):
     return out
 
 
-# Serial: called once per frame, not per step; a parallel loop would cost ~0.7 s more
-# compilation on a first run for no measurable gain.
-@numba.njit(cache=True, fastmath=False, nogil=True)
+@numba.njit(**_serial)
+def _bond_energy_range(first, last, bonds, materials, state, position, box, out):
+    for b in range(first, last):
+        out[b] = bond_energy(b, bonds, materials, state, position, box)
+
+
+# Parallel: a frame asks once, but the lab's kinetic-energy ratio asks at every sample (a
+# fifth of a 1680-particle UCS test's time when serial). Each bond writes its own item.
+@numba.njit(**_jit)
 def bond_energies(bonds, materials, state, position, box, out):
     """Elastic energy (J) stored in each bond (``loops.bond_energy``); 0 for broken bonds."""
-    for b in range(bonds.pairs.shape[0]):
-        out[b] = bond_energy(b, bonds, materials, state, position, box)
+    n_bonds = bonds.pairs.shape[0]
+    for c in prange(chunks(n_bonds)):
+        _bond_energy_range(c * CHUNK, min(n_bonds, (c + 1) * CHUNK), bonds, materials,
+                           state, position, box, out)
 
 
 def particle_bond_index(pairs, n_particles):
