@@ -184,3 +184,43 @@ def test_pressed_sphere_near_edges_and_vertices(glass_e1):
         sim = bondem.Simulation(model, state, contact=ContactSettings(), walls=[mesh])
         sim.step(1)
         assert sim.wall_force[0, 2] == pytest.approx(-hertz, rel=1e-9), (x, y)
+
+
+@pytest.mark.parametrize("own, mu", [(False, 0.5 * (0.6 + 0.2)), (True, 0.2)])
+@pytest.mark.parametrize("wall_kind", ["plane", "mesh"])
+def test_a_sliding_sphere_decelerates_at_the_walls_own_friction(wall_kind, own, mu):
+    """A sphere sliding (not spinning) on a horizontal wall under gravity decelerates at
+    mu g while it slides, mu the mean of the sphere's (0.6) and the wall's (0.2) friction,
+    or the wall's own with own_friction; friction spins it up at 5 mu g / (2 R), and it
+    slides until v = w R (2 %)."""
+    v0, g = 0.05, 9.81
+    grain = bondem.Material(density=2500.0, young_modulus=1e8, poisson_ratio=0.3,
+                            restitution=0.3, friction=0.6)
+    plate = bondem.Material(density=7800.0, young_modulus=2e8, poisson_ratio=0.25,
+                            restitution=0.3, friction=0.2)
+    mass = 2500.0 * 4 / 3 * math.pi * RADIUS ** 3
+    e_star = 1 / ((1 - 0.09) / 1e8 + (1 - 0.0625) / 2e8)
+    resting = (3 * mass * g / (4 * e_star * math.sqrt(RADIUS))) ** (2 / 3)
+    model, state = bondem.make_system([[0.0, 0.0, RADIUS - resting]], RADIUS, grain,
+                                      velocity=[[v0, 0, 0]], gravity=(0, 0, -g))
+    wall = (PlaneWall((0, 0, 0), (0, 0, 1), plate, own_friction=own) if wall_kind == "plane"
+            else MeshWall(np.array([[-0.1, -0.1, 0], [0.1, -0.1, 0], [0.1, 0.1, 0],
+                                    [-0.1, 0.1, 0]]), np.array([[0, 1, 2], [0, 2, 3]]),
+                          plate, own_friction=own))
+    sim = bondem.Simulation(model, state, contact=ContactSettings(rolling_resistance=False),
+                            walls=[wall])
+    duration = 0.2 * v0 / (mu * g)     # well before rolling sets in at t = 2 v0 / (7 mu g)
+    sim.run(until=duration)
+    assert state.velocity[0, 0] - v0 == pytest.approx(-mu * g * state.time, rel=0.02)
+    assert state.angular_velocity[0, 1] == pytest.approx(
+        2.5 * mu * g * state.time / RADIUS, rel=0.02)
+
+
+def test_own_friction_is_true_or_false(glass_e1):
+    assert PlaneWall((0, 0, 0), (0, 0, 1), glass_e1).own_friction is False
+    for value in ("yes", 1, None):
+        with pytest.raises(ValueError) as error:
+            PlaneWall((0, 0, 0), (0, 0, 1), glass_e1, own_friction=value)
+        assert str(error.value) == f"own_friction = {value!r}; expected True or False"
+    with pytest.raises(ValueError, match="own_friction = 0; expected True or False"):
+        MeshWall(np.eye(3), np.array([[0, 1, 2]]), glass_e1, own_friction=0)

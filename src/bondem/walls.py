@@ -252,12 +252,21 @@ def _motion(velocity, motion):
     return motion
 
 
+def _own_friction(value):
+    if not isinstance(value, (bool, np.bool_)):
+        raise ValueError(f"own_friction = {value!r}; expected True or False")
+    return bool(value)
+
+
 class PlaneWall:
     """Infinite plane through ``point`` (m) with outward ``normal`` (the particles' side),
     a particle ``material`` and a constant ``velocity`` (m/s) or a ``motion``
-    (``VelocityProfile``, ``Servo``)."""
+    (``VelocityProfile``, ``Servo``). own_friction: True makes the material's friction and
+    rolling friction its contacts' own (a frictionless platen: friction 0), instead of
+    their means with each particle's material."""
 
-    def __init__(self, point, normal, material, velocity=(0.0, 0.0, 0.0), motion=None):
+    def __init__(self, point, normal, material, velocity=(0.0, 0.0, 0.0), motion=None,
+                 own_friction=False):
         self.point = _vector("point", point)
         normal = _vector("normal", normal)
         length = float(np.linalg.norm(normal))
@@ -267,6 +276,7 @@ class PlaneWall:
         if not isinstance(material, Material):
             raise ValueError("material: expected a bondem.Material")
         self.material = material
+        self.own_friction = _own_friction(own_friction)
         self.motion = _motion(velocity, motion)
         if isinstance(self.motion, Servo):
             self.motion.normal = self.normal
@@ -306,11 +316,12 @@ class MeshWall:
     """Triangle mesh: vertices (V,3) m, triangles (T,3) vertex indices, a particle
     ``material``, constant ``velocity`` (m/s) or a translating ``motion``
     (``VelocityProfile``), and ``angular_velocity`` (rad/s) about an axis through
-    ``rotation_center`` (m), which moves with the translation."""
+    ``rotation_center`` (m), which moves with the translation. own_friction: as for
+    ``PlaneWall``."""
 
     def __init__(self, vertices, triangles, material, velocity=(0.0, 0.0, 0.0),
                  angular_velocity=(0.0, 0.0, 0.0), rotation_center=(0.0, 0.0, 0.0),
-                 motion=None):
+                 motion=None, own_friction=False):
         vertices = np.ascontiguousarray(vertices, dtype=np.float64)
         triangles = np.ascontiguousarray(triangles, dtype=np.int64)
         if vertices.ndim != 2 or vertices.shape[1] != 3 or not np.all(np.isfinite(vertices)):
@@ -330,6 +341,7 @@ class MeshWall:
         self.vertices = vertices
         self.triangles = triangles
         self.material = material
+        self.own_friction = _own_friction(own_friction)
         self.motion = _motion(velocity, motion)
         if isinstance(self.motion, Servo):
             raise ValueError("a servo drives plane walls only")

@@ -372,6 +372,12 @@ class ContactLaw:
             *columns, self.law_module, parameters, self._k_linear, rolling,
             wall=self._wall_materials + ([material_parameters(self.law_module, m)
                                           for m in wm],)).pair
+        for w, wall in enumerate(self.walls.walls):
+            if getattr(wall, "own_friction", False):   # rows a W + w: material a, wall w
+                rows = np.arange(len(table["friction"])) * len(wm) + w
+                self._wall_pair[rows, loops.PAIR_FRICTION] = wall.material.friction
+                self._wall_pair[rows, loops.PAIR_ROLLING] = (wall.material.rolling_friction
+                                                             if rolling else 0.0)
         r_max = float(model.radius.max(initial=0.0))
         # the longest gaps the law acts across (m): pairs (R* <= r_max / 2), walls (R* = r)
         self._reach_pairs = contact_reach(self.law_module, self._materials.pair, 0.5 * r_max)
