@@ -77,7 +77,8 @@ def run_envelope(spec, pressures, *, overrides=None, scheduler="serial", workers
     fit = mohr_coulomb([t["confining_stress"] for t in good],
                        [t["peak_stress"] for t in good])
     return {"tests": tests, "fit": fit, "failed": failed, "spec": str(spec),
-            "spec_text": Path(spec).read_text(), "overrides": dict(overrides or {})}
+            "spec_text": Path(spec).read_text() if Path(spec).is_file() else None,
+            "overrides": dict(overrides or {})}
 
 
 def write_envelope(summary, out_dir):
