@@ -459,7 +459,7 @@ def _platens(specimen, settings, axis, speed, wave_time, material):
             motion = VelocityProfile([0.0, ramp], [np.zeros(3), v])
         else:
             motion = VelocityProfile([0.0], [v])
-        walls.append(PlaneWall(point, normal, material, motion=motion))
+        walls.append(PlaneWall(point, normal, material, motion=motion, own_friction=True))
     return walls
 
 
@@ -512,7 +512,8 @@ def _jaws(specimen, settings, speed, wave, material):
         motion = (VelocityProfile([0.0, ramp], [np.zeros(3), v]) if ramp > 0.0 else
                   VelocityProfile([0.0], [v]))
         walls.append(MeshWall(vertices, triangles, material, motion=motion,
-                              rotation_center=(centre[0], centre[1], apex)))
+                              rotation_center=(centre[0], centre[1], apex),
+                              own_friction=True))
     return walls
 
 
@@ -697,7 +698,9 @@ def _compression(test, specimen, settings, axis, out_dir, scene_text, confining=
     runner = _Runner(sim, settings, steps_to_limit, out_dir, scene_text)
     runner.probe, runner.wave_speed = probe, height / wave
     runner.membrane = membrane
-    force = np.zeros((len(sim.walls), 3))
+    # the walls' rows of a confining stage go to the results file, not into the first
+    # sample's mean force
+    force = runner.wall_force(np.zeros((len(sim.walls), 3)))
     top_stress, stop = 0.0, None
     sigma3 = confining            # the confining stress applied now (its path may move it)
     turns = sorted(settings.unload_at) if confining is not None else []
@@ -819,7 +822,7 @@ def _servo_plane(point, k, sign, material, sigma):
     normal[k] = sign
     return PlaneWall(point, normal, material, motion=Servo(
         target_stress=sigma, area=1.0, stiffness=lambda: 0.0, max_velocity=1.0,
-        tolerance=0.005, fraction=SERVO_GAIN))
+        tolerance=0.005, fraction=SERVO_GAIN), own_friction=True)
 
 
 def _tune_servos(sim, specimen, material, walls, areas, speed):
