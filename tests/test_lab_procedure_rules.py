@@ -47,6 +47,7 @@ QUIET = dict(samples=60, rate_check="off", max_steps=20_000)
     ("damping", 1.0, "damping = 1.0; allowed range (0, 1)"),
     ("damping", -0.1, "damping = -0.1; allowed range (0, 1)"),
     ("ramp", -1.0, "ramp = -1.0; allowed range (0, inf)"),
+    ("ramp", -0.5, "ramp = -0.5; allowed range (0, inf)"),
     ("grip", 0.5, "grip = 0.5; allowed range (0, 0.5)"),
     ("safety_factor", 1.5, "safety_factor = 1.5; allowed range (0, 1)"),
     ("safety_factor", 0.0, "safety_factor = 0.0; allowed range (0, 1)"),
@@ -69,8 +70,10 @@ QUIET = dict(samples=60, rate_check="off", max_steps=20_000)
     ("strain_rate", 0.0, "strain_rate = 0.0; must be > 0 (1/s)"),
     ("strain_rate", math.inf, "strain_rate = inf; must be > 0 (1/s)"),
     ("confining_stress", -1.0, "confining_stress = -1.0; must be > 0 Pa"),
+    ("confining_stress", 0.0, "confining_stress = 0.0; must be > 0 Pa"),
     ("confining_stress", math.nan, "confining_stress = nan; must be > 0 Pa"),
     ("gauge", (0.3, 0.2), "gauge = (0.3, 0.2); expected 0 <= low < high <= 0.5"),
+    ("gauge", (0.2, 0.2), "gauge = (0.2, 0.2); expected 0 <= low < high <= 0.5"),
     ("gauge", (-0.1, 0.2), "gauge = (-0.1, 0.2); expected 0 <= low < high <= 0.5"),
     ("gauge", (0.1, 0.6), "gauge = (0.1, 0.6); expected 0 <= low < high <= 0.5"),
     ("samples", 0, "samples = 0; must be >= 1"),
@@ -528,6 +531,52 @@ def test_direct_tension_of_a_lattice_breaks_at_the_bond_strength(lattice, tmp_pa
         assert f["time"].shape[0] >= 2 and f.attrs["scene_name"] == "lab"
         assert "walls/history" not in f          # gripped, not loaded by walls
     assert r.units["tensile_strength"] == "Pa" and r.settings["samples"] == 600
+    # the final state: the lattice's bonds, those broken as the crack log has them
+    assert r.bonds.tolist() == lattice.bonds.tolist()
+    broken = np.flatnonzero(r.broken)
+    assert broken.size == n["broken_bonds_final"] == n["cracks"]
+    np.testing.assert_array_equal(r.break_mode != 0, r.broken)
+    np.testing.assert_array_equal(r.radius, lattice.radius)
+    assert r.position.shape == (45, 3)
+    # pulled apart: every chain is the same, so all 4 x 9 axial bonds break at once and
+    # the 5 layers of 9 particles come apart
+    assert np.ptp(r.position[:, 2]) > np.ptp(lattice.position[:, 2])
+    assert broken.size == 36 and n["fragments"] == 5 and n["fragments_multi"] == 5
+    assert n["largest_fragment_fraction"] == pytest.approx(0.2, rel=1e-12)
+    # each crack: its bond, at the middle of its particles, in tension at the strength
+    cracks = r.cracks
+    assert sorted(cracks["bond"].astype(int).tolist()) == broken.tolist()
+    i, j = lattice.bonds[cracks["bond"].astype(int)].T
+    middle = 0.5 * (r.position[i] + r.position[j])
+    for k, name in enumerate("xyz"):
+        # the particles hardly move after the break (the samples that follow)
+        np.testing.assert_allclose(cracks[name], middle[:, k], atol=0.05 * R)
+    assert np.all(np.diff(cracks["time"]) >= 0)
+    np.testing.assert_allclose(cracks["bond_strain"], 1e6 / 1e8, rtol=0.05)
+    np.testing.assert_allclose(cracks["normal_force"], 1e8 * A_BOND * cracks["bond_strain"],
+                               rtol=1e-12)
+    assert np.all(cracks["energy"] > 0) and np.all(cracks["tangential_force"] >= 0)
+    assert np.all(cracks["twisting_moment"] >= 0) and np.all(cracks["bending_moment"] >= 0)
+    # AE events: each counted at the first sample at or after its time
+    ae_time = np.sort(r.ae["time"])
+    assert c["ae_events"][-1] == n["ae_events"] == ae_time.size >= 1
+    np.testing.assert_array_equal(c["ae_events"],
+                                  [np.count_nonzero(ae_time <= t) for t in c["time"]])
+    from bondem.lab import cracks as cracks_module
+    b = cracks_module.b_value(r.ae["magnitude"])
+    assert n["b_value"] == b or (math.isnan(n["b_value"]) and math.isnan(b))
+    # no crack before the peak (the chains break together): no crack initiation stress
+    stress = c["tensile_stress"]
+    top = int(np.argmax(stress))
+    assert c["broken_tension"][top] == 0 and math.isnan(n["crack_initiation_stress"])
+    # the kinetic-energy ratio: its largest value up to the peak, once past 20 % of it
+    live = stress[:top + 1] >= 0.2 * stress[top]
+    assert n["kinetic_energy_ratio"] == np.nanmax(c["kinetic_ratio"][:top + 1][live])
+    assert r.units["wall_time"] == "s" and n["wall_time"] > 0
+    assert r.units["kinetic_energy_ratio"] == "1" and r.units["time"] == "s"
+    assert set(r.units) == set(c) | set(n)
+    assert set(r.contacts) == {"i", "j", "force"}
+    assert r.contacts["force"].shape == (r.contacts["i"].size, 3)
 
 
 def test_a_uniaxial_lattice_has_the_chains_modulus_and_keeps_its_width(lattice, tmp_path):
@@ -681,10 +730,105 @@ def test_a_lattice_cylinder_in_its_membrane(lattice):
     np.testing.assert_allclose(c["deviator_stress"], c["axial_stress"] - 1e5, rtol=1e-12)
     np.testing.assert_allclose(c["lateral_stress_worst"], np.abs(c["lateral_stress"] / 1e5
                                                                  - 1.0), atol=1e-15)
-    assert n["young_modulus_secant"] == pytest.approx(MODULUS, rel=0.05)
+    # the platens' force against the gauge strain: the chains' E_b A_b / a each, N_c of
+    # them (one per particle of a layer): E N_c a^2 (the membrane's cross-section, which
+    # steps as the outermost particles change cells, does not enter)
+    force, eps = 0.5 * (c["force_top"] + c["force_bottom"]), c["axial_strain"]
+    live = force > force[0] + 0.2 * (force.max() - force[0])
+    chains = cylinder.n_particles // 5
+    assert np.polyfit(eps[live], force[live], 1)[0] == pytest.approx(
+        MODULUS * chains * (2 * R) ** 2, rel=0.03)
     assert n["confinement_axial_strain"] == pytest.approx(-1e5 / MODULUS, rel=0.2)
     assert n["confinement_lateral_strain"] < 0
     note = next(t for t in r.notes if t.startswith("confined in a membrane to 1e+05 Pa in "))
     assert note.endswith(f"strains axial {-n['confinement_axial_strain']:.4g}, lateral "
                          f"{-n['confinement_lateral_strain']:.4g})")
     assert "not settled" not in note
+
+
+def test_the_kinetic_energy_ratio_of_moving_particles_over_the_bonds_energy(lattice):
+    """Kinetic energy (1/2 m v^2 + 1/2 I w^2, I = 2/5 m R^2) of the particles that are
+    not held over the bonds' elastic energy: the lattice stretched by 1e-3 along z stores
+    1/2 k (a 1e-3)^2 in each of its 4 x 9 axial bonds, k = E_b A_b / a."""
+    sim = pr._simulation(lattice, LabSettings(), [])
+    sim.state.position[:, 2] *= 1.001
+    rng = np.random.default_rng(3)
+    v, w = rng.normal(size=(45, 3)) * 1e-3, rng.normal(size=(45, 3))
+    sim.state.velocity[:], sim.state.angular_velocity[:] = v, w
+    held = np.arange(9)                      # the bottom layer, held
+    probe = pr._Probe(sim, 2, LabSettings(), exclude=held)
+    mass = 2500 * 4 / 3 * math.pi * R ** 3
+    free = np.ones(45, bool)
+    free[held] = False
+    kinetic = 0.5 * mass * np.sum(v[free] ** 2) + 0.5 * 0.4 * mass * R ** 2 * np.sum(w[free] ** 2)
+    k = 1e8 * A_BOND / (2 * R)
+    elastic = 36 * 0.5 * k * (2 * R * 1e-3) ** 2
+    assert probe.energy_ratio() == pytest.approx(kinetic / elastic, rel=1e-6)
+    everyone = pr._Probe(sim, 2, LabSettings())
+    kinetic_all = 0.5 * mass * np.sum(v ** 2) + 0.2 * mass * R ** 2 * np.sum(w ** 2)
+    assert everyone.energy_ratio() == pytest.approx(kinetic_all / elastic, rel=1e-6)
+    sim.state.position[:, 2] /= 1.001        # nothing stored: no ratio
+    assert math.isnan(pr._Probe(sim, 2, LabSettings()).energy_ratio())
+
+
+def test_a_triaxial_box_that_is_not_square(tmp_path):
+    """A 3 x 4 x 5 lattice box: sigma_1 and each lateral wall's stress on their own current
+    faces (x: 8 mm wide, y: 6 mm), the chains' modulus in the deviatoric stage (the
+    frictionless walls carry no shear), the isotropic stage held at sigma_3."""
+    box = lattice_specimen((3, 4, 5), R, GLASS, BINDER, diameter_ratio=0.5)
+    r = pr.triaxial(box, LabSettings(confining_stress=1e5, max_strain=0.004, samples=200,
+                                     rate_check="off", max_steps=20_000))
+    c, n = r.curve, r.numbers
+    # the first sample: sigma_1 = sigma_3 (isotropic), on the 6 x 8 mm face
+    assert c["axial_stress"][0] == pytest.approx(1e5, rel=0.005)
+    assert n["confining_stress_error_final"] < 0.01
+    np.testing.assert_allclose(c["lateral_stress"], 1e5, rtol=0.01)
+    assert n["young_modulus_secant"] == pytest.approx(MODULUS, rel=0.03)
+    assert abs(n["poisson_ratio"]) < 0.02
+    note = next(t for t in r.notes if t.startswith("confined to 1e+05 Pa in "))
+    import re
+    found = re.fullmatch(r"confined to 1e\+05 Pa in (\d+) steps \(worst wall (\S+) % off\)",
+                         note)
+    assert found is not None and float(found.group(2)) < 0.5   # held within 0.5 % (0.005)
+
+
+def test_curved_jaws_press_the_crown_of_a_disc(lattice):
+    """ISRM's jaws (radius 1.5 D) touch a 3 x 3 lattice disc along its middle row only (its
+    other rows lie 15 - sqrt(15^2 - 2^2) = 0.134 mm below the arc), flat platens along
+    all three: at the same small displacement the jaws push less; flattened discs go
+    between flat platens."""
+    settings = dict(max_strain=0.004, samples=40, rate_check="off", max_steps=20_000)
+    jaws = pr.brazilian(lattice, LabSettings(**settings)).curve
+    flat = pr.brazilian(lattice, LabSettings(jaws=0.0, **settings)).curve
+    d = 0.5 * min(jaws["displacement"].max(), flat["displacement"].max())
+    at_jaws = np.interp(d, jaws["displacement"], jaws["force"])
+    at_flat = np.interp(d, flat["displacement"], flat["force"])
+    assert 0.0 < at_jaws < 0.6 * at_flat
+    # the jaws' facets: a strip over the arc, its area the arc's polygon times its width
+    walls = pr._jaws(lattice, LabSettings(), 0.01, 1e-4, GLASS)
+    for wall in walls:
+        v, t = wall.vertices, wall.triangles
+        n = pr.JAW_SEGMENTS + 1
+        arc = np.sum(np.hypot(np.diff(v[:n, 0]), np.diff(v[:n, 2])))
+        width = v[n, 1] - v[0, 1]
+        area = 0.5 * np.linalg.norm(np.cross(v[t[:, 1]] - v[t[:, 0]], v[t[:, 2]] - v[t[:, 0]]),
+                                    axis=1)
+        assert area.sum() == pytest.approx(arc * width, rel=1e-12)
+        assert sorted(set(t.ravel().tolist())) == list(range(2 * n))
+        assert wall.own_friction
+
+
+def test_samples_and_frames_are_spaced_by_the_steps_to_the_strain_limit(lattice, tmp_path):
+    """``samples`` rows up to max_strain: with more samples than steps, one row a step;
+    a frame every samples // frames rows, and the first and last states."""
+    r = pr.uniaxial(lattice, LabSettings(samples=10 ** 7, max_steps=50, rate_check="off"))
+    assert r.curve["time"].size == r.numbers["steps"] == 50
+    for frames, every in ((60, 1), (20, 3), (7, 8)):
+        out = tmp_path / str(frames)
+        r = pr.uniaxial(lattice, LabSettings(samples=60, frames=frames, max_strain=0.004,
+                                             rate_check="off", max_steps=20_000), out_dir=out)
+        rows = r.curve["time"].size
+        assert 60 <= rows <= 80        # a strain-limit run: about ``samples`` rows
+        with h5py.File(out / "results.h5") as f:
+            assert f["time"].shape[0] == 1 + rows // every + 1
+            assert f["time"][0] == 0.0 and f["time"][-1] == r.curve["time"][-1]
