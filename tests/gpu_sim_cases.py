@@ -805,6 +805,21 @@ def case_contacts_walls_match_cpu():
     compare_contact_runs(falling_clusters, ContactSettings(model="hertz_mindlin"), steps=30)
 
 
+def frictionless_platen_clusters():
+    """falling_clusters with walls whose friction is their contacts' own (own_friction)."""
+    model, state, walls = falling_clusters()
+    for wall in walls:
+        wall.own_friction = True
+    return model, state, walls
+
+
+def case_own_friction_walls_match_cpu():
+    """Walls whose material friction is their contacts' own: GPU equals CPU."""
+    from bondem.contacts import ContactSettings
+    compare_contact_runs(frictionless_platen_clusters, ContactSettings(model="hertz_mindlin"),
+                         steps=30)
+
+
 def case_musen_contacts_walls_match_cpu():
     """MUSEN's Hertz-Mindlin (musen_compat) with a plane, a moving turning mesh wall and
     breakage: the CUDA kernels take the same flag and bodies as the CPU's, GPU equals CPU."""

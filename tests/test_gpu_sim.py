@@ -133,6 +133,13 @@ def test_contacts_and_walls_match_cpu_under_simulator():
     assert "wall_force" in out
 
 
+def test_own_friction_walls_match_cpu_under_simulator():
+    """The same scene with walls whose friction is their contacts' own (the lab's
+    frictionless platens): the CUDA kernels read the same wall pair table."""
+    out = run_case("own_friction_walls_match_cpu")
+    assert "wall_force" in out
+
+
 def test_musen_contacts_and_walls_match_cpu_under_simulator():
     """The same scene with MUSEN's Hertz-Mindlin (musen_compat=True): the CUDA kernels run
     the same bodies with the flag, so everything, the stored tangential forces that MUSEN
