@@ -432,6 +432,8 @@ def test_settling_lasts_twenty_wave_times_and_at_most_five_hundred():
     assert not reached and steps == 50000 and sim.state.time == pytest.approx(0.05)
     sim = Clock(reached_at=1.0)
     assert pr._settle(sim, sim.walls, sim.advance, 1e-4, 10, 120) == (150, False)
+    sim = Clock(reached_at=1.0)                 # the bound reached exactly: no more blocks
+    assert pr._settle(sim, sim.walls, sim.advance, 1e-4, 10, 100) == (100, False)
     sim = Clock(reached_at=0.0)
     steps, _ = pr._settle(sim, sim.walls, sim.advance, 1e-5, 40, 10 ** 9)
     assert steps % 40 == 0 and steps == 240                # blocks of at least 40 steps
@@ -744,6 +746,30 @@ def test_a_lattice_cylinder_in_its_membrane(lattice):
     assert note.endswith(f"strains axial {-n['confinement_axial_strain']:.4g}, lateral "
                          f"{-n['confinement_lateral_strain']:.4g})")
     assert "not settled" not in note
+    import re
+    found = re.fullmatch(r"confined in a membrane to 1e\+05 Pa in (\d+) steps \(platens "
+                         r"(\S+) % off; strains axial \S+, lateral \S+\)", note)
+    assert found is not None and float(found.group(2)) < 0.5
+
+
+def test_the_membrane_takes_every_step_and_renews_its_forces(lattice):
+    """_Membrane.advance(n) takes n steps (one as well), the pressure's forces renewed
+    every MEMBRANE_EVERY steps: their size sigma_3 times the pressed surface."""
+    cylinder = lattice_specimen((5, 5, 5), R, GLASS, BINDER, diameter_ratio=0.5,
+                                shape="cylinder")
+    platens = pr._platens(cylinder, LabSettings(), 2, 0.0, 1e-4, GLASS)
+    sim = pr._simulation(cylinder, LabSettings(), platens)
+    membrane = pr._Membrane(sim, 2, 1e5, 2 * R, platens)
+    for steps, total in ((1, 1), (pr.MEMBRANE_EVERY + 3, pr.MEMBRANE_EVERY + 4)):
+        membrane.advance(steps)
+        assert sim.state.step == total
+    force = sim.model.external_force
+    assert np.all(force[:, 2] == 0.0)
+    radial = np.hypot(force[:, 0], force[:, 1]).sum()
+    assert radial == pytest.approx(1e5 * membrane.surface, rel=1e-12)
+    assert membrane.gap == pytest.approx(0.01, rel=1e-12)
+    assert membrane.lateral_stress() == pytest.approx(
+        1e5 * membrane.surface / (2 * math.pi * membrane.radius * 0.01), rel=1e-12)
 
 
 def test_the_kinetic_energy_ratio_of_moving_particles_over_the_bonds_energy(lattice):
