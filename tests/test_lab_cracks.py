@@ -6,8 +6,10 @@ whose energy magnitude is (log10 E - 4.8) / 1.5 (Kanamori 1977). Aki's b-value o
 Gutenberg-Richter sample (magnitudes above M_min exponential with rate b ln 10) returns
 its b. Cracks far apart in space or in time are separate events.
 """
+import dataclasses
 import json
 import math
+import warnings
 
 import h5py
 import numpy as np
@@ -93,8 +95,11 @@ def test_one_bond_in_tension_is_one_event_with_its_energys_magnitude(tmp_path):
     paths = result.write(tmp_path, figures=False)
     with h5py.File(tmp_path / "results.h5", "r") as f:
         np.testing.assert_array_equal(f["lab/cracks/energy"][...], log["energy"])
-        assert f["lab/ae_events/magnitude"].attrs["unit"] == "1"
+        units = {"time": "s", "x": "m", "y": "m", "z": "m", "energy": "J", "cracks": "1",
+                 "magnitude": "1"}
+        assert {k: d.attrs["unit"] for k, d in f["lab/ae_events"].items()} == units
         assert f["lab/cracks/time"].attrs["unit"] == "s"
+        assert f["lab/cracks/bending_moment"].attrs["unit"] == "N m"
     rows = paths["cracks_csv"].read_text().splitlines()
     assert rows[0].startswith("time (s),x (m)") and len(rows) == 2
 
@@ -115,6 +120,44 @@ def test_every_broken_bond_is_one_crack_in_a_lattice_that_fails(tmp_path):
     saved = json.loads((tmp_path / "lab.json").read_text())
     assert saved["failed"] is True and saved["no_failure"] is None
     assert (tmp_path / "lab_ae.png").is_file()
+
+
+@pytest.mark.parametrize("ae_radius, events", [(0.9, 18), (1.1, 2)])
+def test_the_ae_radius_is_in_particle_diameters(ae_radius, events):
+    """A 3 x 3 x 6 lattice pulled apart breaks the 9 bonds of each of two layers in one
+    step. Neighbouring bonds of a layer lie one lattice spacing (one diameter) apart and
+    the layers 4 diameters apart: within 0.9 diameters every crack is its own event,
+    within 1.1 each layer is one event of 9 cracks."""
+    specimen = lattice_specimen((3, 3, 6), RADIUS, GLASS, BINDER, diameter_ratio=RATIO)
+    result = direct_tension(specimen, settings=LabSettings(ae_radius=ae_radius))
+    assert result.numbers["cracks"] == 18 and np.unique(result.cracks["time"]).size == 1
+    assert result.numbers["ae_events"] == events
+    assert result.ae["cracks"].tolist() == [18 // events] * events
+
+
+def test_a_weak_bond_breaks_first_and_each_bond_is_one_crack():
+    """One bond of the middle layer at 0.6 of the others' strength breaks first; its
+    layer's other eight follow in later samples. Each broken bond is logged once, when
+    it breaks, whatever samples follow."""
+    specimen = lattice_specimen((3, 3, 6), RADIUS, GLASS, BINDER, diameter_ratio=RATIO)
+    middle = 0.5 * (specimen.position[specimen.bonds[:, 0]]
+                    + specimen.position[specimen.bonds[:, 1]])
+    centre = 0.5 * (specimen.position.min(axis=0) + specimen.position.max(axis=0))
+    weak = int(np.argmin(np.abs(middle - centre).sum(axis=1)))
+    index = np.zeros(specimen.n_bonds, np.int64)
+    index[weak] = 1
+    weaker = dataclasses.replace(BINDER, normal_strength=0.6 * STRENGTH,
+                                 tangential_strength=0.6 * STRENGTH)
+    specimen = dataclasses.replace(specimen, bond_materials=[BINDER, weaker],
+                                   bond_material_index=index)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")        # the layer's break is not quasi-static
+        result = direct_tension(specimen)
+    log, n = result.cracks, result.numbers
+    assert n["cracks"] == n["broken_bonds_final"] == 9
+    assert np.unique(log["bond"]).size == 9 and int(log["bond"][0]) == weak
+    assert log["time"][0] < log["time"][1]
+    assert np.all(np.abs(log["z"] - centre[2]) < 0.1 * RADIUS)   # all in the middle layer
 
 
 def test_a_test_that_does_not_fail_writes_null_strengths(tmp_path):

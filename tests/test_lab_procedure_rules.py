@@ -6,6 +6,7 @@ and a simple cubic lattice's closed forms in each test (E = k_n / a, Poisson's r
 sigma_t = sigma_b A_b / a^2). tests/test_lab.py runs the same tests on bigger specimens."""
 import dataclasses
 import math
+import time
 import types
 import warnings
 
@@ -154,13 +155,20 @@ def curve(stress, strain=None, **columns):
 def test_the_common_numbers_of_a_curve():
     stress = [5e4, 2e5, 3e5, 4e5, 3e5]
     c = curve(stress, broken_tension=[0, 0, 1, 2, 5], broken_shear=[0, 0, 0, 1, 1],
+              broken_compression=[0, 0, 0, 1, 2],
               kinetic_ratio=[0.5, 0.002, 0.003, 0.001, 0.9])
     n = pr._common_numbers(c, "axial_strain", "axial_stress")
     assert (n["peak_stress"], n["strain_at_peak"]) == (4e5, 4e-3)
     assert n["young_modulus_secant"] == pytest.approx(1e8, rel=1e-12)
-    assert (n["broken_bonds_at_peak"], n["broken_bonds_final"]) == (3, 6)
+    # bonds broken in every mode count
+    assert (n["broken_bonds_at_peak"], n["broken_bonds_final"]) == (4, 8)
+    assert n["crack_initiation_stress"] == 3e5          # where the first bond broke
     # before the peak, where the stress is at least 0.2 of it (the start's transients not)
     assert n["kinetic_energy_ratio"] == 0.003
+    c["axial_stress"][0] = 8e4                           # 0.2 of the peak: counted
+    assert pr._common_numbers(c, "axial_strain", "axial_stress")[
+        "kinetic_energy_ratio"] == 0.5
+    c["axial_stress"][0] = 5e4
     assert "crack_damage_stress" not in n
     c["kinetic_ratio"][:] = np.nan
     assert math.isnan(pr._common_numbers(c, "axial_strain", "axial_stress")[
@@ -201,6 +209,12 @@ def test_a_test_that_did_not_fail_has_no_strength():
     assert r.no_failure is None                      # 0.9 of the peak itself
     r = pr._honest(result(broken=2, n_bonds=200, failure_bonds=0.01))
     assert r.no_failure is None
+    # at least one bond broken, however few failure_bonds asks for; stresses below 1 Pa
+    r = pr._honest(result(stress=(0.1, 0.3, 0.2), broken=1, n_bonds=10))
+    assert r.no_failure is None and r.numbers["ucs"] == 3.0
+    # a specimen that never carried a load did not fail, whatever broke
+    r = pr._honest(result(stress=(0.0, 0.0, 0.0), broken=5))
+    assert r.no_failure == "why" and math.isnan(r.numbers["ucs"])
     failed = pr._honest(result(no_failure=None))
     assert failed.numbers["ucs"] == 3.0 and failed.notes == ["stopped: strain limit"]
     assert failed.units["ucs"] == "Pa" and failed.units["axial_stress"] == "Pa"
@@ -259,6 +273,9 @@ def test_a_coarse_specimen_is_named(lattice):
                     "details")
     with pytest.warns(UserWarning, match="only 3 particle diameters"):
         pr._limits(LabSettings(), "ucs", coarse)
+    with pytest.warns(UserWarning, match="only 3 particle diameters"):
+        r = pr.uniaxial(coarse, LabSettings(max_strain=0.001, **QUIET))
+    assert f"warning: {text}" in r.notes      # the result keeps the warning
     wide = lattice_specimen((11, 11, 11), R, GLASS, BINDER, diameter_ratio=0.5)
     assert pr.resolution_note(dataclasses.replace(wide, lattice=False)) is None
     narrow = lattice_specimen((9, 10, 10), R, GLASS, BINDER, diameter_ratio=0.5)
@@ -288,6 +305,16 @@ def test_a_lattices_wave_time_in_closed_form(lattice):
     modulus = bonds * k * a * a / (5 * volume)
     assert pr._estimate_wave_time(loose, 2) == pytest.approx(
         5 * a / math.sqrt(modulus / density), rel=1e-12)
+    # radii 0.8 R and 1.2 R in a chequerboard: every touching pair has R* = 0.48 R
+    index = np.rint((lattice.position - lattice.position.min(axis=0)) / a).astype(int)
+    small = index.sum(axis=1) % 2 == 1
+    mixed = dataclasses.replace(loose, radius=np.where(small, 0.8 * R, 1.2 * R))
+    volume = float(np.prod(mixed.size()))
+    k = 2 * e_star * math.sqrt(0.01) * 0.48 * R
+    mass = 2500 * 4 / 3 * math.pi * R ** 3 * (small.sum() * 0.8 ** 3 + (~small).sum() * 1.2 ** 3)
+    assert pr._estimate_wave_time(mixed, 2) == pytest.approx(
+        mixed.size()[2] / math.sqrt(bonds * k * a * a / (5 * volume) / (mass / volume)),
+        rel=1e-12)
 
 
 def test_platens_touch_the_ends_and_ramp_to_their_speed(lattice):
@@ -337,6 +364,33 @@ def test_jaws_are_arcs_of_their_radius_touching_the_disc(lattice):
     walls = pr._jaws(lattice, LabSettings(jaws=1.5, ramp=0.0), 0.01, 1e-4, GLASS)
     assert walls[0].velocity_at(0.0).tolist() == [0, 0, 0.01]
 
+
+
+@pytest.mark.parametrize("loader", ["platens", "jaws"])
+def test_a_sphere_slides_on_the_platens_and_jaws_without_friction(lattice, loader):
+    """The lab's platens and jaws are frictionless whatever the particles' friction: a
+    GLASS sphere (friction 0.3) sliding along y on the bottom platen, or along the bottom
+    jaw's apex line, under gravity keeps its speed and does not spin. With the pair
+    friction the mean of the two (0.15) it would lose 0.15 g t = 0.015 m/s in 0.01 s."""
+    v0, g = 0.05, 9.81
+    material = pr._platen_material(lattice, LabSettings())
+    if loader == "platens":
+        wall = pr._platens(lattice, LabSettings(ramp=0.0), 2, 0.0, 1e-4, material)[0]
+    else:
+        wall = pr._jaws(lattice, LabSettings(jaws=1.5, ramp=0.0), 0.0, 1e-4, material)[0]
+    low, high = lattice.bounds()
+    mass = 2500.0 * 4 / 3 * math.pi * R ** 3
+    e_star = 1 / (2 * (1 - 0.09) / 1e8)
+    resting = (3 * mass * g / (4 * e_star * math.sqrt(R))) ** (2 / 3)
+    centre = 0.5 * (low + high)
+    model, state = bondem.make_system([[centre[0], low[1] + 2 * R, low[2] + R - resting]], R,
+                                      GLASS, velocity=[[0, v0, 0]], gravity=(0, 0, -g))
+    sim = bondem.Simulation(model, state, walls=[wall])
+    sim.run(until=0.01)
+    assert state.time == pytest.approx(0.01, rel=1e-3)
+    assert state.velocity[0, 1] == pytest.approx(v0, rel=1e-12)
+    assert np.abs(state.angular_velocity[0]).max() < 1e-9
+    assert state.position[0, 2] == pytest.approx(low[2] + R - resting, rel=0, abs=0.1 * resting)
 
 def test_a_flattened_disc_loses_its_ends(lattice):
     # z spacing 2 mm, 5 layers: centres at -4, -2, 0, 2, 4 mm; D = 10 mm
@@ -582,13 +636,20 @@ def test_direct_tension_of_a_lattice_breaks_at_the_bond_strength(lattice, tmp_pa
 
 
 def test_a_uniaxial_lattice_has_the_chains_modulus_and_keeps_its_width(lattice, tmp_path):
-    r = pr.uniaxial(lattice, LabSettings(max_strain=0.004, **QUIET), out_dir=tmp_path)
+    out = tmp_path / "lab" / "uniaxial"          # folders that do not exist yet
+    started = time.monotonic()
+    r = pr.uniaxial(lattice, LabSettings(max_strain=0.004, failure_bonds=0.025, **QUIET),
+                    out_dir=out, scene_text="# the spec's text")
+    elapsed = time.monotonic() - started
     n = r.numbers
+    assert 0.0 < n["wall_time"] <= elapsed
     assert n["young_modulus_secant"] == pytest.approx(MODULUS, rel=0.03)
     assert abs(n["poisson_ratio"]) < 0.01
     assert n["cross_section"] == pytest.approx(36e-6, rel=1e-12, abs=0) and n["height"] == 0.01
-    assert math.isnan(n["ucs"]) and r.no_failure.startswith("the specimen did not fail: "
-                                                            "stopped at the strain limit")
+    assert math.isnan(n["ucs"]) and r.no_failure == (
+        "the specimen did not fail: stopped at the strain limit with 0 of 96 bonds broken "
+        "and no fall past a peak (to 0.7 of it, or to 0.9 of it at the end with 2.5 % of "
+        "the bonds broken)")
     c = r.curve
     np.testing.assert_allclose(c["axial_stress"], 0.5 * (c["force_top"] + c["force_bottom"])
                                / 36e-6, rtol=1e-12)
@@ -601,7 +662,8 @@ def test_a_uniaxial_lattice_has_the_chains_modulus_and_keeps_its_width(lattice, 
     assert n["platen_force_mismatch"] < 0.05 and n["steps"] > 0
     assert n["time_step"] > 0 and n["n_particles"] == 45 and n["n_bonds"] == 96
     assert n["fragments"] == 1 and n["largest_fragment_fraction"] == pytest.approx(1.0)
-    with h5py.File(tmp_path / "results.h5") as f:
+    with h5py.File(out / "results.h5") as f:
+        assert f.attrs["scene"] == "# the spec's text"
         assert f["walls/history/time"].shape[0] > 0
         assert f["walls/history/time"][-1] <= f["time"][-1]
 
@@ -816,6 +878,15 @@ def test_a_triaxial_box_that_is_not_square(tmp_path):
     found = re.fullmatch(r"confined to 1e\+05 Pa in (\d+) steps \(worst wall (\S+) % off\)",
                          note)
     assert found is not None and float(found.group(2)) < 0.5   # held within 0.5 % (0.005)
+    assert not note.endswith("; not settled)")
+    cut = pr.triaxial(box, LabSettings(confining_stress=1e5, max_strain=0.004, samples=20,
+                                       rate_check="off", max_steps=100))
+    note = next(t for t in cut.notes if t.startswith("confined to 1e+05 Pa in "))
+    assert note.endswith("; not settled)")
+    # the step bound ran out while confining: an honest report without numbers
+    assert cut.curve == {} and cut.no_failure.startswith(
+        "the specimen did not fail: stopped at the max_steps with 0 of ")
+    assert math.isnan(cut.numbers["largest_stress"]) and cut.numbers["steps"] >= 100
 
 
 def test_curved_jaws_press_the_crown_of_a_disc(lattice):

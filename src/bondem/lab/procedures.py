@@ -1054,6 +1054,8 @@ def triaxial(specimen, settings=None, *, out_dir=None, scene_text="", axis=2):
                                                   confining=settings.confining_stress)
     result = _finish("triaxial", specimen, settings, sim, runner, {}, stop, notes)
     curve = result.curve
+    if not curve:   # max_steps ran out while confining: no sample, no numbers, and why
+        return _honest(result)
     result.numbers.update(_common_numbers(curve, "axial_strain", "deviator_stress",
                                           "lateral_strain"))
     k = measure.peak(curve["deviator_stress"])
