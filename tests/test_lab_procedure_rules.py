@@ -58,6 +58,7 @@ QUIET = dict(samples=60, rate_check="off", max_steps=20_000)
     ("flattened", 90.0, "flattened = 90.0; a loading angle in [0, 90) degrees"),
     ("flattened", -1.0, "flattened = -1.0; a loading angle in [0, 90) degrees"),
     ("rate_check", "always", "rate_check = 'always'; allowed: warn, repeat, off"),
+    ("rate_rule", "auto", "rate_rule = 'auto'; allowed: wave, bonds"),
     ("stress_path", "constant_p", "stress_path = 'constant_p'; allowed: constant_sigma3, "
                                   "constant_mean"),
     ("unload_at", (0.01, 1.0), "unload_at = [0.01, 1.0]; platen strains in (0, 1)"),
@@ -929,3 +930,51 @@ def test_samples_and_frames_are_spaced_by_the_steps_to_the_strain_limit(lattice,
         with h5py.File(out / "results.h5") as f:
             assert f["time"].shape[0] == 1 + rows // every + 1
             assert f["time"][0] == 0.0 and f["time"][-1] == r.curve["time"][-1]
+
+
+def test_the_bonds_rate_rule_reaches_the_weakest_bonds_failure_strain_over_100_waves(lattice):
+    """rate_rule "bonds": strain per wave-crossing time min(5e-4, eps_b / 100), eps_b the
+    smallest min(sigma_n, sigma_t) / E_b among the bond materials the bonds use; "wave"
+    (the default) 5e-4; an explicit strain_rate wins."""
+    wave = 3.7e-5                                       # s
+    bonds = LabSettings(rate_rule="bonds")
+    shear_weak = lattice.with_bond_material(young_modulus=2.0e9, normal_strength=5.0e6,
+                                            tangential_strength=3.0e6)   # eps_b 1.5e-3
+    assert pr.default_rate(shear_weak, bonds, wave) == pytest.approx(1.5e-5 / wave,
+                                                                    rel=1e-12)
+    tension_weak = lattice.with_bond_material(young_modulus=2.0e9, normal_strength=1.0e6,
+                                              tangential_strength=4.0e6)   # eps_b 5e-4
+    assert pr.default_rate(tension_weak, bonds, wave) == pytest.approx(5e-6 / wave,
+                                                                      rel=1e-12)
+    strong = lattice.with_bond_material(young_modulus=1e9, normal_strength=1e8,
+                                        tangential_strength=1e8)   # eps_b / 100 = 1e-3
+    assert pr.default_rate(strong, bonds, wave) == pytest.approx(5e-4 / wave, rel=1e-12)
+    assert pr.default_rate(shear_weak, LabSettings(), wave) == pytest.approx(5e-4 / wave,
+                                                                            rel=1e-12)
+    assert pr.default_rate(shear_weak, LabSettings(strain_rate=7.0, rate_rule="bonds"),
+                           wave) == 7.0
+    # two bond materials, the weak one unused: only the bonds' own materials count
+    weak = dataclasses.replace(BINDER, young_modulus=1e9, normal_strength=1e5,
+                               tangential_strength=1e5)
+    used = dataclasses.replace(BINDER, young_modulus=1e9, normal_strength=2e7,
+                               tangential_strength=3e7)   # eps_b / 100 = 2e-4
+    mixed = dataclasses.replace(lattice, bond_materials=[weak, used],
+                                bond_material_index=np.ones(lattice.n_bonds, np.int64))
+    assert pr.default_rate(mixed, bonds, wave) == pytest.approx(2e-4 / wave, rel=1e-12)
+    mixed.bond_material_index[3] = 0
+    assert pr.default_rate(mixed, bonds, wave) == pytest.approx(1e-6 / wave, rel=1e-12)
+
+
+def test_the_bonds_rate_rule_moves_the_platens_at_that_rate(lattice):
+    """The lattice's platens move at half the rate times the height: over the first
+    samples of a bonds-rule test, the platen strain grows at eps_b / 100 per
+    wave-crossing time once the ramp is over."""
+    weak = lattice.with_bond_material(tangential_strength=0.4e6)   # eps_b 4e-3 (E_b 1e8)
+    settings = LabSettings(rate_rule="bonds", max_strain=0.002, **QUIET)
+    result = pr.uniaxial(weak, settings)
+    wave = pr._estimate_wave_time(weak, 2)
+    assert result.numbers["strain_rate"] == pytest.approx(4e-5 / wave, rel=1e-12)
+    t, strain = result.curve["time"], result.curve["platen_strain"]
+    late = t > 3.0 * wave   # past the ramp of 2 wave-crossing times
+    slope = np.polyfit(t[late], strain[late], 1)[0]
+    assert slope == pytest.approx(4e-5 / wave, rel=0.02)

@@ -42,7 +42,7 @@ def documented_defaults():
 def test_a_spec_without_test_gets_the_documented_defaults(tmp_path):
     _, settings, _ = load_spec(write(tmp_path, LATTICE + MATERIALS))
     documented = documented_defaults()
-    assert len(documented) == 23
+    assert len(documented) == 24
     for key, text in documented.items():
         value = getattr(settings, key)
         plain = re.fullmatch(r"[-+0-9.e]+|\[[-+0-9.e, ]+\]|[a-z_0-9]+", text)
@@ -54,15 +54,17 @@ def test_a_spec_without_test_gets_the_documented_defaults(tmp_path):
             assert value == text, key
         elif key == "unload_at":
             assert value == (), key
-        else:   # computed per test ("5e-4 / t_wave", "0.01 (agglomerate 0.1)") or none
+        else:   # computed per test ("by `rate_rule`", "0.01 (agglomerate 0.1)") or none
             assert value is None, key
     assert isinstance(settings.samples, int) and isinstance(settings.max_steps, int)
 
 
 def test_the_lattice_specimen_of_a_spec(tmp_path):
     specimen, settings, text = load_spec(write(tmp_path, LATTICE + MATERIALS
-                                               + "[test]\nstrain_rate = 3.5\n"))
+                                               + "[test]\nstrain_rate = 3.5\n"
+                                               + 'rate_rule = "bonds"\n'))
     assert "strain_rate = 3.5" in text and settings.strain_rate == 3.5
+    assert settings.rate_rule == "bonds"
     assert specimen.position.shape == (24, 3) and specimen.lattice
     # bonds to the six neighbours: (nx-1) ny nz + nx (ny-1) nz + nx ny (nz-1)
     assert specimen.bonds.shape == (2 * 2 * 4 + 3 * 1 * 4 + 3 * 2 * 3, 2)
@@ -212,6 +214,8 @@ BAD = [
      "value [0.1]: expected 2 numbers >= 0"),
     (LATTICE + MATERIALS + "[test]\ngauge = [-0.1, 0.2]\n", "test.gauge",
      "value [-0.1, 0.2]: expected 2 numbers >= 0"),
+    (LATTICE + MATERIALS + '[test]\nrate_rule = "auto"\n', "test.rate_rule",
+     "value 'auto'; allowed: 'wave', 'bonds'"),
     (LATTICE + MATERIALS + '[test]\nunload_at = "soon"\n', "test.unload_at",
      "value 'soon': expected a list of platen strains in (0, 1)"),
     (LATTICE + MATERIALS + "[test]\nunload_at = [0.001, -0.002]\n", "test.unload_at",
