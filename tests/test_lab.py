@@ -227,9 +227,14 @@ def test_brazilian_strength_is_2f_over_pi_d_t():
     disc = make_specimen("disc", [8e-3, 3e-3], particle_radius=5e-4, solids_fraction=0.5,
                          seed=1, material=ROCK, bond_material=CEMENT, max_gap=5e-5,
                          diameter_ratio=0.6)
-    result = brazilian(disc)
+    with pytest.warns(UserWarning, match="crushed under its loads before it split"):
+        result = brazilian(disc)
     n, curve = result.numbers, result.curve
     size = disc.size()
+    # so coarse a disc (6 particles across, 3 thick) crushes at its jaws: every crack up to
+    # the peak lies within 0.4 R of a loaded end, and the result says so
+    assert n["end_crack_fraction"] == 1.0 and result.units["end_crack_fraction"] == "1"
+    assert result.notes[-2].startswith("warning: 100 % of the cracks up to the peak lie")
     assert n["tensile_strength"] == pytest.approx(
         2 * n["breakage_force"] / (math.pi * size[2] * size[1]), rel=1e-12)
     assert n["tensile_strength"] == pytest.approx(curve["tensile_stress"].max(), rel=1e-12)
@@ -266,6 +271,30 @@ def test_brazilian_strength_is_2f_over_pi_d_t():
     assert m["tensile_strength"] == pytest.approx(
         math.cos(alpha) ** 3 * 2 * m["breakage_force"] / (math.pi * size[2] * size[1]),
         rel=1e-12)
+
+
+def test_the_end_crack_fraction_counts_cracks_up_to_the_peak_beyond_0_6_r():
+    """A disc of D = 10 mm whose particles span z = 2-12 mm (centre 7 mm, their mean
+    5.67 mm): cracks farther than 0.6 R = 3 mm from the centre along z lie at a loaded
+    end; those after the peak do not count; no crack up to the peak gives NaN."""
+    from bondem.lab.procedures import end_crack_fraction
+    position = np.array([[0.0, 0.0, 2e-3], [1e-3, 0.0, 12e-3], [0.0, 1e-3, 3e-3]])
+    z = 7e-3 + np.array([3.1e-3, -3.1e-3, 2.9e-3, -3.5e-3, 4.0e-3])
+    cracks = {"time": np.array([1.0, 2.0, 3.0, 3.5, 5.0]), "x": np.zeros(5),
+              "y": np.zeros(5), "z": z}
+    # from the mean: 2 of 4; from z = 0: 4 of 4
+    assert end_crack_fraction(cracks, 3.5, position, 10e-3) == pytest.approx(3.0 / 4.0,
+                                                                          rel=1e-15)
+    assert end_crack_fraction(cracks, 2.5, position, 10e-3) == 1.0
+    assert end_crack_fraction(cracks, 9.0, position, 10e-3) == pytest.approx(4.0 / 5.0,
+                                                                          rel=1e-15)
+    # D = 12 mm: 0.6 R = 3.6 mm, beyond every crack up to the peak
+    assert end_crack_fraction(cracks, 3.5, position, 12e-3) == 0.0
+    assert math.isnan(end_crack_fraction(cracks, 0.5, position, 10e-3))
+    # along another axis
+    moved = {"time": cracks["time"], "x": z, "y": np.zeros(5), "z": np.zeros(5)}
+    assert end_crack_fraction(moved, 3.5, position[:, ::-1], 10e-3, axis=0) == \
+        pytest.approx(3.0 / 4.0, rel=1e-15)
 
 
 def test_agglomerate_breaks_between_plates(tmp_path):

@@ -235,7 +235,7 @@ def unit_of(name):
         return "s"
     if name == "cross_section":
         return "m^2"
-    if name.endswith(("_ratio", "_mismatch", "_error", "_final")) or name in (
+    if name.endswith(("_ratio", "_mismatch", "_error", "_final", "_fraction")) or name in (
             "mismatch", "loading", "b_value", "steps", "cracks", "ae_events",
             "fragments", "fragments_multi", "loose_particles", "n_particles", "n_bonds",
             "largest_fragment_fraction", "kinetic_ratio") or name.startswith("broken_") \

@@ -450,7 +450,8 @@ UNITS = {"time": "s", "axial_stress": "Pa", "axial_strain": "1", "platen_strain"
          "young_modulus_secant": "Pa", "young_modulus_tangent": "Pa", "poisson_ratio": "1",
          "crack_initiation_stress": "Pa", "broken_bonds_at_peak": "1",
          "broken_bonds_final": "1", "kinetic_energy_ratio": "1",
-         "platen_force_mismatch": "1", "fragments": "1", "fragments_multi": "1",
+         "platen_force_mismatch": "1", "end_crack_fraction": "1", "fragments": "1",
+         "fragments_multi": "1",
          "largest_fragment_fraction": "1",
          "strain_rate": "1/s", "time_step": "s", "steps": "1", "wall_time": "s",
          "tensile_strength": "Pa", "ucs": "Pa", "breakage_force": "N",
@@ -1148,7 +1149,35 @@ def brazilian(specimen, settings=None, *, out_dir=None, scene_text=""):
         "broken_bonds_at_peak": int(broken[k]), "broken_bonds_final": int(broken[-1]),
         "diameter": diameter, "thickness": thickness, "strain_rate": rate,
         "platen_force_mismatch": _mismatch(curve, "tensile_stress")})
+    ends = end_crack_fraction(result.cracks, float(curve["time"][k]), specimen.position,
+                              diameter, axis)
+    result.numbers["end_crack_fraction"] = ends
+    if ends > END_CRACKS:
+        crushed = (f"brazilian: {100 * ends:.0f} % of the cracks up to the peak lie within "
+                   f"0.4 R of a loaded end: the disc crushed under its loads before it "
+                   f"split, so its tensile strength is not a Brazilian one (a finer or "
+                   f"larger disc)")
+        warnings.warn(crushed, stacklevel=3)
+        result.notes.insert(-1, f"warning: {crushed[len('brazilian: '):]}")
     return _honest(result)
+
+
+END_CRACKS = 0.5   # a Brazilian disc with more of its cracks at the loaded ends: crushed
+
+
+def end_crack_fraction(cracks, peak_time, position, diameter, axis=2):
+    """Fraction of the cracks up to ``peak_time`` (s) that lie within 0.4 R of a loaded
+    end: farther than 0.6 R along ``axis`` from the disc's centre (the middle of the
+    particles' extent ``position`` (N,3) m; R half the ``diameter``, m). ISRM's test is
+    valid when the disc splits from its centre; NaN with no crack up to the peak."""
+    before = cracks["time"] <= peak_time
+    if not np.any(before):
+        return math.nan
+    along = position[:, axis]
+    centre = 0.5 * (float(along.min()) + float(along.max()))
+    key = "xyz"[axis]
+    far = np.abs(cracks[key][before] - centre) > 0.6 * 0.5 * diameter
+    return float(np.count_nonzero(far)) / float(np.count_nonzero(before))
 
 
 @_rate_checked
