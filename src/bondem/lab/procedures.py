@@ -120,7 +120,8 @@ class LabSettings:
             raise ValueError(f"flattened = {self.flattened!r}; a loading angle in [0, 90) "
                              f"degrees")
         if self.rate_rule not in RATE_RULES:
-            raise ValueError(f"rate_rule = {self.rate_rule!r}; allowed: {', '.join(RATE_RULES)}")
+            raise ValueError(f"rate_rule = {self.rate_rule!r}; allowed: "
+                             f"{', '.join(RATE_RULES)}")
         if self.rate_check not in ("warn", "repeat", "off"):
             raise ValueError(f"rate_check = {self.rate_check!r}; allowed: warn, repeat, off")
         if self.stress_path not in STRESS_PATHS:
@@ -353,8 +354,8 @@ MAX_STRAIN = {"ucs": 0.05, "triaxial": 0.05, "tension": 0.05, "brazilian": 0.1,
               "agglomerate": 0.2}
 RATE = 5e-4   # default strain per wave-crossing time
 # rate_rule "bonds": wave-crossing times to the weakest bonds' failure strain. Measured on
-# examples/lab_rock.toml with 1 MPa bonds: over 34 of them, halving the rate still moved
-# the UCS by 2.5 %; over 100, by 0.7 % (the default rate's UCS was 50 % too high).
+# examples/lab_rock.toml with 1 MPa bonds: over 38 of them, halving the rate still moved
+# the UCS by 2.5 %; over 100, by 0.7-1.0 % (the default rate's UCS was 55 % too high).
 BOND_RATE_WAVES = 100.0
 
 
@@ -372,6 +373,8 @@ def default_rate(specimen, settings, wave):
                      for m in (specimen.bond_materials[int(i)] for i in used))
         per_wave = min(RATE, strain / BOND_RATE_WAVES)
     return per_wave / wave
+
+
 # wave-crossing times over which the platens turn back in a cycle (over 2, the unloading
 # modulus of a lattice came out 13 % low: the turn sends a wave; over 10, within 0.5 %)
 REVERSAL_RAMP = 10.0
@@ -1153,12 +1156,11 @@ def brazilian(specimen, settings=None, *, out_dir=None, scene_text=""):
                               diameter, axis)
     result.numbers["end_crack_fraction"] = ends
     if ends > END_CRACKS:
-        crushed = (f"brazilian: {100 * ends:.0f} % of the cracks up to the peak lie within "
-                   f"0.4 R of a loaded end: the disc crushed under its loads before it "
-                   f"split, so its tensile strength is not a Brazilian one (a finer or "
-                   f"larger disc)")
-        warnings.warn(crushed, stacklevel=3)
-        result.notes.insert(-1, f"warning: {crushed[len('brazilian: '):]}")
+        crushed = (f"{100 * ends:.0f} % of the cracks up to the peak lie within 0.4 R of a "
+                   f"loaded end: the disc crushed under its loads before it split, so its "
+                   f"tensile strength is not a Brazilian one (a finer or larger disc)")
+        warnings.warn(f"brazilian: {crushed}", stacklevel=3)
+        result.notes.insert(-1, f"warning: {crushed}")
     return _honest(result)
 
 
