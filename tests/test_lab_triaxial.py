@@ -88,14 +88,19 @@ def test_constant_mean_stress_path(cylinder):
     assert ratio == pytest.approx(result.numbers["poisson_ratio"], rel=0.05)
 
 
-def test_a_random_cylinder_fails_in_its_membrane_at_a_held_sigma3():
+def _rock_cylinder(solids_fraction):
+    """examples/lab_rock.toml's 6 x 12 mm cylinder of 0.5 mm spheres (seed 1)."""
     rock = bondem.Material(density=2500.0, young_modulus=1e9, poisson_ratio=0.3,
                            friction=0.5)
     cement = bondem.BondMaterial(young_modulus=1e9, poisson_ratio=0.3, normal_strength=5e6,
                                  tangential_strength=5e6)
-    specimen = make_specimen("cylinder", [6e-3, 12e-3], particle_radius=5e-4,
-                             solids_fraction=0.55, seed=1, material=rock,
-                             bond_material=cement, max_gap=5e-5, diameter_ratio=0.6)
+    return make_specimen("cylinder", [6e-3, 12e-3], particle_radius=5e-4,
+                         solids_fraction=solids_fraction, seed=1, material=rock,
+                         bond_material=cement, max_gap=5e-5, diameter_ratio=0.6)
+
+
+def test_a_random_cylinder_fails_in_its_membrane_at_a_held_sigma3():
+    specimen = _rock_cylinder(0.55)
     with pytest.warns(UserWarning, match="particle diameters across"):
         low = triaxial(specimen, LabSettings(confining_stress=2e5))
     assert low.no_failure is None and low.notes[-1].startswith("stopped: post-peak")
@@ -110,13 +115,7 @@ def test_bonds_the_confinement_broke_are_no_failure_under_the_deviator():
     confinement breaks more than the stop rule's 1 % of the bonds. Those are no failure:
     the test loads on to a peak of the order of the confinement, not to the first dip of
     the deviator a few kPa in (where it stopped when they were counted)."""
-    rock = bondem.Material(density=2500.0, young_modulus=1e9, poisson_ratio=0.3,
-                           friction=0.5)
-    cement = bondem.BondMaterial(young_modulus=1e9, poisson_ratio=0.3, normal_strength=5e6,
-                                 tangential_strength=5e6)
-    specimen = make_specimen("cylinder", [6e-3, 12e-3], particle_radius=5e-4,
-                             solids_fraction=0.5, seed=1, material=rock,
-                             bond_material=cement, max_gap=5e-5, diameter_ratio=0.6)
+    specimen = _rock_cylinder(0.5)
     with pytest.warns(UserWarning, match="particle diameters across"):
         result = triaxial(specimen, LabSettings(confining_stress=1e6))
     curve, n = result.curve, result.numbers
