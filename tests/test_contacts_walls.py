@@ -216,6 +216,47 @@ def test_a_sliding_sphere_decelerates_at_the_walls_own_friction(wall_kind, own, 
         2.5 * mu * g * state.time / RADIUS, rel=0.02)
 
 
+@pytest.mark.parametrize("own, mu", [(None, 0.5 * (0.6 + 0.2)), (True, 0.2)])
+def test_a_scene_files_wall_takes_its_own_friction(tmp_path, own, mu):
+    """The sliding sphere above from a scene file: ``own_friction = true`` on a [[walls]]
+    entry gives the wall's own friction (0.2), left out the mean (0.4); the sphere
+    decelerates at mu g while it slides."""
+    from bondem.scene import load_scene
+    v0, g = 0.05, 9.81
+    mass = 2500.0 * 4 / 3 * math.pi * RADIUS ** 3
+    e_star = 1 / ((1 - 0.09) / 1e8 + (1 - 0.0625) / 2e8)
+    resting = (3 * mass * g / (4 * e_star * math.sqrt(RADIUS))) ** (2 / 3)
+    (tmp_path / "p.csv").write_text("x,y,z,radius,material,vx,vy,vz\n"
+                                    f"0,0,{RADIUS - resting!r},{RADIUS!r},grain,{v0},0,0\n")
+    wall = ('[[walls]]\ntype = "plane"\npoint = [0.0, 0.0, 0.0]\nnormal = [0.0, 0.0, 1.0]\n'
+            'material = "plate"\n' + ("own_friction = true\n" if own else ""))
+    duration = 0.2 * v0 / (mu * g)     # well before rolling sets in at t = 2 v0 / (7 mu g)
+    (tmp_path / "s.toml").write_text(f"""[simulation]
+end_time = {duration!r}
+gravity = [0.0, 0.0, {-g!r}]
+rolling_resistance = false
+[materials.grain]
+density = 2500.0
+young_modulus = 1e8
+poisson_ratio = 0.3
+restitution = 0.3
+friction = 0.6
+[materials.plate]
+density = 7800.0
+young_modulus = 2e8
+poisson_ratio = 0.25
+restitution = 0.3
+friction = 0.2
+[particles]
+file = "p.csv"
+{wall}""")
+    scene = load_scene(tmp_path / "s.toml")
+    assert scene.simulation_options["walls"][0].own_friction is bool(own)
+    sim = scene.make_simulation()
+    sim.run(until=duration)
+    assert sim.state.velocity[0, 0] - v0 == pytest.approx(-mu * g * sim.state.time, rel=0.02)
+
+
 def test_own_friction_is_true_or_false(glass_e1):
     assert PlaneWall((0, 0, 0), (0, 0, 1), glass_e1).own_friction is False
     for value in ("yes", 1, None):

@@ -191,7 +191,8 @@ def test_ghost_cutoff_without_long_bonds_and_no_contacts(tmp_path):
 def test_walls_static_moving_profiled_and_meshed(tmp_path):
     model, state = system()
     walls = [PlaneWall((0.0, -0.01, 0.0), (0.0, 1.0, 0.0), STEEL),
-             PlaneWall((0.0, 0.0, 0.02), (0.0, 0.0, -1.0), GLASS, velocity=(0.0, 0.0, -0.2)),
+             PlaneWall((0.0, 0.0, 0.02), (0.0, 0.0, -1.0), GLASS, velocity=(0.0, 0.0, -0.2),
+                       own_friction=True),
              PlaneWall((0.0, 0.0, -0.02), (0.0, 0.0, 1.0), GLASS,
                        motion=VelocityProfile([0.0, 1.0], [[0, 0, 1.0], [0, 0, 1.0]])),
              MeshWall([[0, 0, 0.05], [1, 0, 0.05], [0, 1, 0.05]], [[0, 1, 2]], GLASS)]
@@ -212,6 +213,9 @@ def test_walls_static_moving_profiled_and_meshed(tmp_path):
     assert fixes[1].split()[5:7] == ["hertz/material", "100000000.0"]
     assert all(x.endswith(f"region wall{k}") for k, x in enumerate(fixes))
     assert "walls[2]: its velocity profile or servo is not exported (static)" in notes
+    assert [n for n in notes if "own_friction" in n] == [
+        "walls[1]: own_friction not exported (LAMMPS mixes the wall's coefficients with the "
+        "particles' its own way)"]
     assert "walls[3]: a mesh wall, not exported" in notes
 
 

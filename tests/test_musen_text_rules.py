@@ -527,8 +527,9 @@ def test_a_scenes_cmusen_keys():
     scene = {"simulation": {"end_time": 2e-5, "save_every": 1e-6, "gravity": [0, -9.81, 0],
                             "contact_model": "jkr", "bonded_contacts": True, "damping": 0.1},
              "bond_materials": {"b": {"breakage": "separate"}},
-             "walls": [{"velocity": [0, 0, 1]}, {"velocity_profile": [[0, 0, 0, 0]]},
-                       {"servo": {"target_force": 1.0}}]}
+             "walls": [{"velocity": [0, 0, 1], "own_friction": False},
+                       {"velocity_profile": [[0, 0, 0, 0]]},
+                       {"servo": {"target_force": 1.0}, "own_friction": True}]}
     keys, notes = simulator_keys(scene, 1e-7)
     assert keys["MODEL_SB_PARAMS"] == "CONSIDER_BREAKAGE 2"
     assert (keys["MODEL_PP"], keys["MODEL_PW"], keys["CONNECTED_PP_CONTACT"]) == (
@@ -538,6 +539,8 @@ def test_a_scenes_cmusen_keys():
     assert notes == ["local damping: MUSEN has none",
                      "wall 1: its velocity_profile is not written (MUSEN moves it by a "
                      "constant velocity only; written static)",
+                     "wall 2: own_friction is not written (MUSEN's interaction gets the mean "
+                     "of the two materials' friction)",
                      "wall 2: its servo is not written (MUSEN moves it by a constant velocity "
                      "only; written static)"]
     keys, notes = simulator_keys({"simulation": {"contact_model": "none", "end_time": 1e-9},

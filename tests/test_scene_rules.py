@@ -233,6 +233,18 @@ def test_scene_file_errors_name_the_file(tmp_path):
     assert "cannot read the study file" in str(error.value)
 
 
+def test_a_walls_own_friction_is_true_or_false(tmp_path):
+    wall = {"type": "plane", "point": [0, 0, -0.001], "normal": [0, 0, 1],
+            "material": "steel"}
+    assert load_scene(write(tmp_path, {**BASE, "walls": [wall]})).simulation_options[
+        "walls"][0].own_friction is False
+    path = write(tmp_path, {**BASE, "walls": [{**wall, "own_friction": 1}]})
+    with pytest.raises(InputError) as error:
+        load_scene(path)
+    assert error.value.key == "walls.0.own_friction"
+    assert str(error.value) == f"{path}: walls.0.own_friction: value 1: expected true or false"
+
+
 def test_overrides_reach_every_kind_of_table(tmp_path):
     path = write(tmp_path, {**BASE, "walls": [{"type": "plane", "point": [0, 0, -0.001],
                                               "normal": [0, 0, 1], "material": "steel"}]})
@@ -432,7 +444,7 @@ def test_bad_walls_are_named_by_their_index(tmp_path):
          "walls.0.file: value 'no.stl': no such file"),
         ([{**PLANE, "file": "no.stl"}], "walls.0.file: unknown key 'file'; allowed: type, "
                                         "point, normal, material, velocity, velocity_profile, "
-                                        "servo"),
+                                        "servo, own_friction"),
     ]
     for tables, message in cases:
         with pytest.raises(InputError) as error:

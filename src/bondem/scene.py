@@ -84,6 +84,7 @@ PLANE_KEYS = {
     "velocity": ("vector3", [0.0, 0.0, 0.0], -INF, INF, False, False),
     "velocity_profile": ("profile", None, None, None, None, None),
     "servo": ("table", None, None, None, None, None),
+    "own_friction": ("bool", False, None, None, None, None),
 }
 SERVO_KEYS = {
     "target_force": ("number", None, 0.0, INF, True, False),
@@ -103,6 +104,7 @@ MESH_KEYS = {
     "angular_velocity": ("vector3", [0.0, 0.0, 0.0], -INF, INF, False, False),
     "rotation_center": ("vector3", [0.0, 0.0, 0.0], -INF, INF, False, False),
     "velocity_profile": ("profile", None, None, None, None, None),
+    "own_friction": ("bool", False, None, None, None, None),
 }
 # and a table for each field model (physics/field_models.py: [fluid], [frame])
 TOP_KEYS = ("simulation", "materials", "bond_materials", "particles", "bonds", "walls",
@@ -681,13 +683,15 @@ def _contact_and_walls(options, sim, walls, material_objects, material_names, pa
                 motion = wall_module.Servo(**w["servo"])
             if w["type"] == "plane":
                 objects.append(wall_module.PlaneWall(w["point"], w["normal"], material,
-                                                     velocity=w["velocity"], motion=motion))
+                                                     velocity=w["velocity"], motion=motion,
+                                                     own_friction=w["own_friction"]))
             else:
                 try:
                     objects.append(wall_module.MeshWall.from_stl(
                         w["file"], material, scale=w["scale"], velocity=w["velocity"],
                         angular_velocity=w["angular_velocity"],
-                        rotation_center=w["rotation_center"], motion=motion))
+                        rotation_center=w["rotation_center"], motion=motion,
+                        own_friction=w["own_friction"]))
                 except (OSError, ValueError) as error:
                     raise InputError(f"cannot read the mesh {w['file']!r}: {error}",
                                      file=path, key=f"walls.{w['index']}.file")

@@ -227,6 +227,9 @@ def write_lammps(model, state, options, out_dir, *, end_time, save_every, title=
         if not isinstance(wall, PlaneWall):
             notes.append(f"walls[{k}]: a mesh wall, not exported")
             continue
+        if wall.own_friction:
+            notes.append(f"walls[{k}]: own_friction not exported (LAMMPS mixes the wall's "
+                         "coefficients with the particles' its own way)")
         if isinstance(wall.motion, ConstantVelocity):
             velocity = wall.motion.constant
         else:

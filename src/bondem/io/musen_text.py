@@ -775,6 +775,9 @@ def simulator_keys(scene, time_step):
     if float(simulation.get("damping", 0.0)):
         notes.append("local damping: MUSEN has none")
     for w, wall in enumerate(scene.get("walls", [])):
+        if wall.get("own_friction"):
+            notes.append(f"wall {w}: own_friction is not written (MUSEN's interaction "
+                         "gets the mean of the two materials' friction)")
         moved = [k for k in ("velocity_profile", "servo") if wall.get(k) is not None]
         if moved:
             notes.append(f"wall {w}: its {moved[0]} is not written (MUSEN moves it by a "
