@@ -186,6 +186,14 @@ def test_pressed_sphere_near_edges_and_vertices(glass_e1):
         assert sim.wall_force[0, 2] == pytest.approx(-hertz, rel=1e-9), (x, y)
 
 
+def _resting_overlap(g):
+    """Hertz overlap (m) of a grain (2500 kg/m^3, E 1e8 Pa, nu 0.3) of RADIUS resting
+    under gravity g (m/s^2) on a plate (E 2e8 Pa, nu 0.25): m g = 4/3 E* sqrt(R) d^1.5."""
+    mass = 2500.0 * 4 / 3 * math.pi * RADIUS ** 3
+    e_star = 1 / ((1 - 0.09) / 1e8 + (1 - 0.0625) / 2e8)
+    return (3 * mass * g / (4 * e_star * math.sqrt(RADIUS))) ** (2 / 3)
+
+
 @pytest.mark.parametrize("own, mu", [(False, 0.5 * (0.6 + 0.2)), (True, 0.2)])
 @pytest.mark.parametrize("wall_kind", ["plane", "mesh"])
 def test_a_sliding_sphere_decelerates_at_the_walls_own_friction(wall_kind, own, mu):
@@ -198,9 +206,7 @@ def test_a_sliding_sphere_decelerates_at_the_walls_own_friction(wall_kind, own, 
                             restitution=0.3, friction=0.6)
     plate = bondem.Material(density=7800.0, young_modulus=2e8, poisson_ratio=0.25,
                             restitution=0.3, friction=0.2)
-    mass = 2500.0 * 4 / 3 * math.pi * RADIUS ** 3
-    e_star = 1 / ((1 - 0.09) / 1e8 + (1 - 0.0625) / 2e8)
-    resting = (3 * mass * g / (4 * e_star * math.sqrt(RADIUS))) ** (2 / 3)
+    resting = _resting_overlap(g)
     model, state = bondem.make_system([[0.0, 0.0, RADIUS - resting]], RADIUS, grain,
                                       velocity=[[v0, 0, 0]], gravity=(0, 0, -g))
     wall = (PlaneWall((0, 0, 0), (0, 0, 1), plate, own_friction=own) if wall_kind == "plane"
@@ -223,9 +229,7 @@ def test_a_scene_files_wall_takes_its_own_friction(tmp_path, own, mu):
     decelerates at mu g while it slides."""
     from bondem.scene import load_scene
     v0, g = 0.05, 9.81
-    mass = 2500.0 * 4 / 3 * math.pi * RADIUS ** 3
-    e_star = 1 / ((1 - 0.09) / 1e8 + (1 - 0.0625) / 2e8)
-    resting = (3 * mass * g / (4 * e_star * math.sqrt(RADIUS))) ** (2 / 3)
+    resting = _resting_overlap(g)
     (tmp_path / "p.csv").write_text("x,y,z,radius,material,vx,vy,vz\n"
                                     f"0,0,{RADIUS - resting!r},{RADIUS!r},grain,{v0},0,0\n")
     wall = ('[[walls]]\ntype = "plane"\npoint = [0.0, 0.0, 0.0]\nnormal = [0.0, 0.0, 1.0]\n'

@@ -27,7 +27,7 @@ from pathlib import Path
 from ..errors import InputError, unknown_key
 from ..model import BondMaterial, Material
 from ..physics import contact_models
-from .procedures import LabSettings
+from .procedures import RATE_RULES, STRESS_PATHS, LabSettings
 from .specimen import ADHESIVE, lattice_specimen, make_specimen, specimen_from_scene
 
 INF = float("inf")
@@ -52,7 +52,7 @@ SPECIMEN_KEYS = {
 }
 TEST_KEYS = {
     "strain_rate": ("number", None, 0.0, INF, False, False),
-    "rate_rule": ("str", "wave", ("wave", "bonds"), None, None, None),
+    "rate_rule": ("str", "wave", RATE_RULES, None, None, None),
     "post_peak": ("number", 0.7, 0.0, 1.0, False, False),
     "failure_bonds": ("number", None, 0.0, 1.0, True, False),
     "largest_fragment": ("number", 0.9, 0.0, 1.0, False, True),
@@ -60,8 +60,7 @@ TEST_KEYS = {
     "jaws": ("number", 1.5, 0.0, INF, True, False),
     "rate_check": ("str", "warn", ("warn", "repeat", "off"), None, None, None),
     "flattened": ("number", 0.0, 0.0, 90.0, True, False),
-    "stress_path": ("str", "constant_sigma3", ("constant_sigma3", "constant_mean"), None,
-                    None, None),
+    "stress_path": ("str", "constant_sigma3", STRESS_PATHS, None, None, None),
     "unload_at": ("any", [], None, None, None, None),
     "unload_to": ("number", 0.3, 0.0, 1.0, True, False),
     "max_strain": ("number", None, 0.0, 1.0, False, False),
