@@ -237,6 +237,11 @@ def test_a_page_without_figures_or_warnings(tmp_path):
     page = Page(text)
     assert page.figures == [] and "warning" not in text
     assert "0 parameter sets\nmeet every target" in text
+    # with the runs' times: the wall time and the runs' sum
+    summary["time"] = {"wall_seconds": 388.3, "runs": {"runs": 16, "seconds": 707.4}}
+    write_page(calibration, summary, tmp_path)
+    assert "5 trials, 16 simulations in 388 s (707 s of runs, calibration_runs.csv); best" \
+        in (tmp_path / "calibration.html").read_text(encoding="utf-8")
     assert [row[5] for row in list(page.tables.values())[1][1:]] == ["n/a"] * 3
     (tmp_path / "calibration_parameters.png").write_bytes(b"\x89PNG only this one")
     write_page(calibration, summary, tmp_path)

@@ -5,6 +5,7 @@ difference steps down). The first trial sits at the bounds' (geometric) middle, 
 second is the scaling rules' guess, exact for this lab; the linearised uncertainty is
 the closed form of a forward difference over 5 % of a log range; a table cut by a kill
 resumes; the file's errors name the key. Every message is compared whole."""
+import csv
 import json
 import math
 import warnings
@@ -19,6 +20,7 @@ from bondem.calibrate import (Calibration, CalibrationFailed, Parameter, Table, 
                               consistent, load_calibration, misfit, reachable,
                               run_calibration, scaled_guess, summarise)
 from bondem.errors import InputError
+from bondem.parallel import single_threaded
 
 E_KEY = "specimen.bond_material.young_modulus"
 S_KEY = "specimen.bond_material.normal_strength"
@@ -784,9 +786,11 @@ def test_a_dask_client_runs_the_same_trials(folder):
     assert on_dask["identifiability"] == serial["identifiability"]
     assert len(client.submitted) == 5 + 3
     function, args, kwargs = client.submitted[0]
-    assert function is calibrate._safe and kwargs == {"pure": False}
-    assert args[0] == (folder / "lattice.toml").resolve() and args[1] == "tension"
-    assert args[2][E_KEY] == pytest.approx(2e8, rel=1e-14)
+    # each run with one Numba thread, on a worker whatever it imported first
+    assert function is single_threaded and kwargs == {"pure": False}
+    assert args[0] is calibrate._safe
+    assert args[1] == (folder / "lattice.toml").resolve() and args[2] == "tension"
+    assert args[3][E_KEY] == pytest.approx(2e8, rel=1e-14)
     assert client.closed is False                 # the user's client stays open
 
 
@@ -1000,7 +1004,10 @@ def test_runs_kept_on_dask_are_not_run_again(folder):
     calibrate.evaluate = None                        # nothing may run now
     again = run_calibration(folder / "calib.toml", folder / "dask", scheduler=_Client(),
                             resume=True)
-    assert json.loads(json.dumps(calibrate._clean(again))) == whole
+    again = json.loads(json.dumps(calibrate._clean(again)))
+    # the same runs (their log kept), in this session's wall time
+    del again["time"]["wall_seconds"], whole["time"]["wall_seconds"]
+    assert again == whole
 
 
 def test_a_single_trial_that_failed(folder):
@@ -1021,3 +1028,56 @@ def test_a_single_trial_that_failed(folder):
         run_calibration(calibration, folder / "out2")
     assert str(error.value) == \
         "every trial failed; the first: tension: RuntimeError: no specimen"
+
+
+def test_each_run_is_logged_with_its_time_and_steps(folder, monkeypatch):
+    """calibration_runs.csv: a row per run (the trials', then the checks' with negative
+    trial numbers), its steps and wall seconds; calibration.json's "time" sums them."""
+    def lab(spec, test, overrides):
+        numbers = closed_form_lab(spec, test, overrides)
+        if overrides[E_KEY] > 1.5e9:
+            raise RuntimeError("blew up")
+        # a stand-in step count that depends on the run: 1e-3 strength over stiffness
+        return {**numbers, "steps": round(1e3 * overrides[S_KEY] / overrides[E_KEY])}
+
+    monkeypatch.setattr(calibrate, "evaluate", lab)
+    summary = run_calibration(folder / "calib.toml", folder / "out")
+    with open(folder / "out" / "calibration_runs.csv", newline="") as handle:
+        rows = list(csv.DictReader(handle))
+    assert tuple(rows[0]) == calibrate.RUN_COLUMNS
+    trials = [r for r in rows if int(r["trial"]) >= 0]
+    assert [int(r["trial"]) for r in trials] == list(range(5))
+    assert len(rows) == 5 + 3                    # 5 trials, 3 identifiability runs
+    table = {int(float(r["trial"])): r for r in csv.DictReader(
+        open(folder / "out" / "calibration.csv", newline=""))}
+    steps = 0
+    for row in trials:
+        params = table[int(row["trial"])]
+        if float(params[E_KEY]) > 1.5e9:
+            assert row["end"] == "error" and row["steps"] == "nan"
+        else:
+            expected = round(1e3 * float(params[S_KEY]) / float(params[E_KEY]))
+            assert row["end"] == "ok" and float(row["steps"]) == expected
+            steps += expected
+        assert float(row["run_seconds"]) >= 0.0
+    time_ = summary["time"]
+    assert time_["trials"]["runs"] == 5 and time_["checks"]["runs"] == 3
+    assert time_["trials"]["steps"] == steps
+    assert time_["runs"]["seconds"] == pytest.approx(
+        sum(float(r["run_seconds"]) for r in rows), rel=1e-12)
+    assert time_["by_test"]["tension"]["runs"] == 8
+    assert time_["wall_seconds"] >= time_["runs"]["seconds"]   # serial: one after another
+
+
+def test_a_fresh_table_does_not_take_an_earlier_calibrations_kept_runs(folder):
+    run_calibration(folder / "calib.toml", folder / "out")
+    kept = folder / "out" / "calibration_checks.json"
+    first = json.loads((folder / "out" / "calibration.json").read_text())
+    # an earlier calibration's identifiability runs with other numbers, kept
+    stale = {key: {name: 3.0 * value for name, value in numbers.items()}
+             for key, numbers in json.loads(kept.read_text()).items()}
+    kept.write_text(json.dumps(stale))
+    (folder / "out" / "calibration.csv").unlink()   # what --overwrite does
+    again = json.loads(json.dumps(calibrate._clean(
+        run_calibration(folder / "calib.toml", folder / "out"))))
+    assert again["identifiability"] == first["identifiability"]

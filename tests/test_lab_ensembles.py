@@ -336,17 +336,17 @@ def test_the_ensemble_on_dask_one_single_threaded_process_per_run(monkeypatch):
     monkeypatch.setitem(sys.modules, "distributed", fake)
     monkeypatch.setattr(os, "cpu_count", lambda: 8)
     assert series.ensemble(pow, [(2, 3), (3, 2), (5, 0)], scheduler=None) == [8, 9, 1]
-    # a worker process per run up to the cores, each with one thread: the runs' Numba
-    # kernels do not share cores; a run is not pure (two seeds' equal arguments are two
+    # a worker process per run up to the cores, each with one thread, and each run with
+    # one Numba thread whatever the worker imported first: the runs do not share cores; a run is not pure (two seeds' equal arguments are two
     # runs); the cluster made here is closed after
     assert fake.log == [
         ("cluster", {"n_workers": 3, "threads_per_worker": 1, "processes": True,
                      "dashboard_address": None,
                      "env": {"NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}}),
         ("client", "cluster", {}),
-        ("submit", "pow", (2, 3), {"pure": False}),
-        ("submit", "pow", (3, 2), {"pure": False}),
-        ("submit", "pow", (5, 0), {"pure": False}),
+        ("submit", "single_threaded", (pow, 2, 3), {"pure": False}),
+        ("submit", "single_threaded", (pow, 3, 2), {"pure": False}),
+        ("submit", "single_threaded", (pow, 5, 0), {"pure": False}),
         ("close",), ("close",)]
     fake.log.clear()
     series.ensemble(pow, [(2, 1)] * 12, scheduler=None)
@@ -362,7 +362,8 @@ def test_the_ensemble_on_dask_one_single_threaded_process_per_run(monkeypatch):
     fake.log.clear()
     assert series.ensemble(pow, [(2, 2)], scheduler="tcp://h:8786") == [4]
     assert fake.log == [("client", "tcp://h:8786", {"timeout": "30s"}),
-                        ("submit", "pow", (2, 2), {"pure": False}), ("close",)]
+                        ("submit", "single_threaded", (pow, 2, 2), {"pure": False}),
+                        ("close",)]
     # a run that raises still closes the client and the cluster
     fake.log.clear()
     with pytest.raises(ZeroDivisionError):

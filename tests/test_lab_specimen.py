@@ -12,6 +12,7 @@ import pytest
 
 import bondem
 import bondem.scene
+import bondem.lab.specimen as specimen_module
 from bondem.lab.specimen import (ADHESIVE, Specimen, _container, _inside, box_widths,
                                  lattice_specimen, make_specimen, specimen_from_scene)
 
@@ -248,6 +249,7 @@ def test_a_random_box_specimen_inside_its_container():
     assert body.notes == [f"{body.n_particles} particles, {body.n_bonds} bonds, coordination "
                           f"{body.coordination():.2f}, solids fraction "
                           f"{body.solids_fraction():.3f}"]
+    specimen_module._geometries.clear()      # packed afresh, not the kept packing
     again = make_specimen("box", size, particle_radius=4e-4, material=GLASS,
                           bond_material=BINDER, max_gap=1e-4, seed=2, solids_fraction=0.4,
                           diameter_ratio=0.6)
@@ -541,3 +543,44 @@ def test_a_consolidated_specimen_depends_on_its_seed():
     other = make_specimen("box", [3e-3] * 3, seed=2, **settings)
     assert one.n_particles != other.n_particles or \
         not np.array_equal(one.position, other.position)
+
+
+def test_a_packing_is_made_once_for_specimens_that_differ_only_in_their_bonds(
+        monkeypatch):
+    """A calibration varies the bonds of one packing: make_specimen packs it once per
+    process, and each specimen gets arrays of its own."""
+    packed = []
+
+    def counting(*args, **kwargs):
+        packed.append(kwargs["seed"])
+        return pack(*args, **kwargs)
+
+    pack = specimen_module.pack_spheres
+    monkeypatch.setattr(specimen_module, "pack_spheres", counting)
+    specimen_module._geometries.clear()
+    shape = dict(particle_radius=4e-4, material=GLASS, max_gap=1e-4, solids_fraction=0.4,
+                 diameter_ratio=0.6)
+    first = make_specimen("cylinder", [3e-3, 4e-3], bond_material=BINDER, seed=5, **shape)
+    stiffer = bondem.BondMaterial(young_modulus=9e8, normal_strength=1e6)
+    second = make_specimen("cylinder", [3e-3, 4e-3], bond_material=stiffer, seed=5, **shape)
+    assert packed == [5]
+    np.testing.assert_array_equal(second.position, first.position)
+    np.testing.assert_array_equal(second.bonds, first.bonds)
+    assert second.bond_materials[0].young_modulus == 9e8 and second.notes == first.notes
+    first.position[0, 0] = 1.0          # a specimen's arrays are its own
+    first.notes.append("changed")
+    third = make_specimen("cylinder", [3e-3, 4e-3], bond_material=BINDER, seed=5, **shape)
+    assert third.position[0, 0] == second.position[0, 0] != 1.0
+    assert "changed" not in third.notes
+    # another seed, size, gap or fraction is another packing
+    make_specimen("cylinder", [3e-3, 4e-3], bond_material=BINDER, seed=6, **shape)
+    make_specimen("cylinder", [3e-3, 4.2e-3], bond_material=BINDER, seed=5, **shape)
+    make_specimen("cylinder", [3e-3, 4e-3], bond_material=BINDER, seed=5,
+                  **{**shape, "max_gap": 2e-4})
+    assert packed == [5, 6, 5, 5]
+    # only GEOMETRIES packings are kept: the oldest goes first
+    for seed in range(10, 10 + specimen_module.GEOMETRIES):
+        make_specimen("cylinder", [3e-3, 4e-3], bond_material=BINDER, seed=seed, **shape)
+    make_specimen("cylinder", [3e-3, 4e-3], bond_material=stiffer, seed=5, **shape)
+    assert packed[-1] == 5 and len(specimen_module._geometries) == \
+        specimen_module.GEOMETRIES

@@ -22,6 +22,7 @@ from __future__ import annotations
 import csv
 import json
 import math
+import time
 import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -30,6 +31,7 @@ import numpy as np
 
 from .analysis.calibration import percent
 from .errors import InputError, decode_text, unknown_key
+from .parallel import local_cluster, single_threaded
 
 MODULUS_TARGETS = ("young_modulus_secant", "young_modulus_tangent")
 STRENGTH_TARGETS = ("ucs", "tensile_strength", "peak_deviator_stress", "breakage_force",
@@ -333,16 +335,14 @@ class _Evaluator:
         # table does not hold, survive a kill)
         self.kept_path = None
         self.kept = {}
+        # log(path): each run this evaluator makes becomes a row of that CSV (RUN_COLUMNS):
+        # where the calibration's time goes
+        self.log_path = None
         if scheduler == "serial":
             return
-        from distributed import Client, LocalCluster
-        import os
+        from distributed import Client
         if scheduler is None:
-            self.cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1,
-                                        threads_per_worker=1, processes=True,
-                                        dashboard_address=None,
-                                        env={"NUMBA_NUM_THREADS": "1",
-                                             "OMP_NUM_THREADS": "1"})
+            self.cluster = local_cluster(workers)
             self.client = Client(self.cluster)
         elif isinstance(scheduler, str):
             try:
@@ -360,6 +360,21 @@ class _Evaluator:
             self.kept = json.loads(self.kept_path.read_text())
         except (OSError, ValueError):
             self.kept = {}   # none yet, or cut by a kill: those runs are simply redone
+
+    def log(self, path):
+        """Append a row per finished run to ``path`` (CSV, RUN_COLUMNS)."""
+        self.log_path = Path(path)
+        if not self.log_path.is_file() or b"\n" not in self.log_path.read_bytes():
+            self.log_path.write_text(",".join(RUN_COLUMNS) + "\n")
+
+    def _logged(self, trial, test, numbers):
+        if self.log_path is None:
+            return
+        row = [trial, test, *(numbers.get(k, math.nan) for k in RUN_COLUMNS[2:-1]),
+               "error" if "error" in numbers else
+               "no failure" if "no_failure" in numbers else "ok"]
+        with open(self.log_path, "a", newline="") as handle:
+            csv.writer(handle).writerow(row)
 
     def _kept(self, key, numbers):
         if self.kept_path is None or "error" in numbers:
@@ -383,12 +398,15 @@ class _Evaluator:
             for (trial, test), merged in todo.items():
                 done[(trial, test)] = _safe(cal.spec, test, merged)
                 self._kept(keys[(trial, test)], done[(trial, test)])
+                self._logged(trial, test, done[(trial, test)])
         else:
-            futures = {item: self.client.submit(_safe, cal.spec, item[1], merged, pure=False)
+            futures = {item: self.client.submit(single_threaded, _safe, cal.spec, item[1],
+                                                merged, pure=False)
                        for item, merged in todo.items()}
             for item, future in futures.items():
                 done[item] = future.result()
                 self._kept(keys[item], done[item])
+                self._logged(*item, done[item])
         out = {}
         for trial in jobs:
             predictions = {}
@@ -410,13 +428,22 @@ class _Evaluator:
             self.cluster.close()
 
 
+# calibration_runs.csv: trial (negative: the identifiability and seed runs), test, the
+# run's wall seconds on its worker (the specimen's packing included), its steps,
+# particles and time step (s), and how it ended (ok, no failure, error)
+RUN_COLUMNS = ("trial", "test", "run_seconds", "steps", "n_particles", "time_step", "end")
+
+
 def _safe(spec, test, overrides):
     """evaluate(), with a failed run (a specimen that cannot be packed, a blow-up) as no
-    numbers: the trial then has an infinite misfit."""
+    numbers: the trial then has an infinite misfit. Adds ``run_seconds``, the run's wall
+    time (s)."""
+    started = time.perf_counter()
     try:
-        return evaluate(spec, test, overrides)
+        numbers = evaluate(spec, test, overrides)
     except Exception as error:  # noqa: BLE001 - any failure of one trial is its result
-        return {"error": f"{test}: {type(error).__name__}: {error}"}
+        numbers = {"error": f"{test}: {type(error).__name__}: {error}"}
+    return {**numbers, "run_seconds": time.perf_counter() - started}
 
 
 def run_calibration(calibration, out_dir, *, scheduler="serial", workers=None,
@@ -430,6 +457,7 @@ def run_calibration(calibration, out_dir, *, scheduler="serial", workers=None,
     trials begin (identifiability, seeds).
     Returns the summary dict; raises CalibrationFailed when no trial meets the targets."""
     import optuna
+    started = time.perf_counter()
     if not isinstance(calibration, Calibration):
         calibration = load_calibration(calibration)
     out_dir = Path(out_dir)
@@ -439,6 +467,11 @@ def run_calibration(calibration, out_dir, *, scheduler="serial", workers=None,
         raise InputError("holds a calibration table; give --resume to continue it or "
                          "--overwrite to start afresh", file=out_dir, key="--out")
     have = table.read() if resume else {}
+    if not resume:
+        # a fresh table: runs kept or logged for an earlier one (its spec may have
+        # changed since) must not stand in for this calibration's
+        for name in ("calibration_checks.json", "calibration_runs.csv"):
+            (out_dir / name).unlink(missing_ok=True)
     table.start()
     import warnings
     optuna.logging.set_verbosity(optuna.logging.WARNING)
@@ -449,6 +482,7 @@ def run_calibration(calibration, out_dir, *, scheduler="serial", workers=None,
     distributions = {p.key: optuna.distributions.FloatDistribution(p.low, p.high, log=p.log)
                      for p in calibration.parameters}
     evaluator = _Evaluator(calibration, scheduler, workers)
+    evaluator.log(out_dir / "calibration_runs.csv")
     rows = {}
     finished = 0
     middle = {p.key: p.middle() for p in calibration.parameters}
@@ -505,6 +539,8 @@ def run_calibration(calibration, out_dir, *, scheduler="serial", workers=None,
         summary = summarise(calibration, rows, evaluator, stage)
     finally:
         evaluator.close()
+    summary["time"] = {"wall_seconds": time.perf_counter() - started,
+                       **run_times(out_dir / "calibration_runs.csv")}
     (out_dir / "calibration.json").write_text(json.dumps(_clean(summary), indent=2) + "\n")
     from .analysis.calibration import write_figures, write_page
     write_figures(calibration, rows, summary, out_dir)
@@ -519,6 +555,24 @@ def run_calibration(calibration, out_dir, *, scheduler="serial", workers=None,
                                 f"{misses}. Widen the bounds, raise the budget or check "
                                 f"that the targets agree with each other")
     return summary
+
+
+def run_times(path):
+    """Where a calibration's time went, from its calibration_runs.csv ``path``: the runs'
+    summed wall seconds (on their workers), by test and for the trials, the checks after
+    them, and the runs that ended without a failure (at their strain limit); steps alike."""
+    with open(path, newline="") as handle:
+        rows = [r for r in csv.DictReader(handle) if r.get("end")]
+
+    def total(chosen):
+        return {"runs": len(chosen),
+                "seconds": sum(float(r["run_seconds"]) for r in chosen),
+                "steps": sum(float(r["steps"]) for r in chosen if r["steps"] != "nan")}
+    return {"runs": total(rows), "trials": total([r for r in rows if int(r["trial"]) >= 0]),
+            "checks": total([r for r in rows if int(r["trial"]) < 0]),
+            "no_failure": total([r for r in rows if r["end"] == "no failure"]),
+            "by_test": {t: total([r for r in rows if r["test"] == t])
+                        for t in sorted({r["test"] for r in rows})}}
 
 
 def _clean(value):

@@ -521,15 +521,13 @@ def _progress(total, enabled):
 
 
 def _run_on_dask(study, todo, out_dir, table, bar, scheduler, workers, retries):
-    from distributed import Client, LocalCluster, as_completed
+    from distributed import Client, as_completed
 
+    from .parallel import local_cluster
     cluster = None
     if scheduler is None:
-        # One single-threaded process per core; NUMBA_NUM_THREADS is set before numba is
-        # imported in the worker so no case spawns a thread pool of its own.
-        cluster = LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1,
-                               processes=True, dashboard_address=None,
-                               env={"NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"})
+        # one single-threaded process per core (run_case sets Numba's threads to one)
+        cluster = local_cluster(workers)
         client = Client(cluster)
     elif isinstance(scheduler, str):
         try:

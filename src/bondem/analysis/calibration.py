@@ -106,13 +106,16 @@ def write_page(calibration, summary, out_dir):
         for name, caption in CAPTIONS.items() if (out_dir / f"{name}.png").is_file())
     warnings = "".join(f'<p class="warning"><b>Warning:</b> {html.escape(w)}</p>\n'
                        for w in summary.get("warnings", []))
+    timing = summary.get("time")
+    took = (f" in {timing['wall_seconds']:.0f} s ({timing['runs']['seconds']:.0f} s of "
+            f"runs, calibration_runs.csv)" if timing else "")
     page = f"""<!DOCTYPE html>
 <html lang="en"><head><meta charset="utf-8"><title>bondem calibration</title>
 <style>body{{font-family:sans-serif;max-width:60em;margin:auto;padding:1em}}
 table{{border-collapse:collapse}}td{{border:1px solid #ccc;padding:2px 8px}}
 img{{max-width:100%}}</style></head><body>
 <h1>Calibration: {html.escape(calibration.path.name)}</h1>
-<p>{summary['trials']} trials, {summary['simulations']} simulations; best trial
+<p>{summary['trials']} trials, {summary['simulations']} simulations{took}; best trial
 {best['trial']} (misfit {best['misfit']:.3g}); {len(summary['consistent'])} parameter sets
 meet every target within its uncertainty.</p>
 {warnings}<h2 id="best">Best parameters and what the targets fix</h2>

@@ -12,6 +12,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ..parallel import local_cluster, single_threaded
+
 SHOWN = ("ucs", "tensile_strength", "peak_deviator_stress", "breakage_force",
          "breakage_energy", "fragment_size_d50", "young_modulus_secant", "poisson_ratio",
          "strain_at_peak", "fragments", "fragments_multi", "largest_fragment_fraction",
@@ -25,18 +27,16 @@ def ensemble(function, items, *, scheduler="serial", workers=None):
     items = list(items)
     if scheduler == "serial":
         return [function(*item) for item in items]
-    from distributed import Client, LocalCluster
+    from distributed import Client
     cluster = None
     if scheduler is None:
-        cluster = LocalCluster(n_workers=workers or min(len(items), os.cpu_count() or 1),
-                               threads_per_worker=1, processes=True,
-                               dashboard_address=None,
-                               env={"NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"})
+        cluster = local_cluster(workers or min(len(items), os.cpu_count() or 1))
         client = Client(cluster)
     else:
         client = Client(scheduler, timeout="30s")
     try:
-        futures = [client.submit(function, *item, pure=False) for item in items]
+        futures = [client.submit(single_threaded, function, *item, pure=False)
+                   for item in items]
         return [f.result() for f in futures]
     finally:
         client.close()

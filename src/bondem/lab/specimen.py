@@ -11,8 +11,10 @@ bonded body of any scene (generated or from CSV files).
 """
 from __future__ import annotations
 
+import collections
 import dataclasses
 import math
+import pickle
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -224,6 +226,46 @@ def _inside(shape, size, position, radius):
     return np.linalg.norm(position, axis=1) + radius <= 0.5 * size[0]
 
 
+GEOMETRIES = 8   # packed specimens kept per process (make_specimen)
+_geometries = collections.OrderedDict()
+
+
+def _geometry(shape, size, particle_radius, radius_distribution, solids_fraction, seed,
+              material, unbonded, max_gap, diameter_ratio, max_per_particle,
+              consolidation_stress, consolidation_steps, progress):
+    """make_specimen's packing: (positions (N,3) m, radii (N,) m, bond pairs, bond
+    diameters (m), notes)."""
+    center = np.zeros(3)
+    notes = []
+    if consolidation_stress is None:
+        volume = _container(shape, size, center)
+        position, radius = pack_spheres(volume, radius=particle_radius,
+                                        radius_distribution=radius_distribution,
+                                        solids_fraction=solids_fraction, seed=seed)
+    else:
+        box = np.asarray(_container(shape, size, center).bounds())
+        # a margin of particles beyond the shape, carved off after consolidation
+        reach = 2.0 * (particle_radius or np.max(radius_distribution["radius"]))
+        volume = Box(box[0] - reach, box[1] + reach)
+        position, radius = pack_spheres(volume, radius=particle_radius,
+                                        radius_distribution=radius_distribution,
+                                        solids_fraction=solids_fraction, seed=seed)
+        position, reached = consolidate(position, radius, material, consolidation_stress,
+                                        max_steps=consolidation_steps, progress=progress)
+        position -= 0.5 * (position.min(axis=0) + position.max(axis=0))
+        notes.append(f"consolidated to {consolidation_stress:.4g} Pa"
+                     + ("" if reached else " (not reached within the step limit)"))
+        keep = _inside(shape, size, position, radius)
+        position, radius = position[keep], radius[keep]
+    if unbonded:    # an adhesive agglomerate: its contacts hold it
+        pairs, diameter = np.zeros((0, 2), dtype=np.int64), np.zeros(0)
+    else:
+        pairs, diameter = bonds_from_gap(position, radius, max_gap,
+                                         diameter_ratio=diameter_ratio,
+                                         max_per_particle=max_per_particle)
+    return position, radius, pairs, diameter, notes
+
+
 def make_specimen(shape, size, *, particle_radius=None, radius_distribution=None,
                   solids_fraction=0.55, seed=0, material, bond_material, max_gap=0.0,
                   diameter_ratio=0.5, max_per_particle=None, consolidation_stress=None,
@@ -248,34 +290,23 @@ def make_specimen(shape, size, *, particle_radius=None, radius_distribution=None
         raise ValueError(f"bond_material: required with contact_model = {contact_model!r} "
                          f"(without bonds only an adhesive model holds a body: "
                          f"{', '.join(ADHESIVE)})")
-    center = np.zeros(3)
-    notes = []
-    if consolidation_stress is None:
-        volume = _container(shape, size, center)
-        position, radius = pack_spheres(volume, radius=particle_radius,
-                                        radius_distribution=radius_distribution,
-                                        solids_fraction=solids_fraction, seed=seed)
-    else:
-        box = np.asarray(_container(shape, size, center).bounds())
-        # a margin of particles beyond the shape, carved off after consolidation
-        reach = 2.0 * (particle_radius or np.max(radius_distribution["radius"]))
-        volume = Box(box[0] - reach, box[1] + reach)
-        position, radius = pack_spheres(volume, radius=particle_radius,
-                                        radius_distribution=radius_distribution,
-                                        solids_fraction=solids_fraction, seed=seed)
-        position, reached = consolidate(position, radius, material, consolidation_stress,
-                                        max_steps=consolidation_steps, progress=progress)
-        position -= 0.5 * (position.min(axis=0) + position.max(axis=0))
-        notes.append(f"consolidated to {consolidation_stress:.4g} Pa"
-                     + ("" if reached else " (not reached within the step limit)"))
-        keep = _inside(shape, size, position, radius)
-        position, radius = position[keep], radius[keep]
-    if bond_material is None:    # an adhesive agglomerate: its contacts hold it
-        pairs, diameter = np.zeros((0, 2), dtype=np.int64), np.zeros(0)
-    else:
-        pairs, diameter = bonds_from_gap(position, radius, max_gap,
-                                         diameter_ratio=diameter_ratio,
-                                         max_per_particle=max_per_particle)
+    # the packing and its bonds' places do not depend on the bond material: a calibration
+    # that varies only the bonds packs each specimen once per process (GEOMETRIES)
+    key = pickle.dumps((shape, np.asarray(size, dtype=float).tolist(), particle_radius,
+                        radius_distribution, solids_fraction, seed, max_gap, diameter_ratio,
+                        max_per_particle, consolidation_stress, consolidation_steps,
+                        material if consolidation_stress is not None else None,
+                        bond_material is None))
+    if key not in _geometries:
+        _geometries[key] = _geometry(shape, size, particle_radius, radius_distribution,
+                                     solids_fraction, seed, material, bond_material is None,
+                                     max_gap, diameter_ratio, max_per_particle,
+                                     consolidation_stress, consolidation_steps, progress)
+        while len(_geometries) > GEOMETRIES:
+            _geometries.popitem(last=False)
+    _geometries.move_to_end(key)
+    position, radius, pairs, diameter, notes = (
+        np.copy(v) if isinstance(v, np.ndarray) else list(v) for v in _geometries[key])
     specimen = Specimen(position, radius, pairs, diameter, [material],
                         [] if bond_material is None else [bond_material],
                         shape=shape, contact_model=contact_model, notes=notes)
