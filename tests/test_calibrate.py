@@ -92,7 +92,12 @@ def whole(truth):
 def test_recovers_the_identifiable_parameters_and_says_which_is_not(whole):
     _, summary, stages = whole
     # the runs after the trials are announced (the progress bar is full by then)
-    assert stages == ["identifiability: 3 runs, each parameter moved by 5 % of its range"]
+    assert stages == ["identifiability: 3 runs, each parameter moved by 5 % of its range",
+                      "rate: the best set's 1 test(s) again at half the strain rate"]
+    # the lattice in tension is quasi-static at its rate: within the lab's 2 % and 0.5 %
+    change = summary["rate_change"]["tension"]
+    assert abs(change["strength"]) < 0.02 and abs(change["modulus"]) < 0.005
+    assert not [w for w in summary["warnings"] if "half the strain rate" in w]
     best = summary["best"]["parameters"]
     assert best["specimen.bond_material.young_modulus"] == pytest.approx(TRUE_MODULUS,
                                                                          rel=0.03)
@@ -134,7 +139,7 @@ def test_the_runs_after_the_trials_survive_a_kill(whole, truth, monkeypatch):
     path, summary, _ = whole
     out = truth[0] / "whole"
     kept = json.loads((out / "calibration_checks.json").read_text())
-    assert len(kept) == 3     # one run per parameter, one test
+    assert len(kept) == 4     # one run per parameter and the rate check, one test
     calls = []
     real = calibrate._safe
     monkeypatch.setattr(calibrate, "_safe", lambda *a: calls.append(a) or real(*a))
@@ -142,7 +147,8 @@ def test_the_runs_after_the_trials_survive_a_kill(whole, truth, monkeypatch):
     assert calls == [] and again["identifiability"] == summary["identifiability"]
     (out / "calibration_checks.json").unlink()
     again = run_calibration(path, out, resume=True)
-    assert len(calls) == 3 and again["identifiability"] == summary["identifiability"]
+    assert len(calls) == 4 and again["identifiability"] == summary["identifiability"]
+    assert again["rate_change"] == summary["rate_change"]
 
 
 def test_unreachable_targets_fail_with_a_message(truth):
@@ -280,7 +286,8 @@ def test_summary_reports_free_combinations_and_seed_scatter(tmp_path):
                               [Parameter("a", 0.1, 1.0), Parameter("b", 0.2, 2.0),
                                Parameter("c", 1.0, 10.0)],
                               [Target("young_modulus_secant", "ucs", 1e9, 0.05),
-                               Target("ucs", "ucs", 4e6, 0.1)], check_seeds=[1, 2])
+                               Target("ucs", "ucs", 4e6, 0.1)], check_seeds=[1, 2],
+                              rate_check=False)
     lab = _LinearLab()
     best = {"a": 0.3, "b": 0.7, "c": 4.0}
     rows = {0: {"trial": 0, **best, **lab.predict(best), "misfit": 0.0}}

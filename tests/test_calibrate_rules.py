@@ -91,7 +91,10 @@ drawn = []
 
 
 def _calibration(parameters, targets, **kwargs):
-    return Calibration(__file__, __file__, parameters, targets, **kwargs)
+    """A Calibration for the stand-in labs below, which have no rate check to run unless
+    asked (``rate_check``)."""
+    return Calibration(__file__, __file__, parameters, targets,
+                       **{"rate_check": False, **kwargs})
 
 
 # ---------------------------------------------------------------- definitions
@@ -392,11 +395,12 @@ def test_the_second_trial_is_the_scaling_rules_and_hits_the_truth(folder):
     assert math.isinf(verdict[T_KEY]["uncertainty_of_range"])
     assert verdict[E_KEY]["verdict"] == \
         "identified: the targets fix it to +-0.58 % of its range"
-    assert stages == ["identifiability: 3 runs, each parameter moved by 5 % of its range"]
+    assert stages == ["identifiability: 3 runs, each parameter moved by 5 % of its range",
+                      "rate: the best set's 1 test(s) again at half the strain rate"]
     written = json.loads((folder / "out" / "calibration.json").read_text())
     assert written["best"]["trial"] == 1
     assert written["identifiability"][T_KEY]["uncertainty_of_range"] is None
-    assert written["simulations"] == 5 + 3
+    assert written["simulations"] == 5 + 3 + 2     # the rate check: two runs of the test
 
 
 def test_each_test_gets_its_own_keys(folder):
@@ -411,7 +415,8 @@ def test_each_test_gets_its_own_keys(folder):
             + '[tests.tension]\n"test.strain_rate" = 0.02\n')
     (folder / "calib.toml").write_text(text)
     run_calibration(folder / "calib.toml", folder / "out")
-    assert len(calls) == 3 + 3 and all(test == "tension" for test, _ in calls)
+    # 3 trials, 3 moved parameters and the rate check
+    assert len(calls) == 3 + 3 + 1 and all(test == "tension" for test, _ in calls)
     assert all(o["test.strain_rate"] == 0.02 and E_KEY in o for _, o in calls)
     assert calls[0][1][E_KEY] == pytest.approx(2e8, rel=1e-14)
 
@@ -524,7 +529,7 @@ E_TABLE = f"parameters.{E_KEY}"
 BAD_FILES = [
     ("budget = 5", "budgets = 5", "budgets",
      "unknown key 'budgets'; did you mean 'budget'? allowed: spec, budget, batch, seed, "
-     "check_seeds, parameters, targets, tests"),
+     "check_seeds, rate_check, parameters, targets, tests"),
     ('spec = "lattice.toml"', "", "spec", "missing: the lab spec file (docs/lab.md)"),
     ('spec = "lattice.toml"', 'spec = "none.toml"', "spec", "value 'none.toml': no such file"),
     ("low = 2e7", "lo = 2e7", E_TABLE, "expected a table of low, high, log"),
@@ -641,7 +646,8 @@ def test_batches_after_the_two_first_trials(folder, monkeypatch):
     (folder / "calib.toml").write_text(FILE.replace("budget = 5", "budget = 8")
                                        .replace("batch = 2", "batch = 3"))
     run_calibration(folder / "calib.toml", folder / "out")
-    assert sizes == [1, 1, 3, 3, 3]               # and one run per parameter moved
+    # then one run per parameter moved, then the best set's rate check
+    assert sizes == [1, 1, 3, 3, 3, 1]
 
 
 def test_log_bounds_are_searched_on_a_log_scale(folder, monkeypatch):
@@ -784,7 +790,7 @@ def test_a_dask_client_runs_the_same_trials(folder):
     on_dask = run_calibration(folder / "calib.toml", folder / "dask", scheduler=client)
     assert on_dask["best"] == serial["best"]
     assert on_dask["identifiability"] == serial["identifiability"]
-    assert len(client.submitted) == 5 + 3
+    assert len(client.submitted) == 5 + 3 + 1
     function, args, kwargs = client.submitted[0]
     # each run with one Numba thread, on a worker whatever it imported first
     assert function is single_threaded and kwargs == {"pure": False}
@@ -819,7 +825,7 @@ def test_a_local_cluster_of_single_threaded_workers(folder, monkeypatch):
     assert cluster.kwargs == {"n_workers": 3, "threads_per_worker": 1, "processes": True,
                               "dashboard_address": None,
                               "env": {"NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}}
-    assert client.args == (cluster,) and len(client.submitted) == 8
+    assert client.args == (cluster,) and len(client.submitted) == 9
     assert cluster.closed and client.closed
     monkeypatch.setattr(os, "cpu_count", lambda: 5)
     run_calibration(folder / "calib.toml", folder / "out2", scheduler=None)
@@ -843,7 +849,7 @@ def test_a_scheduler_address_and_one_that_cannot_be_reached(folder, monkeypatch)
     monkeypatch.setattr(distributed, "Client", Client)
     run_calibration(folder / "calib.toml", folder / "out", scheduler="tcp://there:8786")
     assert clients[0].args == ("tcp://there:8786",) and clients[0].kwargs == {"timeout": "30s"}
-    assert len(clients[0].submitted) == 8 and clients[0].closed is False
+    assert len(clients[0].submitted) == 9 and clients[0].closed is False
     with pytest.raises(InputError) as error:
         run_calibration(folder / "calib.toml", folder / "out2", scheduler="tcp://nowhere:1")
     assert (error.value.key, error.value.reason) == (
@@ -1047,7 +1053,7 @@ def test_each_run_is_logged_with_its_time_and_steps(folder, monkeypatch):
     assert tuple(rows[0]) == calibrate.RUN_COLUMNS
     trials = [r for r in rows if int(r["trial"]) >= 0]
     assert [int(r["trial"]) for r in trials] == list(range(5))
-    assert len(rows) == 5 + 3                    # 5 trials, 3 identifiability runs
+    assert len(rows) == 5 + 3 + 1      # 5 trials, 3 identifiability runs, the rate check
     table = {int(float(r["trial"])): r for r in csv.DictReader(
         open(folder / "out" / "calibration.csv", newline=""))}
     steps = 0
@@ -1061,11 +1067,11 @@ def test_each_run_is_logged_with_its_time_and_steps(folder, monkeypatch):
             steps += expected
         assert float(row["run_seconds"]) >= 0.0
     time_ = summary["time"]
-    assert time_["trials"]["runs"] == 5 and time_["checks"]["runs"] == 3
+    assert time_["trials"]["runs"] == 5 and time_["checks"]["runs"] == 4
     assert time_["trials"]["steps"] == steps
     assert time_["runs"]["seconds"] == pytest.approx(
         sum(float(r["run_seconds"]) for r in rows), rel=1e-12)
-    assert time_["by_test"]["tension"]["runs"] == 8
+    assert time_["by_test"]["tension"]["runs"] == 9
     assert time_["wall_seconds"] >= time_["runs"]["seconds"]   # serial: one after another
 
 
@@ -1081,3 +1087,44 @@ def test_a_fresh_table_does_not_take_an_earlier_calibrations_kept_runs(folder):
     again = json.loads(json.dumps(calibrate._clean(
         run_calibration(folder / "calib.toml", folder / "out"))))
     assert again["identifiability"] == first["identifiability"]
+
+
+def test_the_best_set_is_run_again_at_half_the_strain_rate(folder, monkeypatch):
+    """The lab's numbers depend on the strain rate when it is not quasi-static: the best
+    set's tests run with rate_check = "repeat", and a strength or modulus that moves by
+    more than the lab's 2 % or 0.5 % is a warning with its number."""
+    asked = []
+
+    def lab(spec, test, overrides):
+        numbers = closed_form_lab(spec, test, overrides)
+        if overrides.get("test.rate_check") == "repeat":
+            asked.append(overrides)
+            numbers.update(rate_change_strength=-0.068, rate_change_modulus=0.004)
+        return numbers
+
+    monkeypatch.setattr(calibrate, "evaluate", lab)
+    summary = run_calibration(folder / "calib.toml", folder / "out")
+    best = summary["best"]["parameters"]
+    assert asked == [{**best, "test.rate_check": "repeat"}]
+    assert summary["rate_change"] == {"tension": {"strength": -0.068, "modulus": 0.004}}
+    assert summary["warnings"][1:] == [
+        "tension: at half the strain rate the best set's strength moved by -6.8 % (more "
+        "than 2 %): the targets are met at a rate that is not quasi-static for these "
+        'bonds; set "test.rate_rule" = "bonds" or a lower "test.strain_rate" for the tests '
+        "(docs/lab.md, Rate)"]
+    # kept for a resume, which does not run it again
+    calibrate.evaluate = None
+    again = run_calibration(folder / "calib.toml", folder / "out", resume=True)
+    assert again["rate_change"] == summary["rate_change"]
+    assert again["warnings"] == summary["warnings"]
+    # off: not run
+    (folder / "calib2.toml").write_text("rate_check = false\n" + FILE)
+    monkeypatch.setattr(calibrate, "evaluate", lab)
+    asked.clear()
+    summary = run_calibration(folder / "calib2.toml", folder / "out2")
+    assert asked == [] and summary["rate_change"] == {} and len(summary["warnings"]) == 1
+    assert summary["simulations"] == 5 + 3
+    (folder / "calib3.toml").write_text("rate_check = 1\n" + FILE)
+    with pytest.raises(InputError) as error:
+        load_calibration(folder / "calib3.toml")
+    assert "rate_check" in str(error.value) and "true or false" in str(error.value)

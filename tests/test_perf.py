@@ -276,6 +276,31 @@ def test_bench_impact_and_bed_scenes(tmp_path, scene):
     assert bad.exit_code == 2 and "[100, 10000000]" in bad.output
 
 
+def test_the_adhesive_beds_are_the_bed_with_a_cohesive_law(tmp_path):
+    """bed_jkr, bed_vdw and bed_liquid: the bed's spheres with JKR, van der Waals and
+    liquid-bridge contacts (their parameters on the material); the cost per row that
+    carried a load is the step's time over those rows."""
+    from bondem import bench
+    out = tmp_path / "bench.json"
+    result = CliRunner().invoke(main, ["bench", "bed_liquid", "--sizes", "400", "--steps",
+                                       "10", "--json", str(out)])
+    assert result.exit_code == 0, result.output
+    row = json.loads(out.read_text())["results"][0]
+    assert row["contact_model"] == "liquid_bridge" and row["touching_pairs"] > 0
+    assert row["s_per_loaded_row"] == pytest.approx(
+        row["s_per_step"] / (row["touching_pairs"] + row["touching_walls"]), rel=1e-12)
+    assert "ns per step per row that carried a load (liquid_bridge)" in result.output
+    plain = bench.bed_system(400)[0]
+    for scene, (law, keys) in bench.ADHESIVE_BEDS.items():
+        model, state, walls = bench.bed_system(400, **keys)
+        np.testing.assert_array_equal(state.position, bench.bed_system(400)[1].position)
+        assert model.materials[0].young_modulus == plain.materials[0].young_modulus
+        for key, value in keys.items():
+            assert getattr(model.materials[0], key) == value
+        sim, options = bench.scene_simulation(model, state, walls, contact=law)
+        assert options["contact"].model == law
+
+
 def test_profile_times_the_same_work_as_a_step():
     """The profile's parts (lists, contacts, walls, integration timed one at a time) must
     add up to the step it times: a bed profiled for 12 steps ends where 13 steps of

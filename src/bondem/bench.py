@@ -422,7 +422,18 @@ GRAIN_RADIUS = 2.5e-4     # m
 SOLIDS = 0.6              # solids fraction of the impact's agglomerate
 BED_SOLIDS = 0.57         # the bed's: a box's walls jam a packing below 0.6
 IMPACT_SPEED = 5.0        # m/s
-SCENES = ("impact", "bed")
+# the adhesive beds: the bed's spheres with a cohesive contact law, each reaching beyond
+# contact (JKR's neck, van der Waals' cut-off, the bridge's rupture distance): how much a
+# touching row of each law costs against Hertz-Mindlin's (docs/performance.md)
+ADHESIVE_BEDS = {
+    "bed_jkr": ("jkr", {"surface_energy": 0.05}),                       # J/m^2
+    "bed_vdw": ("vdw", {"hamaker_constant": 6.5e-20}),                  # J (glass)
+    "bed_liquid": ("liquid_bridge", {"surface_tension": 0.072,          # N/m (water)
+                                     "contact_angle": 20.0,             # degrees
+                                     "bridge_volume": 6.5e-14,          # m^3: 0.1 % of a sphere
+                                     "viscosity": 1e-3}),               # Pa s
+}
+SCENES = ("impact", "bed", *ADHESIVE_BEDS)
 
 
 def _pack(container, fraction, seed):
@@ -451,9 +462,9 @@ def _on_plane(position, radii, material, **system):
     return model, state, [PlaneWall((0.0, 0.0, 0.0), (0.0, 0.0, 1.0), material)]
 
 
-def _grain_material():
+def _grain_material(**keys):
     return Material(density=2500.0, young_modulus=1e8, poisson_ratio=0.3, restitution=0.5,
-                    friction=0.3, name="glass")
+                    friction=0.3, name="glass", **keys)
 
 
 def impact_system(particles, seed=1):
@@ -477,42 +488,47 @@ def impact_system(particles, seed=1):
                      bond_diameter=diameter, bond_material=binder)
 
 
-def bed_system(particles, seed=1):
+def bed_system(particles, seed=1, **material):
     """The bench "bed" scene: a dense random bed of about ``particles`` unbonded spheres
     (radius 0.25 mm, solids fraction 0.57) in a square box twice as wide as it is high, at
-    rest on the plane z = 0 under gravity: contacts only, all of them live. Returns
-    (model, state, walls)."""
+    rest on the plane z = 0 under gravity: contacts only, all of them live. ``material``:
+    the spheres' contact-model parameters (the adhesive beds'). Returns (model, state,
+    walls)."""
     from .generate import Box
     height = (particles * 4.0 / 3.0 * math.pi * GRAIN_RADIUS ** 3 / BED_SOLIDS / 4.0) ** (1 / 3)
     position, radii = _pack(Box((0.0, 0.0, 0.0), (2 * height, 2 * height, height)),
                             BED_SOLIDS, seed)
-    return _on_plane(position, radii, _grain_material())
+    return _on_plane(position, radii, _grain_material(**material))
 
 
-def scene_simulation(model, state, walls, backend="cpu"):
-    """Simulation of an impact/bed scene with Hertz-Mindlin contacts and its walls, at
-    the stable step (safety factor 0.2); returns (sim, its keyword arguments)."""
+def scene_simulation(model, state, walls, backend="cpu", contact="hertz_mindlin"):
+    """Simulation of a bench scene with ``contact`` (a contact model's name) and its
+    walls, at the stable step (safety factor 0.2); returns (sim, its keyword
+    arguments)."""
     from .contacts import ContactSettings
     from .simulation import Simulation
-    options = dict(contact=ContactSettings("hertz_mindlin"), walls=walls)
+    options = dict(contact=ContactSettings(contact), walls=walls)
     sim = Simulation(model, state, backend=backend, **options)
     options["time_step"] = sim.time_step
     return sim, options
 
 
 def scene_run(scene, particles, steps, *, backend="cpu", warmup=5, profile=False):
-    """Time the "impact" or "bed" scene of about ``particles`` spheres for ``steps`` steps
-    after ``warmup`` steps; returns a dict of figures (as ``lattice_run``) with the
-    system and options under "_system" for a peer run from the same state."""
+    """Time the "impact", "bed" or an adhesive bed scene (ADHESIVE_BEDS) of about
+    ``particles`` spheres for ``steps`` steps after ``warmup`` steps; returns a dict of
+    figures (as ``lattice_run``) with the system and options under "_system" for a peer
+    run from the same state."""
     if scene not in SCENES:
         raise ValueError(f"scene = {scene!r}; allowed: {', '.join(SCENES)}")
     t0 = time.perf_counter()
-    model, state, walls = (impact_system if scene == "impact" else bed_system)(particles)
+    contact, material = ADHESIVE_BEDS.get(scene, ("hertz_mindlin", {}))
+    model, state, walls = (impact_system(particles) if scene == "impact" else
+                           bed_system(particles, **material))
     initial = state.copy()
-    sim, options = scene_simulation(model, state, walls, backend)
+    sim, options = scene_simulation(model, state, walls, backend, contact)
     figures, (active0, active1), sim = timed_figures(
         sim, steps, warmup, time.perf_counter() - t0,
-        lambda: scene_simulation(model, initial.copy(), walls, backend)[0])
+        lambda: scene_simulation(model, initial.copy(), walls, backend, contact)[0])
     touching = sim.contacts.touching() if sim.contacts is not None else (0, 0)
     return {
         "scene": scene, "n": model.n_particles, "backend": backend, **figures,
@@ -520,6 +536,10 @@ def scene_run(scene, particles, steps, *, backend="cpu", warmup=5, profile=False
         "notes": [f"contacts touching at the end (pairs, walls): {touching}; bonds broken "
                   f"in the timed steps: {active0 - active1}"] + _retimed_notes(figures),
         "touching_pairs": touching[0], "touching_walls": touching[1],
+        # s per step per row that carried a load (the adhesive laws' rows beyond contact
+        # included): a contact law's cost per row, to set beside Hertz-Mindlin's bed
+        "s_per_loaded_row": figures["s_per_step"] / max(1, touching[0] + touching[1]),
+        "contact_model": contact,
         **_profiles(sim, profile, backend), "_system": (model, initial, options),
     }
 

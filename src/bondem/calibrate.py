@@ -86,6 +86,7 @@ class Calibration:
     check_seeds: list = field(default_factory=list)
     text: str = ""
     test_overrides: dict = field(default_factory=dict)   # {test: {spec key: value}}
+    rate_check: bool = True   # the best set's tests again at half the strain rate
 
     @property
     def tests(self):
@@ -104,8 +105,8 @@ class Calibration:
 
 PARAMETER_KEYS = ("low", "high", "log")
 TARGET_KEYS = ("test", "value", "tolerance")
-TOP_KEYS = ("spec", "budget", "batch", "seed", "check_seeds", "parameters", "targets",
-            "tests")
+TOP_KEYS = ("spec", "budget", "batch", "seed", "check_seeds", "rate_check", "parameters",
+            "targets", "tests")
 
 
 def _number(table, key, where, path, positive=True):
@@ -181,6 +182,10 @@ def load_calibration(path) -> Calibration:
     if not (isinstance(seeds, list) and all(isinstance(s, int) and s >= 0 for s in seeds)):
         raise InputError(f"value {seeds!r}: expected a list of integers >= 0", file=path,
                              key="check_seeds")
+    rate_check = data.get("rate_check", True)
+    if not isinstance(rate_check, bool):
+        raise InputError(f"value {rate_check!r}: expected true or false", file=path,
+                         key="rate_check")
     tests = data.get("tests", {})
     if not isinstance(tests, dict) or any(k not in TESTS or not isinstance(v, dict)
                                           for k, v in tests.items()):
@@ -188,7 +193,7 @@ def load_calibration(path) -> Calibration:
                          "keys and values, e.g. [tests.brazilian] with "
                          '"specimen.shape" = "disc"', file=path, key="tests")
     calibration = Calibration(path, spec, parameters, targets, budget, batch, seed, seeds,
-                              text, tests)
+                              text, tests, rate_check)
     # the spec must load with every parameter at its middle: the keys exist and are valid
     from .lab.spec import load_spec
     for test in calibration.tests:
@@ -330,6 +335,7 @@ class _Evaluator:
         self.calibration = calibration
         self.client = self.cluster = None
         self.errors = {}    # trial: the first failure's message
+        self.numbers = {}   # the last run()'s {(trial, test): numbers}
         # keep(path): from then on each finished run's numbers are kept in that JSON file,
         # and a run already there is not run again (the runs after the trials, which the
         # table does not hold, survive a kill)
@@ -380,7 +386,8 @@ class _Evaluator:
         if self.kept_path is None or "error" in numbers:
             return
         names = {t.name for t in self.calibration.targets}
-        self.kept[key] = {k: v for k, v in numbers.items() if k in names or k == "no_failure"}
+        self.kept[key] = {k: v for k, v in numbers.items()
+                          if k in names or k == "no_failure" or k.startswith("rate_change_")}
         partial = self.kept_path.with_suffix(".tmp")
         partial.write_text(json.dumps(_clean(self.kept)))
         partial.replace(self.kept_path)
@@ -407,6 +414,7 @@ class _Evaluator:
                 done[item] = future.result()
                 self._kept(keys[item], done[item])
                 self._logged(*item, done[item])
+        self.numbers = done
         out = {}
         for trial in jobs:
             predictions = {}
@@ -428,9 +436,10 @@ class _Evaluator:
             self.cluster.close()
 
 
-# calibration_runs.csv: trial (negative: the identifiability and seed runs), test, the
-# run's wall seconds on its worker (the specimen's packing included), its steps,
-# particles and time step (s), and how it ended (ok, no failure, error)
+# calibration_runs.csv: trial (negative: the identifiability and seed runs, and
+# RATE_TRIAL), test, the run's wall seconds on its worker (the specimen's packing
+# included; the rate check's: both of its runs), its steps (the rate check's: of its run
+# at the rate), particles and time step (s), and how it ended (ok, no failure, error)
 RUN_COLUMNS = ("trial", "test", "run_seconds", "steps", "n_particles", "time_step", "end")
 
 
@@ -609,9 +618,13 @@ def linearised_uncertainty(jacobian, null=1e-12):
     return np.sqrt(variance)
 
 
+RATE_TRIAL = -200   # the rate check's trial number in calibration_runs.csv
+
+
 def summarise(calibration, rows, evaluator, stage=None):
     """Best set, consistent sets, identifiability (spread and linearised uncertainty) and
-    the best set's predictions over the check seeds; stage(text) is told each phase."""
+    the best set's predictions over the check seeds and, with ``rate_check``, how far its
+    strengths and moduli move at half the strain rate; stage(text) is told each phase."""
     stage = stage or (lambda text: None)
     names = [t.name for t in calibration.targets]
     order = sorted(rows.values(), key=lambda r: r["misfit"])
@@ -683,6 +696,25 @@ def summarise(calibration, rows, evaluator, stage=None):
                         "specimens is larger than the tolerance (a larger specimen, or a "
                         "wider tolerance)" if math.isfinite(value) else
                         f"{t.name} on specimen seed {seed}: the run failed")
+    rate = {}
+    if calibration.rate_check:
+        from .lab.procedures import RATE_MODULUS_TOLERANCE, RATE_STRENGTH_TOLERANCE
+        stage(f"rate: the best set's {tests} test(s) again at half the strain rate")
+        evaluator.run({RATE_TRIAL: {**params, "test.rate_check": "repeat"}})
+        for test in calibration.tests:
+            numbers = evaluator.numbers[(RATE_TRIAL, test)]
+            rate[test] = {name: numbers.get(f"rate_change_{name}", math.nan)
+                          for name in ("strength", "modulus")}
+            for name, limit in (("strength", RATE_STRENGTH_TOLERANCE),
+                                ("modulus", RATE_MODULUS_TOLERANCE)):
+                change = rate[test][name]
+                if math.isfinite(change) and abs(change) > limit:
+                    warnings.append(
+                        f"{test}: at half the strain rate the best set's {name} moved by "
+                        f"{100 * change:+.3g} % (more than {100 * limit:g} %): the targets "
+                        "are met at a rate that is not quasi-static for these bonds; set "
+                        '"test.rate_rule" = "bonds" or a lower "test.strain_rate" for the '
+                        "tests (docs/lab.md, Rate)")
     return {"best": {"trial": int(best["trial"]), "parameters": params,
                      "predictions": base, "misfit": best["misfit"]},
             "targets": {t.name: {"test": t.test, "value": t.value,
@@ -692,7 +724,10 @@ def summarise(calibration, rows, evaluator, stage=None):
                             "predictions": {n: r[n] for n in names}} for r in good],
             "identifiability": identifiability,
             "information_eigenvalues": eigen.tolist(),
-            "seed_scatter": seeds, "trials": len(rows), "warnings": warnings,
+            "seed_scatter": seeds, "rate_change": rate, "trials": len(rows),
+            "warnings": warnings,
             "failed": {int(k): v for k, v in evaluator.errors.items() if k >= 0},
+            # the rate check runs each test twice (at the rate and at half of it)
             "simulations": (len(rows) + len(calibration.parameters)
-                            + len(calibration.check_seeds)) * len(calibration.tests)}
+                            + len(calibration.check_seeds)
+                            + 2 * calibration.rate_check) * len(calibration.tests)}

@@ -36,7 +36,8 @@ def _ranks(text):
 
 
 @click.command(name="bench")
-@click.argument("scene", type=click.Choice(["lattice", "impact", "bed"]), default="lattice")
+@click.argument("scene", type=click.Choice(["lattice", "impact", "bed", "bed_jkr", "bed_vdw",
+                                            "bed_liquid"]), default="lattice")
 @click.option("--sizes", default=None,
               help="Lattice sizes n (n^3 particles), e.g. 22,47,74 [default 22]; for impact "
                    "and bed the particle counts, e.g. 1e4,1e5 [default 1e4].")
@@ -69,7 +70,9 @@ def command(scene, sizes, steps, variant, backend, order, json_path, peer, peer_
             ranks, warmup, profile, triad):
     """Time SCENE (the bench scenes of docs/performance.md) and print a table: lattice (a
     bonded cubic lattice), impact (a dense random bonded agglomerate hitting a plane,
-    contacts live, bonds breaking) or bed (an unbonded bed resting on a plane)."""
+    contacts live, bonds breaking), bed (an unbonded bed resting on a plane) or the same bed
+    with adhesive contacts: bed_jkr, bed_vdw, bed_liquid (JKR, van der Waals, liquid
+    bridges)."""
     from .. import bench
 
     results = []
@@ -195,6 +198,8 @@ def _scenes(bench, scene, sizes, steps, backend, peer, ranks, profile, results, 
         results.append(result)
         for note in result["notes"]:
             click.echo(f"{scene} {n}: {note}")
+        click.echo(f"{scene} {n}: {result['s_per_loaded_row'] * 1e9:.1f} ns per step per "
+                   f"row that carried a load ({result['contact_model']})")
         if peer == "lammps":
             _lammps_peers(results, result, f"{scene} {n:,} particles", ranks,
                           lambda count: bench.lammps_scene_run(result, count))
