@@ -49,17 +49,21 @@ SURFACE_ENERGY = PAIR_MODEL
 
 
 @physics
-def jkr_contact_radius(overlap, r_star, e_star, w):
-    """Contact radius a (m) on JKR's stable branch at overlap (m) for R* (m), E* (Pa) and
-    work of adhesion w (J/m^2); overlap >= -delta_c (else the value at the tip)."""
-    k = math.sqrt(2.0 * math.pi * w / e_star)
-    # an upper bound of the root: s^3 >= 2 R k makes k s <= s^4 / (2 R)
-    s = (2.0 * r_star * k) ** (1.0 / 3.0)
-    bound = math.sqrt(math.sqrt(2.0 * r_star * abs(overlap)))
-    if bound > s:
-        s = bound
+def jkr_root(overlap, r_star, k):
+    """(s, s_c): s = sqrt(a), a the contact radius (m) on JKR's stable branch at overlap
+    (m) for R* (m) and k = sqrt(2 pi w / E*) (m^1/2), that is the largest root of
+    s^4 / R* - k s = overlap (overlap >= -delta_c; else the value at the tip); s_c =
+    sqrt(a_c) = (k R* / 4)^(1/3), the root at pull-off."""
+    s_c = (0.25 * r_star * k) ** (1.0 / 3.0)
+    # an upper bound of the root: s^3 >= 2 R k (s = 2 s_c) makes k s <= s^4 / (2 R)
+    # and (2 R* |overlap|)^(1/4) where that is larger (compared as fourth powers: the two
+    # roots are taken only then)
+    s = 2.0 * s_c
+    bound = 2.0 * r_star * abs(overlap)
+    if bound > s * s * s * s:
+        s = math.sqrt(math.sqrt(bound))
     if s == 0.0:
-        return 0.0
+        return 0.0, s_c
     for _ in range(100):
         slope = 4.0 * s * s * s / r_star - k
         if not slope > 0.0:
@@ -69,29 +73,51 @@ def jkr_contact_radius(overlap, r_star, e_star, w):
         if not new < s:
             break
         s = new
+    return s, s_c
+
+
+@physics
+def jkr_contact_radius(overlap, r_star, e_star, w):
+    """Contact radius a (m) on JKR's stable branch at overlap (m) for R* (m), E* (Pa) and
+    work of adhesion w (J/m^2); overlap >= -delta_c (else the value at the tip)."""
+    s, _ = jkr_root(overlap, r_star, math.sqrt(2.0 * math.pi * w / e_star))
     return s * s
+
+
+# The force and the potential in s = sqrt(a) and k: sqrt(8 pi w E* a^3) = 2 E* k s^3, and
+# with a_c^(3/2) = k R* / 4 the potential at pull-off is E* k^2 a_c^2 / 5; so no powers
+# beyond products (the law's cost per contact, docs/performance.md)
+@physics
+def jkr_force_of_root(s, r_star, e_star, k):
+    """JKR's elastic normal force (N, repulsive > 0) at s = sqrt(a) (m^1/2)."""
+    s3 = s * s * s
+    return e_star * s3 * (4.0 * s3 / (3.0 * r_star) - 2.0 * k)
+
+
+@physics
+def jkr_potential_of_root(s, s_c, r_star, e_star, k):
+    """JKR's elastic energy (J) at s = sqrt(a), zero at pull-off (s_c = sqrt(a_c))."""
+    a = s * s
+    s3 = a * s
+    at_a = (8.0 * a * a * a * a * a / (15.0 * r_star * r_star)
+            - 4.0 / 3.0 * k * s3 * s3 * s / r_star + 0.5 * k * k * a * a)
+    a_c = s_c * s_c
+    return e_star * (at_a - 0.2 * k * k * a_c * a_c)
 
 
 @physics
 def jkr_force(a, r_star, e_star, w):
     """JKR's elastic normal force (N, repulsive > 0) at contact radius a (m)."""
-    return 4.0 * e_star * a * a * a / (3.0 * r_star) - math.sqrt(8.0 * math.pi * w * e_star
-                                                                * a * a * a)
-
-
-@physics
-def jkr_integral(a, r_star, e_star, k):
-    """The integral of F d(delta) up to contact radius a (m), to a constant (J)."""
-    return (8.0 * e_star * a ** 5 / (15.0 * r_star * r_star)
-            - 4.0 / 3.0 * e_star * k * a ** 3.5 / r_star + 0.5 * e_star * k * k * a * a)
+    return jkr_force_of_root(math.sqrt(a), r_star, e_star,
+                             math.sqrt(2.0 * math.pi * w / e_star))
 
 
 @physics
 def jkr_potential(a, r_star, e_star, w):
     """JKR's elastic energy (J) at contact radius a (m), zero at the pull-off point."""
     k = math.sqrt(2.0 * math.pi * w / e_star)
-    a_c = (math.pi * w * r_star * r_star / (8.0 * e_star)) ** (1.0 / 3.0)
-    return jkr_integral(a, r_star, e_star, k) - jkr_integral(a_c, r_star, e_star, k)
+    return jkr_potential_of_root(math.sqrt(a), (0.25 * r_star * k) ** (1.0 / 3.0), r_star,
+                                 e_star, k)
 
 
 @physics
@@ -113,16 +139,19 @@ def jkr_law(n, overlap, v_rel, w_rel, spring, pair, q, r_star, m_star, i_star, d
     w = pair[q, SURFACE_ENERGY]
     v_n = dot(v_rel, n)
     v_t = sub(v_rel, scale(n, v_n))
-    a = jkr_contact_radius(overlap, r_star, e_star, w)
+    k = math.sqrt(2.0 * math.pi * w / e_star)
+    root, root_c = jkr_root(overlap, r_star, k)
+    a = root * root
     s_n = 2.0 * e_star * a
     s_t = 8.0 * g_star * a
     c_n = -2.0 * SQRT_5_6 * beta * math.sqrt(s_n * m_star)
     c_t = -2.0 * SQRT_5_6 * beta * math.sqrt(s_t * m_star)
-    f_n = jkr_force(a, r_star, e_star, w) - c_n * v_n
+    f_n = jkr_force_of_root(root, r_star, e_star, k) - c_n * v_n
     # the limits of an adhesive contact: its load plus twice the pull-off force
     load = f_n + 3.0 * math.pi * w * r_star
     f_t, torque, xi = friction_and_rolling(n, v_t, w_rel, spring, load, s_t, c_t,
                                            pair[q, PAIR_FRICTION], pair[q, PAIR_ROLLING],
                                            r_star, i_star, dt)
-    energy = jkr_potential(a, r_star, e_star, w) + 0.5 * s_t * dot(xi, xi)
+    energy = (jkr_potential_of_root(root, root_c, r_star, e_star, k)
+              + 0.5 * s_t * dot(xi, xi))
     return add(scale(n, -f_n), f_t), torque, f_t, xi, energy
