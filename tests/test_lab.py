@@ -273,6 +273,19 @@ def test_brazilian_strength_is_2f_over_pi_d_t():
         rel=1e-12)
 
 
+def test_a_disc_is_called_crushed_above_half_of_its_cracks_at_the_ends():
+    """A split starts at the centre: a disc with more than half of its cracks up to the
+    peak near a loaded end crushed there first (END_CRACKS); at most half, or no cracks,
+    is no warning."""
+    from bondem.lab.procedures import END_CRACKS, crushed_note
+    assert END_CRACKS == 0.5
+    assert crushed_note(0.62).startswith("62 % of the cracks up to the peak lie within "
+                                         "0.4 R of a loaded end: the disc crushed")
+    assert crushed_note(0.51) is not None
+    assert crushed_note(0.5) is None and crushed_note(0.38) is None
+    assert crushed_note(math.nan) is None
+
+
 def test_the_end_crack_fraction_counts_cracks_up_to_the_peak_beyond_0_6_r():
     """A disc of D = 10 mm whose particles span z = 2-12 mm (centre 7 mm, their mean
     5.67 mm): cracks farther than 0.6 R = 3 mm from the centre along z lie at a loaded

@@ -1155,16 +1155,25 @@ def brazilian(specimen, settings=None, *, out_dir=None, scene_text=""):
     ends = end_crack_fraction(result.cracks, float(curve["time"][k]), specimen.position,
                               diameter, axis)
     result.numbers["end_crack_fraction"] = ends
-    if ends > END_CRACKS:
-        crushed = (f"{100 * ends:.0f} % of the cracks up to the peak lie within 0.4 R of a "
-                   f"loaded end: the disc crushed under its loads before it split, so its "
-                   f"tensile strength is not a Brazilian one (a finer or larger disc)")
+    crushed = crushed_note(ends)
+    if crushed is not None:
         warnings.warn(f"brazilian: {crushed}", stacklevel=3)
         result.notes.insert(-1, f"warning: {crushed}")
     return _honest(result)
 
 
 END_CRACKS = 0.5   # a Brazilian disc with more of its cracks at the loaded ends: crushed
+
+
+def crushed_note(ends):
+    """The warning for a Brazilian disc with the fraction ``ends`` of its cracks up to the
+    peak near a loaded end (``end_crack_fraction``), or None at most END_CRACKS (or NaN:
+    no cracks)."""
+    if not ends > END_CRACKS:
+        return None
+    return (f"{100 * ends:.0f} % of the cracks up to the peak lie within 0.4 R of a loaded "
+            f"end: the disc crushed under its loads before it split, so its tensile "
+            f"strength is not a Brazilian one (a finer or larger disc)")
 
 
 def end_crack_fraction(cracks, peak_time, position, diameter, axis=2):
