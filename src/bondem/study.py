@@ -305,19 +305,15 @@ def run_case(study: Study, case: dict, out_dir) -> dict:
 
     The case's folder is out_dir/cases/<id>. The runner's result must contain every
     quantity of the study (extra entries are dropped); numbers are stored as floats."""
-    import numba
+    from .parallel import single_threaded
 
     runner = resolve_runner(study)
     case_dir = Path(out_dir) / "cases" / case["case"]
     case_dir.mkdir(parents=True, exist_ok=True)
-    threads = numba.get_num_threads()
-    numba.set_num_threads(1)  # cores are used by cases, not threads
-    try:
-        start = time.perf_counter()
-        result = runner(dict(case["params"]), case_dir, case["seed"])
-        wall = time.perf_counter() - start
-    finally:
-        numba.set_num_threads(threads)  # the caller's setting, when run in its process
+    start = time.perf_counter()
+    # cores are used by cases, not threads (the caller's setting is restored after)
+    result = single_threaded(runner, dict(case["params"]), case_dir, case["seed"])
+    wall = time.perf_counter() - start
     missing = [q for q in study.quantities if q not in result]
     if missing:
         raise KeyError(f"runner {study.runner or 'scene'} returned no {missing} for case "

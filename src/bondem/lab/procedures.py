@@ -34,6 +34,7 @@ from .specimen import box_widths
 TESTS = ("ucs", "triaxial", "brazilian", "tension", "agglomerate")
 STRESS_PATHS = ("constant_sigma3", "constant_mean")
 RATE_RULES = ("wave", "bonds")
+RATE_CHECKS = ("warn", "repeat", "off")
 AE_RADIUS_DEFAULT = 2.0   # mean particle diameters: an AE event's source (Hazzard & Young)
 
 
@@ -122,8 +123,9 @@ class LabSettings:
         if self.rate_rule not in RATE_RULES:
             raise ValueError(f"rate_rule = {self.rate_rule!r}; allowed: "
                              f"{', '.join(RATE_RULES)}")
-        if self.rate_check not in ("warn", "repeat", "off"):
-            raise ValueError(f"rate_check = {self.rate_check!r}; allowed: warn, repeat, off")
+        if self.rate_check not in RATE_CHECKS:
+            raise ValueError(f"rate_check = {self.rate_check!r}; allowed: "
+                             f"{', '.join(RATE_CHECKS)}")
         if self.stress_path not in STRESS_PATHS:
             raise ValueError(f"stress_path = {self.stress_path!r}; allowed: "
                              f"{', '.join(STRESS_PATHS)}")

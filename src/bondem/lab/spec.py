@@ -27,7 +27,7 @@ from pathlib import Path
 from ..errors import InputError, unknown_key
 from ..model import BondMaterial, Material
 from ..physics import contact_models
-from .procedures import RATE_RULES, STRESS_PATHS, LabSettings
+from .procedures import RATE_CHECKS, RATE_RULES, STRESS_PATHS, LabSettings
 from .specimen import ADHESIVE, lattice_specimen, make_specimen, specimen_from_scene
 
 INF = float("inf")
@@ -58,7 +58,7 @@ TEST_KEYS = {
     "largest_fragment": ("number", 0.9, 0.0, 1.0, False, True),
     "ae_radius": ("number", 2.0, 0.0, INF, False, False),
     "jaws": ("number", 1.5, 0.0, INF, True, False),
-    "rate_check": ("str", "warn", ("warn", "repeat", "off"), None, None, None),
+    "rate_check": ("str", "warn", RATE_CHECKS, None, None, None),
     "flattened": ("number", 0.0, 0.0, 90.0, True, False),
     "stress_path": ("str", "constant_sigma3", STRESS_PATHS, None, None, None),
     "unload_at": ("any", [], None, None, None, None),

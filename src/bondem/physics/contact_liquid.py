@@ -71,34 +71,19 @@ def bridge_rupture_distance(pair, q, r_star):
     return (1.0 + 0.5 * (pair[q, ANGLE] * math.pi / 180.0)) * volume ** (1.0 / 3.0)
 
 
-@physics
-def capillary_force(gap, r_star, tension, angle, volume):
-    """Rabinovich's capillary attraction (N, > 0) across a gap (m; contact: gap <= 0)."""
-    return capillary_of(gap, 2.0 * math.pi * r_star * tension * math.cos(
-        angle * math.pi / 180.0), 2.0 * volume / (math.pi * r_star))
-
-
-@physics
-def capillary_potential(gap, r_star, tension, angle, volume, rupture):
-    """The bridge's potential (J, <= 0) at a gap (m), zero at the rupture distance."""
-    f_0 = 2.0 * math.pi * r_star * tension * math.cos(angle * math.pi / 180.0)
-    c = 2.0 * volume / (math.pi * r_star)
-    return capillary_potential_of(gap, f_0, c, rupture)
-
-
-# The force and the potential from f_0 = 2 pi R* gamma cos(theta) (N) and c = 2 V / (pi
+# The force and the potential take f_0 = 2 pi R* gamma cos(theta) (N) and c = 2 V / (pi
 # R*) (m^2), which the law computes once per contact for both
 @physics
-def capillary_of(gap, f_0, c):
-    """Rabinovich's attraction (N) across a gap (m), as ``capillary_force``."""
+def capillary_force(gap, f_0, c):
+    """Rabinovich's capillary attraction (N, > 0) across a gap (m; contact: gap <= 0)."""
     if gap <= 0.0:
         return f_0
     return f_0 * (1.0 - gap / math.sqrt(gap * gap + c))
 
 
 @physics
-def capillary_potential_of(gap, f_0, c, rupture):
-    """The bridge's potential (J), as ``capillary_potential``."""
+def capillary_potential(gap, f_0, c, rupture):
+    """The bridge's potential (J, <= 0) at a gap (m), zero at the rupture distance (m)."""
     at_rupture = rupture - math.sqrt(rupture * rupture + c)
     if gap <= 0.0:
         return f_0 * (-math.sqrt(c) - at_rupture + gap)
@@ -119,8 +104,8 @@ def liquid_bridge_law(n, overlap, v_rel, w_rel, spring, pair, q, r_star, m_star,
     if volume > 0.0:
         f_0 = 2.0 * math.pi * r_star * tension * math.cos(angle * math.pi / 180.0)
         c = 2.0 * volume / (math.pi * r_star)
-        pull = capillary_of(gap, f_0, c)
-        energy = capillary_potential_of(gap, f_0, c, bridge_rupture_distance(pair, q, r_star))
+        pull = capillary_force(gap, f_0, c)
+        energy = capillary_potential(gap, f_0, c, bridge_rupture_distance(pair, q, r_star))
     film = gap if gap > pair[q, MIN_GAP] else pair[q, MIN_GAP]
     v_n = dot(v_rel, n)
     v_t = sub(v_rel, scale(n, v_n))
