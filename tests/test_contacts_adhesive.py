@@ -14,7 +14,7 @@ import pytest
 
 import bondem
 from bondem.contacts import ContactSettings
-from bondem.physics import contact_jkr
+from bondem.physics import contact_jkr, contact_liquid
 from bondem.walls import PlaneWall
 
 E, NU = 1e8, 0.28
@@ -412,3 +412,17 @@ def test_jkr_contact_at_zero_load_resists_sliding_with_its_pull_off_force():
     tangential = np.linalg.norm(force + normal * n)
     assert abs(normal) < 0.01 * 1.5 * math.pi * w * r_star      # about zero load
     assert tangential == approx(0.35 * (normal + 3 * math.pi * w * r_star), rel=1e-9)
+
+
+def test_the_bridge_potential_is_the_integral_of_its_force_and_zero_at_rupture():
+    """U(gap) = -(integral of the attraction from gap to the rupture distance): zero at
+    rupture, and dU/dgap the attraction (Rabinovich's, f_0 at contact)."""
+    f_0, c = 2.3e-5, 4.1e-12            # N, m^2 (a bridge of 2 V / (pi R*))
+    rupture = 3.0e-6                    # m
+    assert contact_liquid.capillary_potential(rupture, f_0, c, rupture) == 0.0
+    h = 1e-10
+    for gap in (-2e-7, 0.4e-6, 1.7e-6, 2.9e-6):
+        slope = (contact_liquid.capillary_potential(gap + h, f_0, c, rupture)
+                 - contact_liquid.capillary_potential(gap - h, f_0, c, rupture)) / (2 * h)
+        assert slope == approx(contact_liquid.capillary_force(gap, f_0, c), rel=1e-5)
+    assert contact_liquid.capillary_force(-1e-7, f_0, c) == f_0
