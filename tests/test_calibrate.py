@@ -33,6 +33,8 @@ young_modulus = 1e8
 young_modulus = 1e8
 normal_strength = 1e6
 tangential_strength = 1e6
+[test]
+rate_rule = "wave"            # the default "bonds" takes up to 300x the steps in the bounds
 """
 CALIBRATION = """
 spec = "lattice.toml"
@@ -230,7 +232,7 @@ def test_a_trial_whose_specimen_did_not_fail_is_a_failed_trial(truth):
     strain sigma_b / E_b = 1.5 %) has no tensile strength: the first trial fails with the
     lab's reason instead of scaling the largest stress reached as if it were one."""
     folder, modulus, strength = truth
-    (folder / "short.toml").write_text(SPEC + "[test]\nmax_strain = 0.001\n")
+    (folder / "short.toml").write_text(SPEC + "max_strain = 0.001\n")   # in [test]
     path = folder / "short_calib.toml"
     path.write_text(CALIBRATION.format(budget=4, modulus=modulus, strength=strength)
                     .replace('"lattice.toml"', '"short.toml"'))

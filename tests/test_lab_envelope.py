@@ -55,9 +55,12 @@ def test_envelope_of_a_parallel_bonded_cylinder_is_a_straight_line(tmp_path):
     out = tmp_path / "env"
     result = CliRunner().invoke(main, ["lab", "envelope", str(spec), "--out", str(out),
                                        "--confining", "2e5", "--confining", "6e5",
-                                       "--confining", "1.2e6", "--workers", "2"])
+                                       "--confining", "1.2e6", "--workers", "2",
+                                       # the fast rate: 1/16 the default's steps
+                                       "--set", "test.rate_rule=wave"])
     assert result.exit_code == 0, result.output
     saved = json.loads((out / "envelope.json").read_text())
+    assert saved["overrides"] == {"test.rate_rule": "wave"}
     fit, tests = saved["fit"], saved["tests"]
     assert fit["r_squared"] > 0.98
     assert 5.0 < fit["friction_angle"] < 60.0 and fit["cohesion"] > 0.0

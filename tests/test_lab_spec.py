@@ -62,9 +62,9 @@ def test_a_spec_without_test_gets_the_documented_defaults(tmp_path):
 def test_the_lattice_specimen_of_a_spec(tmp_path):
     specimen, settings, text = load_spec(write(tmp_path, LATTICE + MATERIALS
                                                + "[test]\nstrain_rate = 3.5\n"
-                                               + 'rate_rule = "bonds"\n'))
+                                               + 'rate_rule = "wave"\n'))
     assert "strain_rate = 3.5" in text and settings.strain_rate == 3.5
-    assert settings.rate_rule == "bonds"
+    assert settings.rate_rule == "wave"
     assert specimen.position.shape == (24, 3) and specimen.lattice
     # bonds to the six neighbours: (nx-1) ny nz + nx (ny-1) nz + nx ny (nz-1)
     assert specimen.bonds.shape == (2 * 2 * 4 + 3 * 1 * 4 + 3 * 2 * 3, 2)
@@ -215,7 +215,7 @@ BAD = [
     (LATTICE + MATERIALS + "[test]\ngauge = [-0.1, 0.2]\n", "test.gauge",
      "value [-0.1, 0.2]: expected 2 numbers >= 0"),
     (LATTICE + MATERIALS + '[test]\nrate_rule = "auto"\n', "test.rate_rule",
-     "value 'auto'; allowed: 'wave', 'bonds'"),
+     "value 'auto'; allowed: 'bonds', 'wave'"),
     (LATTICE + MATERIALS + '[test]\nunload_at = "soon"\n', "test.unload_at",
      "value 'soon': expected a list of platen strains in (0, 1)"),
     (LATTICE + MATERIALS + "[test]\nunload_at = [0.001, -0.002]\n", "test.unload_at",

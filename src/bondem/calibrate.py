@@ -712,9 +712,9 @@ def summarise(calibration, rows, evaluator, stage=None):
                     warnings.append(
                         f"{test}: at half the strain rate the best set's {name} moved by "
                         f"{100 * change:+.3g} % (more than {100 * limit:g} %): the targets "
-                        "are met at a rate that is not quasi-static for these bonds; set "
-                        '"test.rate_rule" = "bonds" or a lower "test.strain_rate" for the '
-                        "tests (docs/lab.md, Rate)")
+                        "are met at a rate that is not quasi-static for these bonds; leave "
+                        '"test.rate_rule" at its default "bonds" or set a lower '
+                        '"test.strain_rate" for the tests (docs/lab.md, Rate)')
     return {"best": {"trial": int(best["trial"]), "parameters": params,
                      "predictions": base, "misfit": best["misfit"]},
             "targets": {t.name: {"test": t.test, "value": t.value,

@@ -33,7 +33,7 @@ from .specimen import box_widths
 
 TESTS = ("ucs", "triaxial", "brazilian", "tension", "agglomerate")
 STRESS_PATHS = ("constant_sigma3", "constant_mean")
-RATE_RULES = ("wave", "bonds")
+RATE_RULES = ("bonds", "wave")
 RATE_CHECKS = ("warn", "repeat", "off")
 AE_RADIUS_DEFAULT = 2.0   # mean particle diameters: an AE event's source (Hazzard & Young)
 
@@ -43,11 +43,12 @@ class LabSettings:
     """Settings of a lab test (defaults in brackets).
 
     strain_rate: 1/s of the platen gap (each platen moves at half of it times the height)
-    [None: by ``rate_rule``]; rate_rule: the rate when strain_rate is None, "wave" (5e-4
-    over the time a compression wave takes to cross the specimen) or "bonds" (no faster
-    than the weakest bond material's failure strain min(sigma_n, sigma_t) / E_b over 100
-    such times: quasi-static for weak bonds, at the cost of steps, 50 times as many for
-    sigma_b / E_b = 1e-3) [wave];
+    [None: by ``rate_rule``]; rate_rule: the rate when strain_rate is None, "bonds" (no
+    faster than the weakest bond material's failure strain min(sigma_n, sigma_t) / E_b
+    over 100 times a compression wave takes to cross the specimen, nor than "wave":
+    quasi-static from 1 to 30 MPa bonds, with up to 50 times the steps of "wave" for
+    sigma_b / E_b = 1e-3) or "wave" (5e-4 per such time: fast, but it overstates the
+    strength of weak bonds) [bonds];
     post_peak: stop once the stress has fallen to this fraction of the peak after it, with
     at least ``failure_bonds`` of the bonds broken since the loading began (not by a
     triaxial test's confinement) [0.7]; failure_bonds: that fraction
@@ -78,7 +79,7 @@ class LabSettings:
     backend: "cpu" or "gpu".
     """
     strain_rate: float | None = None
-    rate_rule: str = "wave"
+    rate_rule: str = "bonds"
     post_peak: float = 0.7
     failure_bonds: float | None = None
     largest_fragment: float = 0.9
@@ -354,10 +355,10 @@ class _Runner:
 
 MAX_STRAIN = {"ucs": 0.05, "triaxial": 0.05, "tension": 0.05, "brazilian": 0.1,
               "agglomerate": 0.2}
-RATE = 5e-4   # default strain per wave-crossing time
+RATE = 5e-4   # strain per wave-crossing time of rate_rule "wave", the fastest rule
 # rate_rule "bonds": wave-crossing times to the weakest bonds' failure strain. Measured on
 # examples/lab_rock.toml with 1 MPa bonds: over 38 of them, halving the rate still moved
-# the UCS by 2.5 %; over 100, by 0.7-1.0 % (the default rate's UCS was 55 % too high).
+# the UCS by 2.5 %; over 100, by 0.7-1.0 % (the "wave" rate's UCS was 55 % too high).
 BOND_RATE_WAVES = 100.0
 
 
@@ -521,10 +522,12 @@ JAW_SEGMENTS = 96   # facets along a jaw's arc
 
 def _jaws(specimen, settings, speed, wave, material):
     """ISRM's curved jaws for the Brazilian test: two cylindrical mesh surfaces of radius
-    ``settings.jaws`` disc diameters (1.5: ISRM), their axes along the disc's (y), their
-    apexes touching the disc's top and bottom, each spanning one diameter across and the
-    thickness with a margin, moving in along z as ``_platens`` do. Each wall's reference
-    point is its apex."""
+    ``settings.jaws`` disc diameters (1.5: ISRM), their axes along the disc's (y) on the
+    disc's side (concave: each curves around the disc, as ISRM's do), their apexes
+    touching the disc's top and bottom, each spanning one diameter across and the
+    thickness with a margin, moving in along z as ``_platens`` do. Each jaw touches the
+    particle that reaches deepest into its arc: the disc's lowest (highest) one for a round
+    disc, the outer rows of a flat-ended one. Each wall's reference point is its apex."""
     low, high = specimen.bounds()
     centre = 0.5 * (low + high)
     diameter = float(high[2] - low[2])
@@ -532,12 +535,18 @@ def _jaws(specimen, settings, speed, wave, material):
     margin = 0.25 * float(high[1] - low[1]) + 2.0 * float(np.max(specimen.radius))
     x = centre[0] + np.linspace(-0.5, 0.5, JAW_SEGMENTS + 1) * diameter
     rise = r_jaw - np.sqrt(r_jaw ** 2 - (x - centre[0]) ** 2)
+    # the apex at which a particle touches the arc from inside: its centre r_jaw - r from
+    # the arc's axis (r_jaw > D / 2 keeps every particle within reach)
+    reach = np.sqrt((r_jaw - specimen.radius) ** 2 - (specimen.position[:, 0] - centre[0]) ** 2)
+    z = specimen.position[:, 2]
+    apexes = (float(np.min(z - r_jaw + reach)), float(np.max(z + r_jaw - reach)))
     ramp = settings.ramp * wave
     walls = []
-    for apex, sign in ((low[2], -1.0), (high[2], 1.0)):
+    for apex, sign in zip(apexes, (-1.0, 1.0)):
         vertices = []
         for y in (low[1] - margin, high[1] + margin):
-            vertices.append(np.column_stack([x, np.full_like(x, y), apex + sign * rise]))
+            # concave: the jaw rises towards the disc away from its apex and cradles it
+            vertices.append(np.column_stack([x, np.full_like(x, y), apex - sign * rise]))
         vertices = np.concatenate(vertices)
         n = JAW_SEGMENTS + 1
         k = np.arange(JAW_SEGMENTS)

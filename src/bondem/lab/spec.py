@@ -52,7 +52,7 @@ SPECIMEN_KEYS = {
 }
 TEST_KEYS = {
     "strain_rate": ("number", None, 0.0, INF, False, False),
-    "rate_rule": ("str", "wave", RATE_RULES, None, None, None),
+    "rate_rule": ("str", "bonds", RATE_RULES, None, None, None),
     "post_peak": ("number", 0.7, 0.0, 1.0, False, False),
     "failure_bonds": ("number", None, 0.0, 1.0, True, False),
     "largest_fragment": ("number", 0.9, 0.0, 1.0, False, True),
