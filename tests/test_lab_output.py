@@ -278,10 +278,11 @@ def test_particle_modes_take_the_mode_most_of_their_broken_bonds_broke_in():
 
 
 def test_the_failure_picture_slices_the_middle_and_draws_the_force_chains():
-    """Particles of 0.5 mm radius off the origin, y from 10 to 20 mm (middle 15 mm): the
-    slice holds those within one diameter (1 mm) of it, coloured by their mode; the
-    force chains join contacts with both particles in the slice, widths 0.3 + 3 |F| / max."""
-    y = np.array([15.0, 15.9, 14.2, 16.5, 10.0, 20.0, 15.3]) * 1e-3
+    """Particles of 0.5 mm radius off the origin, y from 10 to 20 mm (median 15 mm): the
+    slice holds those within one diameter (1 mm) of the median, coloured by their mode;
+    the force chains join contacts with both particles in the slice, widths 0.3 + 3 |F| /
+    max."""
+    y = np.array([15.0, 15.9, 14.2, 16.5, 10.0, 20.0, 14.9]) * 1e-3
     position = np.column_stack([np.arange(7) * 1e-3 + 2e-3, y, np.arange(7)[::-1] * 1e-3])
     bonds = np.array([[0, 4], [1, 5], [2, 3], [6, 5]])
     break_mode = np.array([1, 3, 2, 0])
@@ -345,26 +346,46 @@ def test_the_failure_picture_slices_the_middle_and_draws_the_force_chains():
     assert cut.get_aspect() == 1.0
 
 
+def test_the_slice_stays_on_the_specimen_when_fragments_fly_off():
+    """A disc of 0.5 mm spheres in 7 layers y = -2.4 ... 2.4 mm (20 each) and three
+    fragments flown to y = -40 mm: the middle of the range (-18.8 mm) lies off the disc;
+    the slice holds the three layers within one diameter (1 mm) of the disc's middle
+    plane, y = 0: 60 particles."""
+    rng = np.random.default_rng(3)
+    layers = np.repeat(np.arange(-3, 4) * 0.8e-3, 20)
+    disc = np.column_stack([rng.uniform(-8e-3, 8e-3, 140), layers,
+                            rng.uniform(-8e-3, 8e-3, 140)])
+    flown = np.array([[0.0, -40e-3, 9e-3], [1e-3, -39e-3, 9e-3], [2e-3, -40e-3, -9e-3]])
+    position = np.vstack([disc, flown])
+    result = ucs_result(position=position, bonds=np.zeros((0, 2), int),
+                        break_mode=np.zeros(0, int), radius=np.full(143, 5e-4))
+    cut = build_lab_figures(result)["specimen"].axes[1]
+    shown = np.vstack([c.get_offsets() for c in cut.collections])
+    middle = disc[np.abs(layers) < 1e-3]
+    assert len(shown) == len(middle) == 60
+    np.testing.assert_allclose(np.sort(shown[:, 0]), np.sort(middle[:, 0] * 1e3))
+
+
 def test_the_slice_reaches_one_diameter_or_a_twentieth_of_the_height():
     """Without radii the slice reaches 5 % of the specimen's extent along y either side of
-    the middle (here 15.625 mm +- 0.78125 mm, exact in binary: a particle on the edge is
+    the median (here 15.625 mm +- 0.78125 mm, exact in binary: a particle on the edge is
     in), with radii one mean diameter; without break modes every particle is intact;
     without contacts no chains."""
-    y = np.array([7.8125, 15.625, 16.40625, 16.4375, 14.84375, 23.4375]) * 1e-3
-    position = np.column_stack([np.arange(6) * 1e-3, y, np.arange(6)[::-1] * 2e-3])
+    y = np.array([7.8125, 15.625, 16.40625, 16.4375, 14.84375, 23.4375, 14.8125]) * 1e-3
+    position = np.column_stack([np.arange(7) * 1e-3, y, np.arange(7)[::-1] * 2e-3])
     result = ucs_result(position=position, bonds=np.zeros((0, 2), int))
     cut = build_lab_figures(result)["specimen"].axes[1]
     shown = {c.get_label(): c.get_offsets() for c in cut.collections}
     assert list(shown) == ["intact"]
     np.testing.assert_allclose(shown["intact"], position[[1, 2, 4]][:, [0, 2]] * 1e3)
     # with radii of 2^-11 m the slice reaches one diameter, 0.9765625 mm, either side:
-    # 16.6 mm is in, 16.6018 mm (0.9768 mm from the middle) is out
+    # 16.6 mm is in, 16.6018 mm (0.9768 mm from the median) is out, 14.8125 now in
     position[2, 1], position[3, 1] = 16.6e-3, 16.6018e-3
     result = ucs_result(position=position, bonds=np.zeros((0, 2), int),
-                        radius=np.full(6, 2.0 ** -11))
+                        radius=np.full(7, 2.0 ** -11))
     cut = build_lab_figures(result)["specimen"].axes[1]
     shown = {c.get_label(): c.get_offsets() for c in cut.collections}
-    np.testing.assert_allclose(shown["intact"], position[[1, 2, 4]][:, [0, 2]] * 1e3)
+    np.testing.assert_allclose(shown["intact"], position[[1, 2, 4, 6]][:, [0, 2]] * 1e3)
 
 
 def test_write_result_saves_each_figure_as_a_png_of_its_size(tmp_path):

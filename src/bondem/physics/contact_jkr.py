@@ -24,9 +24,14 @@ Damping as Hertz-Mindlin's with S_n = 2 E* a, tangential stiffness S_t = 8 G* a,
 Coulomb and rolling limits of the adhesive load F + 2 F_c (F_c = 3/2 pi w R*), as LAMMPS's
 granular jkr and Thornton & Yin (1991) take it: an adhesive contact resists sliding at
 zero load. With w = 0 the law is Hertz-Mindlin's (a = sqrt(R* delta)).
-The contact radius is found by Newton's method on s = sqrt(a) from above, where the
-curve is convex: monotone, so it stops when a step no longer lowers s (within
-round-off of the root, on every backend alike).
+The contact radius is the quartic's largest root in closed form (Ferrari's, as LAMMPS's
+granular jkr takes it): s = sqrt(a) solves s^4 - k R* s - R* delta = 0, which factors into
+(s^2 + u s + v)(s^2 - u s + v') with z = u^2 the positive root of the resolvent cubic
+z^3 + 4 R* delta z - k^2 R*^2 = 0; its discriminant is >= 0 exactly for delta >= -delta_c,
+so Cardano's one real root serves the whole stable branch, written as a quotient of
+positive terms (no cancellation when Hertz's part dominates). Half the cost of the
+Newton solve it replaced (5.35 passes per contact on the adhesive bed;
+docs/performance.md).
 """
 import math
 
@@ -52,28 +57,28 @@ SURFACE_ENERGY = PAIR_MODEL
 def jkr_root(overlap, r_star, k):
     """(s, s_c): s = sqrt(a), a the contact radius (m) on JKR's stable branch at overlap
     (m) for R* (m) and k = sqrt(2 pi w / E*) (m^1/2), that is the largest root of
-    s^4 / R* - k s = overlap (overlap >= -delta_c; else the value at the tip); s_c =
-    sqrt(a_c) = (k R* / 4)^(1/3), the root at pull-off."""
-    s_c = (0.25 * r_star * k) ** (1.0 / 3.0)
-    # an upper bound of the root: s^3 >= 2 R k (s = 2 s_c) makes k s <= s^4 / (2 R)
-    # and (2 R* |overlap|)^(1/4) where that is larger (compared as fourth powers: the two
-    # roots are taken only then)
-    s = 2.0 * s_c
-    bound = 2.0 * r_star * abs(overlap)
-    if bound > s * s * s * s:
-        s = math.sqrt(math.sqrt(bound))
-    if s == 0.0:
-        return 0.0, s_c
-    for _ in range(100):
-        slope = 4.0 * s * s * s / r_star - k
-        if not slope > 0.0:
-            break
-        step = (s * s * s * s / r_star - k * s - overlap) / slope
-        new = s - step
-        if not new < s:
-            break
-        s = new
-    return s, s_c
+    s^4 / R* - k s = overlap (overlap >= -delta_c; else the tip's, s_c); s_c = sqrt(a_c)
+    = (k R* / 4)^(1/3), the root at pull-off."""
+    kr = k * r_star
+    s_c = (0.25 * kr) ** (1.0 / 3.0)
+    if kr == 0.0:
+        # Hertz: a = sqrt(R* delta) (if-expressions: numba's CUDA target has no max)
+        return math.sqrt(math.sqrt(r_star * overlap if overlap > 0.0 else 0.0)), 0.0
+    # the resolvent z^3 + 3 p z - 2 h = 0: p = 4/3 R* delta, h = (k R*)^2 / 2
+    p = 4.0 / 3.0 * r_star * overlap
+    h = 0.5 * kr * kr
+    disc = h * h + p * p * p
+    if not disc > 0.0:
+        return s_c, s_c
+    # Cardano's z = c + c', c = cbrt(h + sqrt(disc)), c c' = -p; as 2h / (c^2 - c c' +
+    # c'^2), a sum of positive terms where p > 0
+    c = (h + math.sqrt(disc)) ** (1.0 / 3.0)
+    cc = c * c
+    z = 2.0 * h / (cc + p + p * p / cc)
+    u = math.sqrt(z)
+    # the larger root of s^2 - u s + v' = 0, v' = (z - k R* / u) / 2
+    rest = 2.0 * kr / u - z
+    return 0.5 * (u + math.sqrt(rest if rest > 0.0 else 0.0)), s_c
 
 
 @physics
