@@ -426,3 +426,26 @@ def test_the_bridge_potential_is_the_integral_of_its_force_and_zero_at_rupture()
                  - contact_liquid.capillary_potential(gap - h, f_0, c, rupture)) / (2 * h)
         assert slope == approx(contact_liquid.capillary_force(gap, f_0, c), rel=1e-5)
     assert contact_liquid.capillary_force(-1e-7, f_0, c) == f_0
+
+
+def test_a_bridge_between_two_liquids_takes_the_mean_angle_and_volume():
+    """The pair table's bridge columns for two materials (20 and 40 degrees, 1e-18 and
+    3e-18 m^3): the means, then the constants the law reads, cos 30 degrees = sqrt(3)/2
+    and the rupture distance (1 + pi/12) (2e-18)^(1/3) = 1.58977 um."""
+    from bondem.physics import contact_models
+    wet = dict(surface_tension=0.07, viscosity=1e-3, bridge_min_gap=1e-7)
+    first = dict(wet, contact_angle=20.0, bridge_volume=1e-18)
+    second = dict(wet, contact_angle=40.0, bridge_volume=3e-18)
+    columns = contact_models.pair_parameters(contact_liquid, first, second)
+    assert contact_models.pair_columns(contact_liquid) == len(columns) == 7
+    names = list(contact_liquid.PARAMETERS) + list(contact_liquid.CONSTANTS)
+    table = dict(zip(names, columns))
+    assert table["contact_angle"] == approx(30.0, rel=1e-15)
+    assert table["bridge_volume"] == approx(2e-18, rel=1e-15)
+    assert table["cos_angle"] == approx(math.sqrt(3) / 2, rel=1e-15)
+    assert table["rupture_distance"] == approx(1.58977e-6, rel=1e-5)
+    assert table["rupture_distance"] == approx((1 + math.pi / 12) * 2e-18 ** (1 / 3),
+                                               rel=1e-14)
+    dry = contact_models.pair_parameters(contact_liquid, dict(first, bridge_volume=0.0),
+                                         dict(second, bridge_volume=0.0))
+    assert dry[-1] == 0.0

@@ -103,7 +103,7 @@ def contact_materials(young, poisson, restitution, friction, rolling, model=None
     a W + w is particle material a against wall w (W walls) instead."""
     from ..physics.contact_hertz import (effective_shear_modulus, effective_young_modulus,
                                          restitution_beta)
-    from ..physics.contact_models import pair_parameters
+    from ..physics.contact_models import pair_columns, pair_parameters
     young, poisson, restitution, friction, rolling = (
         np.ascontiguousarray(a, dtype=np.float64)
         for a in (young, poisson, restitution, friction, rolling))
@@ -111,7 +111,7 @@ def contact_materials(young, poisson, restitution, friction, rolling, model=None
     other = (young, poisson, restitution, friction, rolling, parameters) if wall is None \
         else tuple(np.ascontiguousarray(a, dtype=np.float64) for a in wall[:5]) + (wall[5],)
     w = other[0].shape[0]
-    own = len(model.PARAMETERS) if model is not None else 0
+    own = pair_columns(model) if model is not None else 0
     # at least one model column: MUSEN's laws read column PAIR_MODEL whatever the model
     pair = np.zeros((max(m * w, 1), PAIR_MODEL + max(own, 1)))
     for a in range(m):

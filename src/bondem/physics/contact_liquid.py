@@ -43,7 +43,20 @@ UNITS = {"surface_tension": "N/m", "contact_angle": "degree", "bridge_volume": "
 LAW = "liquid_bridge_law"
 REACH = "bridge_rupture_distance"
 HYSTERETIC = True
-TENSION, ANGLE, VOLUME, VISCOSITY, MIN_GAP = range(PAIR_MODEL, PAIR_MODEL + 5)
+TENSION, ANGLE, VOLUME, VISCOSITY, MIN_GAP, COS_ANGLE, RUPTURE = range(PAIR_MODEL,
+                                                                      PAIR_MODEL + 7)
+# constants of a pair of materials: the law took the cosine and the cube root per contact
+# and step (12 % of the adhesive bed's step, docs/performance.md)
+CONSTANTS = ("cos_angle", "rupture_distance")
+
+
+def constants(values):
+    """(cos theta, Lian et al.'s rupture distance (1 + theta/2) V^(1/3) in m, 0 without
+    liquid) of a pair's mixed values (module docstring)."""
+    theta = values["contact_angle"] * math.pi / 180.0
+    volume = values["bridge_volume"]
+    rupture = (1.0 + 0.5 * theta) * volume ** (1.0 / 3.0) if volume > 0.0 else 0.0
+    return math.cos(theta), rupture
 
 
 def time_scales(model):
@@ -64,11 +77,8 @@ def time_scales(model):
 @physics
 def bridge_rupture_distance(pair, q, r_star):
     """Lian et al.'s rupture distance (1 + theta/2) V^(1/3) (m) of row q's bridge (0
-    without liquid)."""
-    volume = pair[q, VOLUME]
-    if volume == 0.0:
-        return 0.0
-    return (1.0 + 0.5 * (pair[q, ANGLE] * math.pi / 180.0)) * volume ** (1.0 / 3.0)
+    without liquid; ``constants``)."""
+    return pair[q, RUPTURE]
 
 
 # The force and the potential take f_0 = 2 pi R* gamma cos(theta) (N) and c = 2 V / (pi
@@ -95,17 +105,16 @@ def liquid_bridge_law(n, overlap, v_rel, w_rel, spring, pair, q, r_star, m_star,
     """One step of Hertz-Mindlin plus a liquid bridge (module docstring); arguments and
     results as contact_models.LAW."""
     tension = pair[q, TENSION]
-    angle = pair[q, ANGLE]
     volume = pair[q, VOLUME]
     viscosity = pair[q, VISCOSITY]
     gap = -overlap
     pull = 0.0
     energy = 0.0
     if volume > 0.0:
-        f_0 = 2.0 * math.pi * r_star * tension * math.cos(angle * math.pi / 180.0)
+        f_0 = 2.0 * math.pi * r_star * tension * pair[q, COS_ANGLE]
         c = 2.0 * volume / (math.pi * r_star)
         pull = capillary_force(gap, f_0, c)
-        energy = capillary_potential(gap, f_0, c, bridge_rupture_distance(pair, q, r_star))
+        energy = capillary_potential(gap, f_0, c, pair[q, RUPTURE])
     film = gap if gap > pair[q, MIN_GAP] else pair[q, MIN_GAP]
     v_n = dot(v_rel, n)
     v_t = sub(v_rel, scale(n, v_n))

@@ -16,6 +16,10 @@ A contact model file declares, besides its ``@physics`` functions:
                 order), q: the contact's row
     REACH       optional: name of (pair, q, r_star) -> m, how far beyond contact (a gap)
                 the law acts; 0 without
+    CONSTANTS   optional: names of pair-table columns after PARAMETERS' that the model
+                derives once per pair of materials (a cosine, a cube root the law would
+                otherwise take per contact and step), with ``constants(values)`` -> their
+                values from the mixed {key: value}
     HYSTERETIC  with REACH: True when beyond contact only a contact that formed by
                 touching acts (JKR's neck, a liquid bridge) until REACH; False when every
                 pair within REACH does (van der Waals)
@@ -78,9 +82,16 @@ def mix(rule, a, b):
 
 def pair_parameters(module, values_i, values_j):
     """The model's own pair-table columns (from PAIR_MODEL on) for two materials given as
-    {key: value} dicts."""
-    return [mix(rule, values_i[key], values_j[key])
-            for key, (_entry, rule) in module.PARAMETERS.items()]
+    {key: value} dicts: its PARAMETERS mixed, then its CONSTANTS."""
+    mixed = {key: mix(rule, values_i[key], values_j[key])
+             for key, (_entry, rule) in module.PARAMETERS.items()}
+    derived = list(module.constants(mixed)) if getattr(module, "CONSTANTS", ()) else []
+    return list(mixed.values()) + derived
+
+
+def pair_columns(module):
+    """How many pair-table columns the model owns (PARAMETERS and CONSTANTS)."""
+    return len(module.PARAMETERS) + len(getattr(module, "CONSTANTS", ()))
 
 
 def owners(key):
