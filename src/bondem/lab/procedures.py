@@ -1184,9 +1184,9 @@ def crushed_note(ends):
         return None
     return (f"{100 * ends:.0f} % of the cracks up to the peak lie within 0.4 R of a loaded "
             f"end: the disc crushed under its loads before it split, so its tensile "
-            f"strength is not a Brazilian one (under the jaws' 10 degrees the disc's "
-            f"compression is about 18 sigma_t: a material whose UCS is below that crushes "
-            f"there, however fine the disc; docs/lab.md)")
+            f"strength is not a Brazilian one (under a load spread over 10 degrees, ISRM's "
+            f"arc at failure, the disc's compression is about 18 sigma_t: a material whose "
+            f"UCS is below that crushes there, however fine the disc; docs/lab.md)")
 
 
 def end_crack_fraction(cracks, peak_time, position, diameter, axis=2):

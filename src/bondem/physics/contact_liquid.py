@@ -46,7 +46,7 @@ HYSTERETIC = True
 TENSION, ANGLE, VOLUME, VISCOSITY, MIN_GAP, COS_ANGLE, RUPTURE = range(PAIR_MODEL,
                                                                       PAIR_MODEL + 7)
 # constants of a pair of materials: the law took the cosine and the cube root per contact
-# and step (12 % of the adhesive bed's step, docs/performance.md)
+# and step (the adhesive bed's step 1.5-2.0x -> 1.4x Hertz-Mindlin's, docs/performance.md)
 CONSTANTS = ("cos_angle", "rupture_distance")
 
 
