@@ -142,6 +142,28 @@ def test_the_stop_rule():
     assert pr._stop(1.0, 0, 0, 0.06, loose, 2.0, pieces=(1, 1.0)) == "post-peak"
 
 
+def test_a_lost_load_is_a_split_or_a_specimen_that_left_the_platens():
+    """Past a peak of 1 MPa the load falls to 2 % of it (20 kPa) with at least a tenth of
+    the failure fraction of the bonds broken (here 1 % of 29183 bonds: 29.183, so 30):
+    the load is lost. Broken apart (largest piece below 0.9 of the mass) that is a
+    failure; whole, the specimen left the platens ("load lost", no strength)."""
+    s = settings()
+    assert pr.load_lost(2.0e4, 224, 29183, 1.0e6, s)          # the disc that slid out
+    assert pr.load_lost(1.9e4, 30, 29183, 1.0e6, s)
+    assert not pr.load_lost(1.9e4, 29, 29183, 1.0e6, s)     # the first contacts' transients
+    assert not pr.load_lost(2.01e4, 224, 29183, 1.0e6, s)
+    assert not pr.load_lost(-1.0, 224, 29183, 0.0, s)       # never loaded
+    assert pr.load_lost(0.0, 1, 10, 1.0, s)                 # at least one bond
+    assert not pr.load_lost(0.0, 0, 10, 1.0, s)
+    assert pr._stop(0.0, 224, 29183, 0.013, s, 1.0e6, lost=0.99) == "load lost"
+    assert pr._stop(0.0, 224, 29183, 0.013, s, 1.0e6, lost=0.9) == "load lost"
+    assert pr._stop(0.0, 224, 29183, 0.013, s, 1.0e6, lost=0.52) == (
+        "post-peak (the load lost with 0.768 % of the bonds broken: the specimen broke "
+        "apart, its largest piece 52 % of the mass)")
+    # the strain limit first
+    assert pr._stop(0.0, 224, 29183, 0.05, s, 1.0e6, lost=0.99) == "strain limit"
+
+
 def curve(stress, strain=None, **columns):
     n = len(stress)
     out = {"axial_stress": np.asarray(stress, float),
