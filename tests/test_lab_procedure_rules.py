@@ -705,6 +705,18 @@ def test_direct_tension_of_a_lattice_breaks_at_the_bond_strength(lattice, tmp_pa
     assert r.contacts["force"].shape == (r.contacts["i"].size, 3)
 
 
+def test_a_specimen_that_left_the_platens_whole_has_no_strength(lattice, monkeypatch):
+    """Stopped as "load lost" (the stop rule forced at the first sample), the lattice,
+    whole, has no UCS and the reason names the loss, the bonds and its largest piece."""
+    monkeypatch.setattr(pr, "_stop", lambda *args, **kwargs: "load lost")
+    r = pr.uniaxial(lattice, LabSettings(max_strain=0.004, failure_bonds=0.025, **QUIET))
+    assert math.isnan(r.numbers["ucs"]) and r.no_failure == (
+        "the specimen did not fail: its load fell to 2 % of the peak with 0 of 96 bonds "
+        "broken and its largest piece 100 % of the mass: it left the platens whole (slid "
+        "or rolled out from between them)")
+    assert "stopped: load lost" in r.notes
+
+
 def test_a_uniaxial_lattice_has_the_chains_modulus_and_keeps_its_width(lattice, tmp_path):
     out = tmp_path / "lab" / "uniaxial"          # folders that do not exist yet
     started = time.monotonic()

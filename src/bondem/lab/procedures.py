@@ -630,20 +630,15 @@ def _finish(test, specimen, settings, sim, runner, numbers, stop, notes):
                        radius=sim.model.radius.copy(), contacts=_contacts(sim))
     if runner.writer is not None:
         _write_cracks(runner.writer.path, cracks, ae)
-    if stop == "load lost":
-        broken = int(np.count_nonzero(~state.bond_active))
-        result.no_failure = (f"the specimen did not fail: its load fell to "
-                             f"{100 * LOAD_LOST:g} % of the peak with {broken} of "
-                             f"{sim.model.n_bonds} bonds broken and its largest piece "
-                             f"{100 * largest:.3g} % of the mass: it left the platens whole "
-                             f"(slid or rolled out from between them)")
-    elif not stop.startswith("post-peak"):
-        broken = int(np.count_nonzero(~state.bond_active))
-        result.no_failure = (f"the specimen did not fail: stopped at the {stop} with "
-                             f"{broken} of {sim.model.n_bonds} bonds broken and no fall "
-                             f"past a peak (to {settings.post_peak:g} of it, or to "
-                             f"{PEAK_PASSED:g} of it at the end with "
-                             f"{100 * settings.failure_bonds:g} % of the bonds broken)")
+    if not stop.startswith("post-peak"):
+        broken = f"{int(np.count_nonzero(~state.bond_active))} of {sim.model.n_bonds} bonds"
+        result.no_failure = "the specimen did not fail: " + (
+            f"its load fell to {100 * LOAD_LOST:g} % of the peak with {broken} broken and "
+            f"its largest piece {100 * largest:.3g} % of the mass: it left the platens "
+            f"whole (slid or rolled out from between them)" if stop == "load lost" else
+            f"stopped at the {stop} with {broken} broken and no fall past a peak (to "
+            f"{settings.post_peak:g} of it, or to {PEAK_PASSED:g} of it at the end with "
+            f"{100 * settings.failure_bonds:g} % of the bonds broken)")
     return result
 
 
