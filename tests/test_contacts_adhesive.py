@@ -78,6 +78,19 @@ def test_jkr_curve_pull_off_and_zero_load_radius(w):
     assert abs(contact_jkr.jkr_force(found, r_star, e_star, w)) < 1e-9 * w * r_star
 
 
+def test_jkr_radius_at_and_beyond_the_tip_is_the_pull_off_radius():
+    """At the pull-off point, delta = -delta_c, and beyond it (the neck breaks there; the
+    law's value is the tip's) the contact radius is a_c = (pi w R*^2 / (8 E*))^(1/3)."""
+    r_star, e_star, w = 4.3e-6, 6.1e7, 0.07
+    a_c = (math.pi * w * r_star ** 2 / (8 * e_star)) ** (1 / 3)
+    delta_c = 0.75 * (math.pi ** 2 * w ** 2 * r_star / e_star ** 2) ** (1 / 3)
+    for delta in (-1.01 * delta_c, -2.0 * delta_c):
+        assert contact_jkr.jkr_contact_radius(delta, r_star, e_star, w) == approx(
+            a_c, rel=1e-12)
+    assert contact_jkr.jkr_contact_radius(-delta_c, r_star, e_star, w) == approx(
+        a_c, rel=1e-6)
+
+
 def test_jkr_potential_is_the_integral_of_its_force_and_zero_at_pull_off():
     r_star, e_star, w = 2.1e-6, 7.7e7, 0.11
     delta_c = 0.75 * (math.pi ** 2 * w ** 2 * r_star / e_star ** 2) ** (1 / 3)

@@ -155,13 +155,13 @@ def test_a_lost_load_is_a_split_or_a_specimen_that_left_the_platens():
     assert not pr.load_lost(-1.0, 224, 29183, 0.0, s)       # never loaded
     assert pr.load_lost(0.0, 1, 10, 1.0, s)                 # at least one bond
     assert not pr.load_lost(0.0, 0, 10, 1.0, s)
-    assert pr._stop(0.0, 224, 29183, 0.013, s, 1.0e6, lost=0.99) == "load lost"
-    assert pr._stop(0.0, 224, 29183, 0.013, s, 1.0e6, lost=0.9) == "load lost"
-    assert pr._stop(0.0, 224, 29183, 0.013, s, 1.0e6, lost=0.52) == (
+    assert pr._stop(0.0, 224, 29183, 0.013, s, 1.0e6, largest_piece=lambda: 0.99) == "load lost"
+    assert pr._stop(0.0, 224, 29183, 0.013, s, 1.0e6, largest_piece=lambda: 0.9) == "load lost"
+    assert pr._stop(0.0, 224, 29183, 0.013, s, 1.0e6, largest_piece=lambda: 0.52) == (
         "post-peak (the load lost with 0.768 % of the bonds broken: the specimen broke "
         "apart, its largest piece 52 % of the mass)")
     # the strain limit first
-    assert pr._stop(0.0, 224, 29183, 0.05, s, 1.0e6, lost=0.99) == "strain limit"
+    assert pr._stop(0.0, 224, 29183, 0.05, s, 1.0e6, largest_piece=lambda: 0.99) == "strain limit"
 
 
 def curve(stress, strain=None, **columns):

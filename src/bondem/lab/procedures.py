@@ -419,22 +419,17 @@ def load_lost(stress, broken, n_bonds, top, settings):
             and broken >= max(1.0, LOST_DAMAGE * settings.failure_bonds * n_bonds))
 
 
-def _stop(stress, broken, n_bonds, strain, settings, top, pieces=None, lost=None):
+def _stop(stress, broken, n_bonds, strain, settings, top, pieces=None, largest_piece=None):
     """Stop rule: past the peak, with at least failure_bonds of the bonds broken (without
     bonds: past a platen strain of UNBONDED_MIN_STRAIN), below post_peak of it, and (an
     agglomerate: ``pieces`` = (fragments of 2+ particles, largest fragment's mass
     fraction) given) its largest fragment at most largest_fragment of the mass; or at the
-    strain limit. lost: the largest fragment's mass fraction where the load is lost
-    (``load_lost``) short of failure_bonds: below WHOLE the specimen broke apart (a
-    failure), else it left the platens whole ("load lost": no failure)."""
+    strain limit. Short of that fall, where the load is lost (``load_lost``; a failing
+    specimen's loss is such a fall) and ``largest_piece`` is given (a function returning
+    the largest fragment's mass fraction, called only then): below WHOLE the specimen
+    broke apart (a failure), else it left the platens whole ("load lost": no failure)."""
     if strain >= settings.max_strain:
         return "strain limit"
-    if lost is not None:
-        if lost < WHOLE:
-            return (f"post-peak (the load lost with {100.0 * broken / n_bonds:.3g} % of the "
-                    f"bonds broken: the specimen broke apart, its largest piece "
-                    f"{100.0 * lost:.3g} % of the mass)")
-        return "load lost"
     # without bonds (an adhesive agglomerate) the fall past the peak, once the platens
     # have pressed it by UNBONDED_MIN_STRAIN (before, the start's transients rule)
     failing = (strain >= UNBONDED_MIN_STRAIN if n_bonds == 0
@@ -447,6 +442,14 @@ def _stop(stress, broken, n_bonds, strain, settings, top, pieces=None, lost=None
             return (f"post-peak (breakage: {100.0 * broken / n_bonds:.3g} % of the bonds "
                     f"broken, {count} fragments of 2+ particles, the largest "
                     f"{100.0 * largest:.3g} % of the mass)")
+    elif largest_piece is not None and \
+            load_lost(stress, broken, n_bonds, top, settings):
+        largest = largest_piece()
+        if largest < WHOLE:
+            return (f"post-peak (the load lost with {100.0 * broken / n_bonds:.3g} % of the "
+                    f"bonds broken: the specimen broke apart, its largest piece "
+                    f"{100.0 * largest:.3g} % of the mass)")
+        return "load lost"
     return None
 
 
@@ -846,14 +849,10 @@ def _compression(test, specimen, settings, axis, out_dir, scene_text, confining=
         top_stress = max(top_stress, row[key])
         if cycle is not None:
             continue   # an unloading-reloading cycle is no failure
-        broken = tension + compression + shear - broken_before
-        lost = None
-        if pieces is None and broken < settings.failure_bonds * sim.model.n_bonds and \
-                load_lost(row[key], broken, sim.model.n_bonds, top_stress, settings):
-            lost = measure.fragments(sim.model.bond_pairs, sim.state.bond_active,
-                                     sim.model.mass)[2]
-        stop = _stop(row[key], broken, sim.model.n_bonds, row["platen_strain"], settings,
-                     top_stress, pieces, lost)
+        stop = _stop(row[key], tension + compression + shear - broken_before,
+                     sim.model.n_bonds, row["platen_strain"], settings, top_stress, pieces,
+                     None if pieces else lambda: measure.fragments(
+                         sim.model.bond_pairs, sim.state.bond_active, sim.model.mass)[2])
     return sim, runner, rate, stop or "max_steps", notes
 
 

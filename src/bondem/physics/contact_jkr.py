@@ -60,10 +60,10 @@ def jkr_root(overlap, r_star, k):
     s^4 / R* - k s = overlap (overlap >= -delta_c; else the tip's, s_c); s_c = sqrt(a_c)
     = (k R* / 4)^(1/3), the root at pull-off."""
     kr = k * r_star
-    s_c = (0.25 * kr) ** (1.0 / 3.0)
     if kr == 0.0:
         # Hertz: a = sqrt(R* delta) (if-expressions: numba's CUDA target has no max)
         return math.sqrt(math.sqrt(r_star * overlap if overlap > 0.0 else 0.0)), 0.0
+    s_c = (0.25 * kr) ** (1.0 / 3.0)
     # the resolvent z^3 + 3 p z - 2 h = 0: p = 4/3 R* delta, h = (k R*)^2 / 2
     p = 4.0 / 3.0 * r_star * overlap
     h = 0.5 * kr * kr
