@@ -1,15 +1,16 @@
 """The flexible membrane's forces (lab/membrane.py) on hand-built particle sets, against
-the pressure's definition: each cell of the lateral surface, R dtheta dz at the reach R of
-the particle pressing it, pushes that particle towards the axis with sigma_3 times its area,
-so the forces sum to sigma_3 times the lateral surface 2 pi R h and cancel as a vector on a
-full ring. The axis is x here (not z) and the specimen sits off the origin, so a mixed-up
-axis or centre shows."""
+the pressure's definition: in each row of cells the farthest-reaching particles are the
+vertices of a closed polygon (at their reach points, in order round the axis) under the
+pressure sigma_3 over the row's height dz, and each vertex carries half of each of its two
+edges: sigma_3 dz times the edge's length along its inward normal. A pressure on a closed
+surface has no resultant and no torque, whatever the surface's shape. The axis is x here
+(not z) and the specimen sits off the origin, so a mixed-up axis or centre shows."""
 import math
 
 import numpy as np
 import pytest
 
-from bondem.lab.membrane import membrane_forces, nearest_filled
+from bondem.lab.membrane import membrane_forces
 
 PRESSURE = 2.5e5
 N_THETA, N_Z = 12, 4
@@ -44,21 +45,95 @@ def radial(position):
     return out / np.linalg.norm(out, axis=1)[:, None]
 
 
-def test_a_full_surface_is_pressed_cell_by_cell():
+def flat(position):
+    """Lateral (y, z) coordinates of ``position`` from the axis through CENTRE."""
+    return (position - CENTRE)[:, 1:]
+
+
+def reach_point(position, radius):
+    """Where each particle reaches farthest from the axis, (y, z) from the axis."""
+    xy = flat(position)
+    rho = np.linalg.norm(xy, axis=1)
+    return xy * ((rho + radius) / rho)[:, None]
+
+
+def vertex_force(before, here, after, dz):
+    """The (y, z) force on vertex ``here`` of an anticlockwise polygon: the pressure on
+    half of each of its two edges, each along the edge's inward normal."""
+    def edge(a, b):                      # sigma_3 dz |b - a| times the inward unit normal
+        d = b - a
+        return -PRESSURE * dz * np.array([d[1], -d[0]])
+    return 0.5 * (edge(before, here) + edge(here, after))
+
+
+def test_a_full_ring_is_a_regular_polygon():
+    """A particle at the middle of every cell: each row is a regular polygon of N_THETA
+    sides at the reach R, so every vertex is pushed towards the axis with
+    sigma_3 dz R sin(dtheta); the lateral surface is 2 pi R h and the forces cancel."""
     position, radius = cells()
     force, area, mean_radius = membrane_forces(position, radius, 0, LOW, HIGH, PRESSURE, CELL)
     assert area == pytest.approx(2 * math.pi * REACH * (HIGH - LOW), rel=1e-12)
     assert mean_radius == pytest.approx(REACH, rel=1e-12)
-    cell_area = REACH * D_THETA * D_Z
-    np.testing.assert_allclose(force, -PRESSURE * cell_area * radial(position),
-                               rtol=1e-9, atol=1e-12 * PRESSURE * cell_area)
-    np.testing.assert_allclose(force.sum(axis=0), 0.0, atol=1e-9 * PRESSURE * cell_area)
+    push = PRESSURE * D_Z * REACH * math.sin(D_THETA)
+    np.testing.assert_allclose(force, -push * radial(position), rtol=1e-9,
+                               atol=1e-12 * push)
+    np.testing.assert_allclose(force.sum(axis=0), 0.0, atol=1e-12 * push)
+
+
+def test_each_corner_of_a_rectangle_carries_half_of_its_two_sides():
+    """Four particles reaching to the corners (+-a, +-b) of a rectangle, a != b (so
+    swapped lateral axes show): each corner is pushed inwards by sigma_3 dz b along y and
+    sigma_3 dz a along z, and the virial -sum(f . P) is 2 sigma_3 dz times the area 4 a b,
+    the work of the pressure on a dilation."""
+    a, b, r = 4e-3, 1.5e-3, 5e-4
+    corner = np.array([[a, b], [-a, b], [-a, -b], [a, -b]])
+    rho = np.hypot(corner[:, 0], corner[:, 1])
+    centre = corner * ((rho - r) / rho)[:, None]
+    position = CENTRE + np.column_stack([np.full(4, LOW + 1e-3), centre])
+    high = LOW + 2e-3
+    force, area, mean_radius = membrane_forces(position, np.full(4, r), 0, LOW, high,
+                                               PRESSURE, 10.0)
+    dz = high - LOW
+    sign = np.sign(corner)
+    np.testing.assert_allclose(force[:, 1:], -PRESSURE * dz * sign * [b, a], rtol=1e-9)
+    assert np.all(force[:, 0] == 0.0)
+    virial = -np.sum(force[:, 1:] * corner)
+    assert virial == pytest.approx(2 * PRESSURE * dz * 4 * a * b, rel=1e-9)
+    # every corner reaches sqrt(a^2 + b^2), over a quarter turn in all
+    assert mean_radius == pytest.approx(math.hypot(a, b), rel=1e-12)
+    assert area == pytest.approx(2 * math.pi * math.hypot(a, b) * dz, rel=1e-12)
+
+
+def test_a_rough_broken_specimen_is_neither_pushed_nor_twisted():
+    """Particles of mixed sizes scattered in a bulged, cracked cylinder: the membrane's
+    forces sum to nothing and have no torque about the axis at the points they press
+    (forces along each particle's own direction from the axis, sigma_3 R dtheta dz a
+    cell, left a net force of 0.9 % of their sum on a lattice cylinder)."""
+    rng = np.random.default_rng(7)
+    n = 600
+    z = rng.uniform(LOW, HIGH, n)
+    angle = rng.uniform(-math.pi, math.pi, n)
+    crack = np.abs(angle - 1.0) < 0.3                       # a wedge gone from the middle
+    keep = ~(crack & (np.abs(z - 0.5 * (LOW + HIGH)) < D_Z))
+    rho = RHO * (1.0 + 0.3 * np.sin(math.pi * (z - LOW) / (HIGH - LOW))) \
+        * np.sqrt(rng.uniform(0.0, 1.0, n))
+    position = CENTRE + np.column_stack([z, rho * np.cos(angle), rho * np.sin(angle)])
+    position, radius = position[keep], rng.uniform(0.5, 1.5, keep.sum()) * R_P
+    force, area, _ = membrane_forces(position, radius, 0, LOW, HIGH, PRESSURE, CELL)
+    push = np.linalg.norm(force, axis=1)
+    assert np.count_nonzero(push) > N_THETA * N_Z / 2 and area > 0.0
+    np.testing.assert_allclose(force.sum(axis=0), 0.0, atol=1e-12 * push.sum())
+    # the axis goes through the centroid of the particles between the platens
+    point = reach_point(position - np.r_[0.0, flat(position).mean(axis=0)], radius)
+    torque = point[:, 0] * force[:, 2] - point[:, 1] * force[:, 1]
+    assert abs(torque.sum()) < 1e-12 * np.sum(push * np.linalg.norm(point, axis=1))
 
 
 def test_only_the_farthest_reach_of_a_cell_is_pressed():
     """Inner particles get nothing; of two in one cell the one whose surface reaches
-    farther (centre distance plus radius) carries the cell, not the one whose centre is
-    farther out."""
+    farther (centre distance plus radius) is the vertex, not the one whose centre is
+    farther out. A vertex's own force depends on its neighbours only; its neighbours'
+    edges run to its new reach."""
     position, radius = cells()
     # extra particles in opposite pairs: the centroid, hence the axis, stays at CENTRE
     inner = ring(0.4 * RHO, LOW + 1.5 * D_Z, np.array([0.3, 0.3 - math.pi]))
@@ -73,57 +148,59 @@ def test_only_the_farthest_reach_of_a_cell_is_pressed():
     force, area, _ = membrane_forces(position, radius, 0, LOW, HIGH, PRESSURE, CELL)
     n = N_THETA * N_Z
     assert np.all(force[n:] == 0.0)
-    # the grown particle presses its cell at its own reach
-    assert np.linalg.norm(force[0]) == pytest.approx(
-        PRESSURE * (RHO + big) * D_THETA * D_Z, rel=1e-9)
+    assert np.all(np.linalg.norm(force[:n], axis=1) > 0.0)
+    point = reach_point(position[:N_THETA], radius[:N_THETA])
+    for k in (N_THETA - 1, 0, 1):                     # cell 0 and its two neighbours
+        expected = vertex_force(point[k - 1], point[k], point[(k + 1) % N_THETA], D_Z)
+        np.testing.assert_allclose(force[k, 1:], expected, rtol=1e-9)
     assert area == pytest.approx(REACH * D_THETA * D_Z * (n - 1)
                                  + (RHO + big) * D_THETA * D_Z, rel=1e-9)
 
 
-def test_a_gap_is_spanned_by_its_nearest_neighbour_and_an_empty_row_is_not_pressed():
+def test_a_gap_is_spanned_by_an_edge_and_a_row_of_two_or_none_is_not_pressed():
     position, radius = cells()
     row = np.arange(len(position)) // N_THETA
     cell = np.arange(len(position)) % N_THETA
     # gaps in opposite cells (the centroid stays): 4, 5, 6 of row 1 and 10, 11, 0 of row 2;
-    # 1 and 7 of row 0
+    # 1 and 7 of row 0; row 3 keeps only two opposite particles (the centroid stays)
     gone = (row == 1) & ((cell == 4) | (cell == 5) | (cell == 6))
     gone |= (row == 0) & ((cell == 1) | (cell == 7))
     gone |= (row == 2) & ((cell == 10) | (cell == 11) | (cell == 0))
-    gone |= row == 3                                                   # the top row empty
+    gone |= (row == 3) & (cell != 2) & (cell != 8)
     force, area, mean_radius = membrane_forces(position[~gone], radius[~gone], 0, LOW, HIGH,
                                                PRESSURE, CELL)
-    cell_area = REACH * D_THETA * D_Z
-    share = np.ones(len(position))[~gone]
     kept = np.flatnonzero(~gone)
-    # row 1: cell 4 goes to 3 (nearer), 5 to 3 (a tie: the one before), 6 to 7;
-    # row 2, across the row's ends: 10 to 9, 11 to 9 (a tie), 0 to 1
-    share[kept == 1 * N_THETA + 3] = 3
-    share[kept == 1 * N_THETA + 7] = 2
-    share[kept == 2 * N_THETA + 9] = 3
-    share[kept == 2 * N_THETA + 1] = 2
-    # row 0: 1 and 7 are ties, to 0 (the very first cell) and 6
-    share[kept == 0] = 2
-    share[kept == 6] = 2
-    np.testing.assert_allclose(np.linalg.norm(force, axis=1), PRESSURE * cell_area * share,
-                               rtol=1e-9)
+    point = reach_point(position, radius)
+    for j in range(3):
+        ring_cells = [k for k in range(N_THETA) if not gone[j * N_THETA + k]]
+        for i, k in enumerate(ring_cells):
+            before = point[j * N_THETA + ring_cells[i - 1]]
+            after = point[j * N_THETA + ring_cells[(i + 1) % len(ring_cells)]]
+            at = np.flatnonzero(kept == j * N_THETA + k)[0]
+            expected = vertex_force(before, point[j * N_THETA + k], after, D_Z)
+            np.testing.assert_allclose(force[at, 1:], expected, rtol=1e-9,
+                                       atol=1e-12 * np.abs(expected).max())
+    assert np.all(force[row[kept] == 3] == 0.0)
+    np.testing.assert_allclose(force.sum(axis=0), 0.0,
+                               atol=1e-12 * np.abs(force).sum())
+    # three rows of radius REACH pressed, the fourth (two particles) not
     assert area == pytest.approx(3 * 2 * math.pi * REACH * D_Z, rel=1e-12)
     assert mean_radius == pytest.approx(REACH, rel=1e-12)
 
 
-def test_the_mean_radius_weighs_each_pressing_particle_by_the_cells_it_presses():
-    """Two particles of row 0 reach farther; one of them also spans an empty cell: the
-    mean radius is the mean over all cells of the reach of the particle pressing each."""
+def test_the_mean_radius_counts_each_vertex_over_half_its_gaps():
+    """Two particles of row 0 reach farther (cells 2 and 7); cells 3 and 9 of row 0 are
+    empty, so vertices 2, 4, 8 and 10 count over 1.5 cells each: row 0's radius is the
+    mean reach over the angle, and the specimen's the mean over its rows."""
     position, radius = cells()
     radius[[2, 7]] = 2 * R_P
-    # cells 3 and 9 of row 0 empty (opposite: the centroid stays); both are ties between
-    # their neighbours, so they go to the cell before: 3 to 2 (grown), 9 to 8
     keep = (np.arange(len(position)) != 3) & (np.arange(len(position)) != 9)
     _, area, mean_radius = membrane_forces(position[keep], radius[keep], 0, LOW, HIGH,
                                            PRESSURE, CELL)
-    reach_of_cell = np.full(N_THETA * N_Z, REACH)
-    reach_of_cell[[2, 3, 7]] = RHO + 2 * R_P
-    assert mean_radius == pytest.approx(reach_of_cell.mean(), rel=1e-12)
-    assert area == pytest.approx(reach_of_cell.sum() * D_THETA * D_Z, rel=1e-12)
+    big = RHO + 2 * R_P
+    row0 = (1.5 * big + 1.0 * big + (N_THETA - 2.5) * REACH) / N_THETA
+    assert mean_radius == pytest.approx((row0 + 3 * REACH) / 4, rel=1e-12)
+    assert area == pytest.approx(2 * math.pi * (row0 + 3 * REACH) * D_Z, rel=1e-12)
 
 
 def test_particles_beyond_the_platens_are_neither_pressed_nor_centred():
@@ -149,17 +226,21 @@ def test_particles_beyond_the_platens_are_neither_pressed_nor_centred():
 
 
 def test_coarse_cells_still_go_round_in_six():
-    """A cell larger than the circumference: six cells around (the minimum), one row."""
+    """A cell larger than the circumference: six cells around (the minimum), one row;
+    each cell holds two particles, the second of each a little larger and so its vertex:
+    a regular hexagon."""
     position, radius = cells()
     top = np.arange(len(position)) // N_THETA == 0
-    force, area, _ = membrane_forces(position[top], radius[top], 0, LOW, LOW + D_Z,
-                                     PRESSURE, 10.0)
-    # six cells of 60 degrees, each holding two particles: one pressed per cell
+    radius = radius[top] * np.tile([1.0, 1.1], N_THETA // 2)
+    force, area, _ = membrane_forces(position[top], radius, 0, LOW, LOW + D_Z, PRESSURE,
+                                     10.0)
     pressed = np.flatnonzero(np.linalg.norm(force, axis=1) > 0)
-    assert pressed.size == 6
+    assert pressed.tolist() == [1, 3, 5, 7, 9, 11]
+    reach = RHO + 1.1 * R_P
     np.testing.assert_allclose(np.linalg.norm(force[pressed], axis=1),
-                               PRESSURE * REACH * (2 * math.pi / 6) * D_Z, rtol=1e-9)
-    assert area == pytest.approx(2 * math.pi * REACH * D_Z, rel=1e-12)
+                               PRESSURE * reach * math.sin(2 * math.pi / 6) * D_Z,
+                               rtol=1e-9)
+    assert area == pytest.approx(2 * math.pi * reach * D_Z, rel=1e-12)
 
 
 def test_nothing_to_press():
@@ -170,22 +251,11 @@ def test_nothing_to_press():
                                                    CELL)
         assert np.all(force == 0.0) and force.shape == position.shape
         assert (area, mean_radius) == (0.0, 0.0)
-
-
-def test_nearest_filled_goes_round_and_prefers_the_cell_before():
-    grid = np.array([[0, 0, 1, 0, 0, 1, 0, 0, 0, 0],
-                     [0, 1, 0, 0, 0, 1, 0, 0, 0, 0],
-                     [1, 0, 0, 0, 0, 0, 0, 0, 0, 0],
-                     [1, 1, 1, 1, 1, 1, 1, 1, 1, 1],
-                     [0, 0, 0, 0, 0, 0, 0, 0, 0, 0]], bool)
-    out = nearest_filled(grid).reshape(5, 10)
-    assert out[4].tolist() == [-1] * 10                 # a row without a particle
-    # row 0: cell 9 is 3 after going round to 2, 4 after 5: it wraps to 2
-    assert out[0].tolist() == [2, 2, 2, 2, 5, 5, 5, 5, 5, 2]
-    # row 1: ties at 3 (1 and 5) and 8 (5 and 11 = 1): the cell before
-    assert (out[1] - 10).tolist() == [1, 1, 1, 1, 5, 5, 5, 5, 5, 1]
-    assert (out[2] - 20).tolist() == [0] * 10
-    assert (out[3] - 30).tolist() == list(range(10))
+    # two particles enclose nothing: a membrane round them pushes them together and apart
+    # alike
+    force, area, mean_radius = membrane_forces(position[[0, 6]], radius[[0, 6]], 0, LOW,
+                                               LOW + D_Z, PRESSURE, CELL)
+    assert np.all(force == 0.0) and (area, mean_radius) == (0.0, 0.0)
 
 
 def test_a_core_of_inner_particles_changes_nothing():
@@ -214,7 +284,7 @@ def test_the_end_rows_reach_the_platens():
     force, area, _ = membrane_forces(position, radius, 0, LOW, HIGH, PRESSURE, CELL)
     assert area == pytest.approx(2 * math.pi * REACH * (HIGH - LOW), rel=1e-12)
     np.testing.assert_allclose(np.linalg.norm(force, axis=1),
-                               PRESSURE * REACH * D_THETA * D_Z, rtol=1e-9)
+                               PRESSURE * REACH * math.sin(D_THETA) * D_Z, rtol=1e-9)
 
 
 def test_a_particle_at_half_a_turn_is_in_the_last_cell():
@@ -227,18 +297,24 @@ def test_a_particle_at_half_a_turn_is_in_the_last_cell():
     position = centre + np.column_stack([np.zeros(6), lateral])   # x = 0.5: inside
     force, area, _ = membrane_forces(position, np.full(6, r), 0, 0.25, 0.75, PRESSURE, 10.0)
     # cells (from -180 degrees): 0 holds -135, 2 holds -45, 3 holds 0 and 45, 5 holds 135
-    # and 180 (the farther); 1 and 4 are ties, given to 0 and 3
-    sixth = 2 * math.pi / 6 * 0.5
-    np.testing.assert_allclose(force[4], [0.0, PRESSURE * (d + r) * sixth, 0.0], rtol=1e-12)
-    assert force[1].tolist() == [0.0, 0.0, 0.0]
-    assert area == pytest.approx(sixth * (3 * (c * math.sqrt(2) + r) + 3 * (d + r)),
-                                 rel=1e-12)
+    # and 180 (the farther): the polygon -135, -45, 0, 180
+    diagonal = (c * math.sqrt(2) + r) / math.sqrt(2)
+    point = np.array([[-diagonal, -diagonal], [diagonal, -diagonal], [d + r, 0.0],
+                      [-d - r, 0.0]])
+    np.testing.assert_allclose(force[4, 1:], vertex_force(point[2], point[3], point[0], 0.5),
+                               rtol=1e-12)
+    assert force[1].tolist() == [0.0, 0.0, 0.0] and force[0].tolist() == [0.0, 0.0, 0.0]
+    # gaps of 90, 45, 180 and 45 degrees: each vertex counts over half of the two beside it
+    span = np.radians([67.5, 67.5, 112.5, 112.5])
+    reach = np.array([c * math.sqrt(2) + r, c * math.sqrt(2) + r, d + r, d + r])
+    assert area == pytest.approx(0.5 * np.sum(span * reach), rel=1e-12)
 
 
 def test_a_few_particles_standing_out_leave_the_cells_as_they_were():
     """The cells are sized from the reach that 90 % of the particles stay within: five
-    particles of 53 (under a tenth) standing out to three times the surface's reach press
-    their own cells at their reach, and the cells stay those of the surface."""
+    particles of 53 (under a tenth) standing out to three times the surface's reach are
+    vertices of their own cells (whose neighbours push them as a regular ring's vertex,
+    towards the axis along the cell's middle), and the cells stay those of the surface."""
     position, radius = cells()
     angles = -math.pi + 0.1 + 2 * math.pi / 5 * np.arange(5)     # a pentagon: centroid kept
     reach_out = 3 * REACH
@@ -246,7 +322,17 @@ def test_a_few_particles_standing_out_leave_the_cells_as_they_were():
     force, area, _ = membrane_forces(np.vstack([position, out]), np.r_[radius, np.full(5, R_P)],
                                      0, LOW, HIGH, PRESSURE, CELL)
     assert np.count_nonzero(np.linalg.norm(force, axis=1)) == N_THETA * N_Z
-    np.testing.assert_allclose(np.linalg.norm(force[-5:], axis=1),
-                               PRESSURE * reach_out * D_THETA * D_Z, rtol=1e-9)
-    assert area == pytest.approx(D_THETA * D_Z * ((N_THETA * N_Z - 5) * REACH
-                                                  + 5 * reach_out), rel=1e-9)
+    middle = -math.pi + (np.floor((angles + math.pi) / D_THETA) + 0.5) * D_THETA
+    inwards = -np.column_stack([np.cos(middle), np.sin(middle)])
+    np.testing.assert_allclose(force[-5:, 1:], PRESSURE * D_Z * REACH * math.sin(D_THETA)
+                               * inwards, rtol=1e-9)
+    # row 1: each spike's vertex counts over half its gaps to the cells' middles either
+    # side; the middles it replaced count over half a gap less or more
+    vertex_angle = np.sort(np.r_[np.delete(-math.pi + (np.arange(N_THETA) + 0.5) * D_THETA,
+                                           np.round((middle + math.pi) / D_THETA - 0.5)
+                                           .astype(int)), angles])
+    gap = np.diff(np.r_[vertex_angle, vertex_angle[0] + 2 * math.pi])
+    span = 0.5 * (gap + np.roll(gap, 1))
+    out_of = np.isin(vertex_angle, angles)
+    row1 = np.sum(span * np.where(out_of, reach_out, REACH))
+    assert area == pytest.approx(D_Z * (3 * 2 * math.pi * REACH + row1), rel=1e-9)

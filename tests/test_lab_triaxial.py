@@ -129,15 +129,3 @@ def test_bonds_the_confinement_broke_are_no_failure_under_the_deviator():
     assert n["peak_deviator_stress"] > 0.3e6 and n["strain_at_peak"] > 1e-3
     assert n["broken_bonds_at_peak"] > first
 
-
-def test_an_empty_cell_is_pressed_through_its_nearest_filled_neighbour():
-    """Going round a row: the nearest filled cell, the one before when two are as near
-    (also across the row's ends); a row without a particle is not pressed."""
-    from bondem.lab.membrane import nearest_filled
-    grid = np.array([[1, 0, 0, 1, 0, 0, 0, 0],     # cell 2: 1 after 3, 2 before 0: 3
-                     [0, 0, 0, 0, 0, 0, 0, 0],
-                     [0, 1, 0, 0, 0, 1, 0, 0]], bool)  # cells 3 and 7: ties, the one before
-    out = nearest_filled(grid).reshape(3, 8)
-    assert out[0].tolist() == [0, 0, 3, 3, 3, 3, 0, 0]
-    assert out[1].tolist() == [-1] * 8
-    assert (out[2] - 16).tolist() == [1, 1, 1, 1, 5, 5, 5, 5]

@@ -3,12 +3,19 @@ forces on its outermost particles (pure functions of arrays).
 
 The lateral surface between the platens is cut into cells of about one particle diameter
 in angle and in height. In each cell the particle reaching farthest from the axis
-(radial distance plus radius) carries the cell's share of the pressure: sigma_3 times the
-cell's area at that particle's reach, R_c dtheta dz, pushing towards the axis. The forces
-follow the particles as the specimen bulges, narrows or breaks, as a latex membrane's
-would (the boundary-particle method of PFC's and Yade's flexible-membrane triaxial tests,
-e.g. Cheung and O'Sullivan 2008, with cells instead of a Voronoi tessellation). Their sum
-is sigma_3 times the specimen's current lateral surface.
+(radial distance plus radius) is a vertex of the membrane: in each row of cells the
+vertices, in order round the axis, make a closed polygon, and the membrane is that
+polygon's prism of the row's height dz. Each vertex carries the pressure on half of each
+of its two edges, sigma_3 dz rot(P_next - P_prev) / 2 towards the inside (P: the
+vertices' reach points), so a gap in a staircase of particles or a crack is spanned by the
+edge across it. The forces follow the particles as the specimen bulges, narrows or breaks,
+as a latex membrane's would (the boundary-particle method of PFC's and Yade's
+flexible-membrane triaxial tests, e.g. Cheung and O'Sullivan 2008, with cells instead of a
+Voronoi tessellation). Because a closed polygon's edges sum to nothing, the forces have no
+net lateral force whatever the specimen's shape, and no torque about the axis at the
+points they press (at the particles' centres, where they act, a few 1e-4 of their
+moment): the membrane neither pushes the specimen sideways over frictionless platens nor
+twists it.
 """
 from __future__ import annotations
 
@@ -18,12 +25,16 @@ import numpy as np
 
 
 def membrane_forces(position, radius, axis, low, high, pressure, cell):
-    """Forces (N,3) N of the confining ``pressure`` (Pa) on the outermost particle of each
-    cell of the lateral surface between ``low`` and ``high`` (m, along ``axis``), the
-    surface (m^2) they press on and its mean radius (m). A row's empty cells are pressed
-    through the nearest filled one (the one before it when tied); a row without a
-    particle is not pressed. cell: the cells'
-    target size (m), about a particle diameter. The axis passes through the centroid of
+    """Forces (N,3) N of the confining ``pressure`` (Pa) on the vertices of the membrane
+    between ``low`` and ``high`` (m, along ``axis``), the lateral surface (m^2) of the
+    cylinders of the rows' mean radii and that mean radius (m).
+
+    In each cell of target size ``cell`` (m, about a particle diameter) the particle
+    reaching farthest from the axis is a vertex; a row's vertices make a closed polygon
+    pressed by ``pressure`` over the row's height. A vertex's radius counts over the angle
+    from the middle of its gap to the vertex before to the middle of its gap to the one
+    after (so a vertex spanning empty cells counts for them). A row of fewer than three
+    vertices encloses nothing and is not pressed. The axis passes through the centroid of
     the particles between low and high."""
     force = np.zeros_like(position)
     z = position[:, axis]
@@ -45,41 +56,26 @@ def membrane_forces(position, radius, axis, low, high, pressure, cell):
     key = i_z * n_theta + i_theta
     order = np.lexsort((reach, key))
     last = np.flatnonzero(np.r_[key[order][1:] != key[order][:-1], True])
-    outer = order[last]                      # the farthest-reaching particle of each cell
-    # an empty cell (a gap in a staircase of particles, a crack) gives its area to the
-    # nearest filled cell of its row: the membrane spans it
-    filled = key[outer]
-    share = np.ones(outer.size)
-    grid = np.zeros(n_z * n_theta, bool)
-    grid[filled] = True
-    if not grid.all():
-        slot = np.full(n_z * n_theta, -1, np.int64)
-        slot[filled] = np.arange(outer.size)
-        target = nearest_filled(grid.reshape(n_z, n_theta))
-        empty = np.flatnonzero(~grid & (target >= 0))
-        np.add.at(share, slot[target[empty]], 1.0)
-    r_cell = reach[outer]
-    area = r_cell * d_theta * d_z * share
-    unit = np.zeros((outer.size, 3))
-    safe = np.maximum(rho[outer], 1e-300)
-    unit[:, lateral[0]] = xy[outer, 0] / safe
-    unit[:, lateral[1]] = xy[outer, 1] / safe
-    np.add.at(force, inside[outer], -pressure * area[:, None] * unit)
-    return force, float(area.sum()), float(np.sum(r_cell * share) / np.sum(share))
-
-
-def nearest_filled(grid):
-    """For each cell of ``grid`` (rows of cells around the circumference, True where
-    filled): the flat index of the nearest filled cell of its row going round (the one
-    before it when two are as near; itself when filled), -1 in a row with none."""
-    n_rows, n = grid.shape
-    column = np.arange(3 * n) - n                  # three turns: the row's neighbours wrap
-    tiled = np.tile(grid, 3)
-    before = np.maximum.accumulate(np.where(tiled, column, -4 * n), axis=1)[:, n:2 * n]
-    after = np.minimum.accumulate(np.where(tiled, column, 4 * n)[:, ::-1],
-                                  axis=1)[:, ::-1][:, n:2 * n]
-    here = np.arange(n)
-    pick = np.where(here - before <= after - here, before, after) % n
-    out = np.arange(n_rows)[:, None] * n + pick
-    out[~grid.any(axis=1)] = -1
-    return out.ravel()
+    vertex = order[last]            # the farthest-reaching particle of each cell, by row
+    row = key[vertex] // n_theta    # and in each row in order of angle
+    _, start, count = np.unique(row, return_index=True, return_counts=True)
+    first, size = np.repeat(start, count), np.repeat(count, count)
+    here = np.arange(vertex.size) - first
+    after = first + (here + 1) % size
+    before = first + (here - 1) % size
+    closed = size >= 3
+    safe = np.maximum(rho[vertex], 1e-300)
+    point = (reach[vertex] / safe)[:, None] * xy[vertex]
+    chord = point[after] - point[before]
+    push = np.zeros((vertex.size, 3))
+    # rot(chord) = (chord_y, -chord_x) points out of a polygon gone round anticlockwise
+    push[:, lateral[0]] = -0.5 * pressure * d_z * chord[:, 1]
+    push[:, lateral[1]] = 0.5 * pressure * d_z * chord[:, 0]
+    push[~closed] = 0.0
+    force[inside[vertex]] = push
+    span = 0.5 * np.mod(theta[vertex][after] - theta[vertex][before], 2.0 * math.pi)
+    span = np.where(closed, span, 0.0)
+    if not closed.any():
+        return force, 0.0, 0.0
+    swept = float(np.sum(reach[vertex] * span))
+    return force, swept * d_z, swept / float(np.sum(span))

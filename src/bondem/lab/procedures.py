@@ -1044,13 +1044,14 @@ class _Membrane:
             steps -= n
 
     def cross_section(self):
-        """The specimen's current cross-section pi R^2 (m^2), R the cells' mean reach."""
+        """The specimen's current cross-section pi R^2 (m^2), R the membrane's mean
+        radius (lab/membrane.py)."""
         return math.pi * self.radius ** 2
 
     def lateral_stress(self):
-        """The membrane's total push over the current lateral surface 2 pi R gap (Pa):
-        sigma_3 where every cell of the surface has a particle, less where some are
-        empty."""
+        """The confining stress the membrane applies over the current lateral surface
+        2 pi R gap (Pa): sigma_3 times the share of its rows pressed (a row of fewer than
+        three vertices encloses nothing and is not)."""
         nominal = 2.0 * math.pi * self.radius * self.gap
         return self.pressure * self.surface / nominal if nominal > 0.0 else math.nan
 
