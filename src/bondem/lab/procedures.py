@@ -1197,7 +1197,7 @@ def brazilian(specimen, settings=None, *, out_dir=None, scene_text=""):
     ends = end_crack_fraction(result.cracks, float(curve["time"][k]), specimen.position,
                               diameter, axis)
     result.numbers["end_crack_fraction"] = ends
-    crushed = crushed_note(ends, settings.flattened)
+    crushed = crushed_note(ends)
     if crushed is not None:
         warnings.warn(f"brazilian: {crushed}", stacklevel=3)
         result.notes.insert(-1, f"warning: {crushed}")
@@ -1207,27 +1207,18 @@ def brazilian(specimen, settings=None, *, out_dir=None, scene_text=""):
 END_CRACKS = 0.5   # a Brazilian disc with more of its cracks at the loaded ends: crushed
 
 
-def crushed_note(ends, flattened=0.0):
+def crushed_note(ends):
     """The warning for a Brazilian disc with the fraction ``ends`` of its cracks up to the
     peak near a loaded end (``end_crack_fraction``), or None at most END_CRACKS (or NaN:
-    no cracks). flattened: a flattened disc's loading angle 2 alpha (degrees; 0: a round
-    disc, whose load spreads over ISRM's 10 degrees at failure); the compression at the
-    ends is about pi sigma_t / (2 sin alpha) there."""
+    no cracks)."""
     if not ends > END_CRACKS:
         return None
-    if flattened > 0.0:
-        arc, where = flattened, "its flats"
-        coarse = ("; a disc coarse at the flats' edges, where the platens' load "
-                  "concentrates, may crush there even above it")
-    else:
-        arc, where = 10.0, "10 degrees, ISRM's arc at failure"
-        coarse = ", however fine the disc"
-    factor = math.pi / (2.0 * math.sin(math.radians(0.5 * arc)))
     return (f"{100 * ends:.0f} % of the cracks up to the peak lie within 0.4 R of a loaded "
             f"end: the disc crushed under its loads before it split, so its tensile "
-            f"strength is not a Brazilian one (under a load spread over {where}, the "
-            f"disc's compression is about {factor:.2g} sigma_t: a material whose UCS is "
-            f"below that crushes there{coarse}; docs/lab.md)")
+            f"strength is not a Brazilian one (the bonds under the few particles that "
+            f"carry the load broke first, in bending or shear; parallel bonds whose "
+            f"bending adds nothing to their stress, moment_factor = 0, split from the "
+            f"centre; docs/lab.md)")
 
 
 def end_crack_fraction(cracks, peak_time, position, diameter, axis=2):
