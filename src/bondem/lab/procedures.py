@@ -1217,7 +1217,7 @@ def crushed_note(ends):
             f"end: the disc crushed under its loads before it split, so its tensile "
             f"strength is not a Brazilian one (the bonds under the few particles that "
             f"carry the load broke first, in bending or shear; parallel bonds whose "
-            f"bending adds nothing to their stress, moment_factor = 0, split from the "
+            f"bending adds nothing to their stress, moment_factor = 0, crack nearer the "
             f"centre; docs/lab.md)")
 
 
