@@ -462,3 +462,25 @@ def test_a_bridge_between_two_liquids_takes_the_mean_angle_and_volume():
     dry = contact_models.pair_parameters(contact_liquid, dict(first, bridge_volume=0.0),
                                          dict(second, bridge_volume=0.0))
     assert dry[-1] == 0.0
+
+
+def test_a_jkr_pair_of_two_materials_reads_k_from_the_pair_table():
+    """The pair table of two JKR materials (w = 0.02 and 0.08 J/m^2; E 1e8 and 3e8 Pa,
+    nu 0.2 and 0.35): w mixed geometrically (0.04), then k = sqrt(2 pi w / E*) with the
+    pair's own E* = 1 / ((1 - nu_1^2) / E_1 + (1 - nu_2^2) / E_2); a row of it built by
+    the backends' table maker holds the same."""
+    from bondem.backends.loops import contact_materials
+    from bondem.physics import contact_models
+    e_star = 1.0 / ((1 - 0.2 ** 2) / 1e8 + (1 - 0.35 ** 2) / 3e8)
+    columns = contact_models.pair_parameters(contact_jkr, {"surface_energy": 0.02},
+                                             {"surface_energy": 0.08}, e_star)
+    assert contact_models.pair_columns(contact_jkr) == len(columns) == 2
+    assert columns[0] == approx(0.04, rel=1e-15)
+    assert columns[1] == approx(math.sqrt(2 * math.pi * 0.04 / e_star), rel=1e-15)
+    table = contact_materials([1e8, 3e8], [0.2, 0.35], [0.5, 0.5], [0.3, 0.3], [0.0, 0.0],
+                              model=contact_jkr, parameters=[{"surface_energy": 0.02},
+                                                             {"surface_energy": 0.08}])
+    row = table.pair[1]                                   # material 0 against material 1
+    assert row[contact_jkr.ADHESION_K] == approx(columns[1], rel=1e-14)
+    assert table.pair[0][contact_jkr.ADHESION_K] == approx(
+        math.sqrt(2 * math.pi * 0.02 / (1e8 / (2 * (1 - 0.2 ** 2)))), rel=1e-14)

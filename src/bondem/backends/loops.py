@@ -126,7 +126,8 @@ def contact_materials(young, poisson, restitution, friction, rolling, model=None
             pair[q, PAIR_ROLLING] = 0.5 * (rolling[a] + other[4][b]) if use_rolling else 0.0
             pair[q, PAIR_STIFFNESS] = stiffness
             if own:
-                pair[q, PAIR_MODEL:] = pair_parameters(model, parameters[a], other[5][b])
+                pair[q, PAIR_MODEL:] = pair_parameters(model, parameters[a], other[5][b],
+                                                       pair[q, PAIR_E_STAR])
     return ContactMaterials(young, poisson, restitution, friction, rolling, pair)
 
 

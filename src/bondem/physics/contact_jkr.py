@@ -51,6 +51,16 @@ HYSTERETIC = True
 MUSEN = {"pp": "ModelPPJKR", "pw": "ModelPWJKR", "kind_pp": 1, "kind_pw": 1,
          "properties": {"surface_energy": 11}}
 SURFACE_ENERGY = PAIR_MODEL
+# k = sqrt(2 pi w / E*) once per pair of materials: a division and a square root the law
+# took per contact and step
+CONSTANTS = ("adhesion_k",)
+ADHESION_K = PAIR_MODEL + 1
+
+
+def constants(values):
+    """(k = sqrt(2 pi w / E*) in m^1/2,) of a pair's mixed surface energy w (J/m^2) and
+    its E* (Pa, ``values["e_star"]``)."""
+    return (math.sqrt(2.0 * math.pi * values["surface_energy"] / values["e_star"]),)
 
 
 @physics
@@ -71,10 +81,11 @@ def jkr_root(overlap, r_star, k):
     if not disc > 0.0:
         return s_c, s_c
     # Cardano's z = c + c', c = cbrt(h + sqrt(disc)), c c' = -p; as 2h / (c^2 - c c' +
-    # c'^2), a sum of positive terms where p > 0
+    # c'^2) = 2h c^2 / (c^4 + p c^2 + p^2), a sum of positive terms where p > 0 (one
+    # division)
     c = (h + math.sqrt(disc)) ** (1.0 / 3.0)
     cc = c * c
-    z = 2.0 * h / (cc + p + p * p / cc)
+    z = 2.0 * h * cc / (cc * cc + p * cc + p * p)
     u = math.sqrt(z)
     # the larger root of s^2 - u s + v' = 0, v' = (z - k R* / u) / 2
     rest = 2.0 * kr / u - z
@@ -89,23 +100,26 @@ def jkr_contact_radius(overlap, r_star, e_star, w):
     return s * s
 
 
-# The force and the potential in s = sqrt(a) and k: sqrt(8 pi w E* a^3) = 2 E* k s^3, and
-# with a_c^(3/2) = k R* / 4 the potential at pull-off is E* k^2 a_c^2 / 5; so no powers
-# beyond products (the law's cost per contact, docs/performance.md)
+# The force and the potential in s = sqrt(a), k and 1/R*: sqrt(8 pi w E* a^3) =
+# 2 E* k s^3, and with a_c^(3/2) = k R* / 4 the potential at pull-off is E* k^2 a_c^2 / 5;
+# so no powers beyond products and no division (the law's cost per contact,
+# docs/performance.md)
 @physics
-def jkr_force_of_root(s, r_star, e_star, k):
-    """JKR's elastic normal force (N, repulsive > 0) at s = sqrt(a) (m^1/2)."""
+def jkr_force_of_root(s, inverse_r, e_star, k):
+    """JKR's elastic normal force (N, repulsive > 0) at s = sqrt(a) (m^1/2), inverse_r =
+    1/R* (1/m)."""
     s3 = s * s * s
-    return e_star * s3 * (4.0 * s3 / (3.0 * r_star) - 2.0 * k)
+    return e_star * s3 * (4.0 / 3.0 * s3 * inverse_r - 2.0 * k)
 
 
 @physics
-def jkr_potential_of_root(s, s_c, r_star, e_star, k):
-    """JKR's elastic energy (J) at s = sqrt(a), zero at pull-off (s_c = sqrt(a_c))."""
+def jkr_potential_of_root(s, s_c, inverse_r, e_star, k):
+    """JKR's elastic energy (J) at s = sqrt(a), zero at pull-off (s_c = sqrt(a_c));
+    inverse_r = 1/R* (1/m)."""
     a = s * s
     s3 = a * s
-    at_a = (8.0 * a * a * a * a * a / (15.0 * r_star * r_star)
-            - 4.0 / 3.0 * k * s3 * s3 * s / r_star + 0.5 * k * k * a * a)
+    at_a = (8.0 / 15.0 * a * a * a * a * a * inverse_r * inverse_r
+            - 4.0 / 3.0 * k * s3 * s3 * s * inverse_r + 0.5 * k * k * a * a)
     a_c = s_c * s_c
     return e_star * (at_a - 0.2 * k * k * a_c * a_c)
 
@@ -113,7 +127,7 @@ def jkr_potential_of_root(s, s_c, r_star, e_star, k):
 @physics
 def jkr_force(a, r_star, e_star, w):
     """JKR's elastic normal force (N, repulsive > 0) at contact radius a (m)."""
-    return jkr_force_of_root(math.sqrt(a), r_star, e_star,
+    return jkr_force_of_root(math.sqrt(a), 1.0 / r_star, e_star,
                              math.sqrt(2.0 * math.pi * w / e_star))
 
 
@@ -121,8 +135,8 @@ def jkr_force(a, r_star, e_star, w):
 def jkr_potential(a, r_star, e_star, w):
     """JKR's elastic energy (J) at contact radius a (m), zero at the pull-off point."""
     k = math.sqrt(2.0 * math.pi * w / e_star)
-    return jkr_potential_of_root(math.sqrt(a), (0.25 * r_star * k) ** (1.0 / 3.0), r_star,
-                                 e_star, k)
+    return jkr_potential_of_root(math.sqrt(a), (0.25 * r_star * k) ** (1.0 / 3.0),
+                                 1.0 / r_star, e_star, k)
 
 
 @physics
@@ -142,21 +156,22 @@ def jkr_law(n, overlap, v_rel, w_rel, spring, pair, q, r_star, m_star, i_star, d
     g_star = pair[q, PAIR_G_STAR]
     beta = pair[q, PAIR_BETA]
     w = pair[q, SURFACE_ENERGY]
+    k = pair[q, ADHESION_K]
+    inverse_r = 1.0 / r_star
     v_n = dot(v_rel, n)
     v_t = sub(v_rel, scale(n, v_n))
-    k = math.sqrt(2.0 * math.pi * w / e_star)
     root, root_c = jkr_root(overlap, r_star, k)
     a = root * root
     s_n = 2.0 * e_star * a
     s_t = 8.0 * g_star * a
     c_n = -2.0 * SQRT_5_6 * beta * math.sqrt(s_n * m_star)
     c_t = -2.0 * SQRT_5_6 * beta * math.sqrt(s_t * m_star)
-    f_n = jkr_force_of_root(root, r_star, e_star, k) - c_n * v_n
+    f_n = jkr_force_of_root(root, inverse_r, e_star, k) - c_n * v_n
     # the limits of an adhesive contact: its load plus twice the pull-off force
     load = f_n + 3.0 * math.pi * w * r_star
     f_t, torque, xi = friction_and_rolling(n, v_t, w_rel, spring, load, s_t, c_t,
                                            pair[q, PAIR_FRICTION], pair[q, PAIR_ROLLING],
                                            r_star, i_star, dt)
-    energy = (jkr_potential_of_root(root, root_c, r_star, e_star, k)
+    energy = (jkr_potential_of_root(root, root_c, inverse_r, e_star, k)
               + 0.5 * s_t * dot(xi, xi))
     return add(scale(n, -f_n), f_t), torque, f_t, xi, energy

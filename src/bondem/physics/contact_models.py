@@ -19,7 +19,7 @@ A contact model file declares, besides its ``@physics`` functions:
     CONSTANTS   optional: names of pair-table columns after PARAMETERS' that the model
                 derives once per pair of materials (a cosine, a cube root the law would
                 otherwise take per contact and step), with ``constants(values)`` -> their
-                values from the mixed {key: value}
+                values from the mixed {key: value} and the pair's E* (Pa) under "e_star"
     HYSTERETIC  with REACH: True when beyond contact only a contact that formed by
                 touching acts (JKR's neck, a liquid bridge) until REACH; False when every
                 pair within REACH does (van der Waals)
@@ -80,12 +80,14 @@ def mix(rule, a, b):
     return 0.5 * (a + b)
 
 
-def pair_parameters(module, values_i, values_j):
+def pair_parameters(module, values_i, values_j, e_star=math.nan):
     """The model's own pair-table columns (from PAIR_MODEL on) for two materials given as
-    {key: value} dicts: its PARAMETERS mixed, then its CONSTANTS."""
+    {key: value} dicts: its PARAMETERS mixed, then its CONSTANTS (from the mixed values and
+    the pair's ``e_star``, Pa, under "e_star")."""
     mixed = {key: mix(rule, values_i[key], values_j[key])
              for key, (_entry, rule) in module.PARAMETERS.items()}
-    derived = list(module.constants(mixed)) if getattr(module, "CONSTANTS", ()) else []
+    derived = (list(module.constants({**mixed, "e_star": e_star}))
+               if getattr(module, "CONSTANTS", ()) else [])
     return list(mixed.values()) + derived
 
 
