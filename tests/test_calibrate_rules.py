@@ -824,7 +824,7 @@ def test_a_local_cluster_of_single_threaded_workers(folder, monkeypatch):
     (cluster,), (client,) = made, clients
     assert cluster.kwargs == {"n_workers": 3, "threads_per_worker": 1, "processes": True,
                               "dashboard_address": None,
-                              "env": {"NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}}
+                              "env": {"OMP_NUM_THREADS": "1"}}
     assert client.args == (cluster,) and len(client.submitted) == 9
     assert cluster.closed and client.closed
     monkeypatch.setattr(os, "cpu_count", lambda: 5)

@@ -37,6 +37,20 @@ def test_a_worker_whose_main_module_imported_numba_first_runs_one_thread(tmp_pat
             return numba.config.NUMBA_NUM_THREADS, numba.get_num_threads()
 
 
+        def compile_fresh():
+            # a kernel compiled in the worker after its threads were launched: Numba
+            # re-reads its environment on each compile
+            import numpy as np
+
+            @numba.njit(parallel=True)
+            def total(x):
+                s = 0.0
+                for i in numba.prange(x.size):
+                    s += x[i]
+                return s
+            return int(total(np.ones(7)))
+
+
         if __name__ == "__main__":
             import os
             from distributed import Client
@@ -44,15 +58,21 @@ def test_a_worker_whose_main_module_imported_numba_first_runs_one_thread(tmp_pat
             with local_cluster(1) as cluster, Client(cluster) as client:
                 bare = client.submit(threads, pure=False).result()
                 wrapped = client.submit(single_threaded, threads, pure=False).result()
-            print(os.cpu_count(), *bare, *wrapped)
+                compiled = client.submit(single_threaded, compile_fresh, pure=False).result()
+            print(os.cpu_count(), *bare, *wrapped, compiled)
     """))
     out = subprocess.run([sys.executable, str(script)], capture_output=True, text=True,
                          timeout=300, cwd=tmp_path)
     assert out.returncode == 0, out.stderr[-2000:]
-    cores, bare_config, bare, _, wrapped = map(int, out.stdout.split()[-5:])
+    cores, bare_config, bare, _, wrapped, compiled = map(int, out.stdout.split()[-6:])
     # the trap (with this Dask: Numba in the worker read the core count, not the env's
     # one thread) does not matter: the task runs on one thread
     assert bare == bare_config and wrapped == 1
+    # and a kernel compiled there (a cache that a new bondem made stale): with
+    # NUMBA_NUM_THREADS=1 in the cluster's env, Numba's compile found the env's 1 against
+    # the 2 threads it had launched and refused ("Cannot set NUMBA_NUM_THREADS to a
+    # different value once the threads have been launched")
+    assert compiled == 7
 
 
 def test_local_cluster_settings(monkeypatch):
@@ -62,4 +82,4 @@ def test_local_cluster_settings(monkeypatch):
     local_cluster(3)
     assert made == [{"n_workers": 3, "threads_per_worker": 1, "processes": True,
                      "dashboard_address": None,
-                     "env": {"NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}}]
+                     "env": {"OMP_NUM_THREADS": "1"}}]

@@ -9,10 +9,17 @@ worker's Numba then runs two OpenMP threads on a 2-core machine, whose spinning 
 took the other worker's core: the calibration example's simulations ran 4-5x slower on
 its workers than in a plain process (docs/calibration.md). ``single_threaded`` sets
 Numba's thread count on the thread that runs the task, whatever was imported first.
+
+The cluster's env must not set NUMBA_NUM_THREADS either: Numba re-reads its environment
+on every compile, and a worker that launched its threads with the core count then found
+the env's 1 and refused to compile ("Cannot set NUMBA_NUM_THREADS to a different value
+once the threads have been launched"). Every kernel a worker had to compile, because a
+new bondem or a fresh machine had no cache of it yet, failed so: `bondem lab envelope`
+and the calibration failed on their first run.
 """
 import os
 
-SINGLE = {"NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
+SINGLE = {"OMP_NUM_THREADS": "1"}
 
 
 def single_threaded(function, *args, **kwargs):
