@@ -57,6 +57,20 @@ def reach_point(position, radius):
     return xy * ((rho + radius) / rho)[:, None]
 
 
+def fan_area(angles, reaches):
+    """The area a polygon of vertices at ``angles`` (radians) and distances ``reaches``
+    from the axis encloses: its triangles with the axis, 1/2 R_i R_i+1 sin(dtheta)."""
+    order = np.argsort(angles)
+    theta, r = np.asarray(angles)[order], np.asarray(reaches)[order]
+    gap = np.diff(np.r_[theta, theta[0] + 2 * math.pi])
+    return 0.5 * float(np.sum(r * np.roll(r, -1) * np.sin(gap)))
+
+
+def regular(n, reach):
+    """The area of a regular polygon of n vertices at ``reach``."""
+    return 0.5 * n * reach ** 2 * math.sin(2 * math.pi / n)
+
+
 def vertex_force(before, here, after, dz):
     """The (y, z) force on vertex ``here`` of an anticlockwise polygon: the pressure on
     half of each of its two edges, each along the edge's inward normal."""
@@ -69,11 +83,13 @@ def vertex_force(before, here, after, dz):
 def test_a_full_ring_is_a_regular_polygon():
     """A particle at the middle of every cell: each row is a regular polygon of N_THETA
     sides at the reach R, so every vertex is pushed towards the axis with
-    sigma_3 dz R sin(dtheta); the lateral surface is 2 pi R h and the forces cancel."""
+    sigma_3 dz R sin(dtheta) and the forces cancel; the membrane's radius is that of the
+    polygon's area, N/2 R^2 sin(2 pi / N) = pi R_m^2, its lateral surface 2 pi R_m h."""
     position, radius = cells()
     force, area, mean_radius = membrane_forces(position, radius, 0, LOW, HIGH, PRESSURE, CELL)
-    assert area == pytest.approx(2 * math.pi * REACH * (HIGH - LOW), rel=1e-12)
-    assert mean_radius == pytest.approx(REACH, rel=1e-12)
+    r_m = math.sqrt(regular(N_THETA, REACH) / math.pi)
+    assert mean_radius == pytest.approx(r_m, rel=1e-12) and r_m < 0.98 * REACH
+    assert area == pytest.approx(2 * math.pi * r_m * (HIGH - LOW), rel=1e-12)
     push = PRESSURE * D_Z * REACH * math.sin(D_THETA)
     np.testing.assert_allclose(force, -push * radial(position), rtol=1e-9,
                                atol=1e-12 * push)
@@ -99,9 +115,9 @@ def test_each_corner_of_a_rectangle_carries_half_of_its_two_sides():
     assert np.all(force[:, 0] == 0.0)
     virial = -np.sum(force[:, 1:] * corner)
     assert virial == pytest.approx(2 * PRESSURE * dz * 4 * a * b, rel=1e-9)
-    # every corner reaches sqrt(a^2 + b^2), over a quarter turn in all
-    assert mean_radius == pytest.approx(math.hypot(a, b), rel=1e-12)
-    assert area == pytest.approx(2 * math.pi * math.hypot(a, b) * dz, rel=1e-12)
+    # the cross-section is the rectangle's 4 a b
+    assert math.pi * mean_radius ** 2 == pytest.approx(4 * a * b, rel=1e-12)
+    assert area == pytest.approx(2 * math.pi * mean_radius * dz, rel=1e-12)
 
 
 def test_a_rough_broken_specimen_is_neither_pushed_nor_twisted():
@@ -153,8 +169,10 @@ def test_only_the_farthest_reach_of_a_cell_is_pressed():
     for k in (N_THETA - 1, 0, 1):                     # cell 0 and its two neighbours
         expected = vertex_force(point[k - 1], point[k], point[(k + 1) % N_THETA], D_Z)
         np.testing.assert_allclose(force[k, 1:], expected, rtol=1e-9)
-    assert area == pytest.approx(REACH * D_THETA * D_Z * (n - 1)
-                                 + (RHO + big) * D_THETA * D_Z, rel=1e-9)
+    middle = -math.pi + (np.arange(N_THETA) + 0.5) * D_THETA
+    row0 = fan_area(middle, np.r_[RHO + big, np.full(N_THETA - 1, REACH)])
+    r_m = math.sqrt((row0 + 3 * regular(N_THETA, REACH)) / 4 / math.pi)
+    assert area == pytest.approx(2 * math.pi * r_m * (HIGH - LOW), rel=1e-9)
 
 
 def test_a_gap_is_spanned_by_an_edge_and_a_row_of_two_or_none_is_not_pressed():
@@ -183,24 +201,34 @@ def test_a_gap_is_spanned_by_an_edge_and_a_row_of_two_or_none_is_not_pressed():
     assert np.all(force[row[kept] == 3] == 0.0)
     np.testing.assert_allclose(force.sum(axis=0), 0.0,
                                atol=1e-12 * np.abs(force).sum())
-    # three rows of radius REACH pressed, the fourth (two particles) not
-    assert area == pytest.approx(3 * 2 * math.pi * REACH * D_Z, rel=1e-12)
-    assert mean_radius == pytest.approx(REACH, rel=1e-12)
+    # three rows pressed, the fourth (two particles) not; the gaps cut the rows' areas
+    middle = -math.pi + (np.arange(N_THETA) + 0.5) * D_THETA
+    rows = [fan_area(middle[~gone[j * N_THETA:(j + 1) * N_THETA]],
+                     np.full(np.count_nonzero(~gone[j * N_THETA:(j + 1) * N_THETA]), REACH))
+            for j in range(3)]
+    assert rows[0] < regular(N_THETA, REACH) and rows[1] < rows[0]
+    r_m = math.sqrt(np.mean(rows) / math.pi)
+    assert mean_radius == pytest.approx(r_m, rel=1e-12)
+    assert area == pytest.approx(3 * 2 * math.pi * r_m * D_Z, rel=1e-12)
 
 
-def test_the_mean_radius_counts_each_vertex_over_half_its_gaps():
+def test_the_radius_is_that_of_the_rows_mean_area():
     """Two particles of row 0 reach farther (cells 2 and 7); cells 3 and 9 of row 0 are
-    empty, so vertices 2, 4, 8 and 10 count over 1.5 cells each: row 0's radius is the
-    mean reach over the angle, and the specimen's the mean over its rows."""
+    empty: row 0's polygon encloses its own area, and the membrane's radius is that of
+    the mean area of its rows."""
     position, radius = cells()
     radius[[2, 7]] = 2 * R_P
     keep = (np.arange(len(position)) != 3) & (np.arange(len(position)) != 9)
     _, area, mean_radius = membrane_forces(position[keep], radius[keep], 0, LOW, HIGH,
                                            PRESSURE, CELL)
     big = RHO + 2 * R_P
-    row0 = (1.5 * big + 1.0 * big + (N_THETA - 2.5) * REACH) / N_THETA
-    assert mean_radius == pytest.approx((row0 + 3 * REACH) / 4, rel=1e-12)
-    assert area == pytest.approx(2 * math.pi * (row0 + 3 * REACH) * D_Z, rel=1e-12)
+    middle = -math.pi + (np.arange(N_THETA) + 0.5) * D_THETA
+    reach = np.full(N_THETA, REACH)
+    reach[[2, 7]] = big
+    row0 = fan_area(np.delete(middle, [3, 9]), np.delete(reach, [3, 9]))
+    r_m = math.sqrt((row0 + 3 * regular(N_THETA, REACH)) / 4 / math.pi)
+    assert mean_radius == pytest.approx(r_m, rel=1e-12)
+    assert area == pytest.approx(2 * math.pi * r_m * (HIGH - LOW), rel=1e-12)
 
 
 def test_particles_beyond_the_platens_are_neither_pressed_nor_centred():
@@ -240,7 +268,8 @@ def test_coarse_cells_still_go_round_in_six():
     np.testing.assert_allclose(np.linalg.norm(force[pressed], axis=1),
                                PRESSURE * reach * math.sin(2 * math.pi / 6) * D_Z,
                                rtol=1e-9)
-    assert area == pytest.approx(2 * math.pi * reach * D_Z, rel=1e-12)
+    r_m = math.sqrt(regular(6, reach) / math.pi)                 # 3 sqrt(3) / 2 R^2
+    assert area == pytest.approx(2 * math.pi * r_m * D_Z, rel=1e-12)
 
 
 def test_nothing_to_press():
@@ -282,7 +311,8 @@ def test_the_end_rows_reach_the_platens():
     position[row == 0, 0] = LOW
     position[row == N_Z - 1, 0] = HIGH
     force, area, _ = membrane_forces(position, radius, 0, LOW, HIGH, PRESSURE, CELL)
-    assert area == pytest.approx(2 * math.pi * REACH * (HIGH - LOW), rel=1e-12)
+    r_m = math.sqrt(regular(N_THETA, REACH) / math.pi)
+    assert area == pytest.approx(2 * math.pi * r_m * (HIGH - LOW), rel=1e-12)
     np.testing.assert_allclose(np.linalg.norm(force, axis=1),
                                PRESSURE * REACH * math.sin(D_THETA) * D_Z, rtol=1e-9)
 
@@ -304,10 +334,13 @@ def test_a_particle_at_half_a_turn_is_in_the_last_cell():
     np.testing.assert_allclose(force[4, 1:], vertex_force(point[2], point[3], point[0], 0.5),
                                rtol=1e-12)
     assert force[1].tolist() == [0.0, 0.0, 0.0] and force[0].tolist() == [0.0, 0.0, 0.0]
-    # gaps of 90, 45, 180 and 45 degrees: each vertex counts over half of the two beside it
-    span = np.radians([67.5, 67.5, 112.5, 112.5])
+    # gaps of 90, 45, 180 and 45 degrees between the four vertices
     reach = np.array([c * math.sqrt(2) + r, c * math.sqrt(2) + r, d + r, d + r])
-    assert area == pytest.approx(0.5 * np.sum(span * reach), rel=1e-12)
+    enclosed = fan_area(np.radians([-135.0, -45.0, 0.0, 180.0]), reach)
+    assert enclosed == pytest.approx(0.5 * reach[0] ** 2 + 2 * 0.5 * reach[0] * reach[2]
+                                     * math.sin(math.pi / 4), rel=1e-12)
+    assert area == pytest.approx(2 * math.pi * math.sqrt(enclosed / math.pi) * 0.5,
+                                 rel=1e-12)
 
 
 def test_a_few_particles_standing_out_leave_the_cells_as_they_were():
@@ -326,13 +359,10 @@ def test_a_few_particles_standing_out_leave_the_cells_as_they_were():
     inwards = -np.column_stack([np.cos(middle), np.sin(middle)])
     np.testing.assert_allclose(force[-5:, 1:], PRESSURE * D_Z * REACH * math.sin(D_THETA)
                                * inwards, rtol=1e-9)
-    # row 1: each spike's vertex counts over half its gaps to the cells' middles either
-    # side; the middles it replaced count over half a gap less or more
-    vertex_angle = np.sort(np.r_[np.delete(-math.pi + (np.arange(N_THETA) + 0.5) * D_THETA,
-                                           np.round((middle + math.pi) / D_THETA - 0.5)
-                                           .astype(int)), angles])
-    gap = np.diff(np.r_[vertex_angle, vertex_angle[0] + 2 * math.pi])
-    span = 0.5 * (gap + np.roll(gap, 1))
-    out_of = np.isin(vertex_angle, angles)
-    row1 = np.sum(span * np.where(out_of, reach_out, REACH))
-    assert area == pytest.approx(D_Z * (3 * 2 * math.pi * REACH + row1), rel=1e-9)
+    # row 1: the spikes replace their cells' own vertices
+    cell_middle = -math.pi + (np.arange(N_THETA) + 0.5) * D_THETA
+    replaced = np.round((middle + math.pi) / D_THETA - 0.5).astype(int)
+    row1 = fan_area(np.r_[np.delete(cell_middle, replaced), angles],
+                    np.r_[np.full(N_THETA - 5, REACH), np.full(5, reach_out)])
+    r_m = math.sqrt((row1 + 3 * regular(N_THETA, REACH)) / 4 / math.pi)
+    assert area == pytest.approx(2 * math.pi * r_m * (HIGH - LOW), rel=1e-9)

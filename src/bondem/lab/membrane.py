@@ -16,6 +16,8 @@ net lateral force whatever the specimen's shape, and no torque about the axis at
 points they press (at the particles' centres, where they act, a few 1e-4 of their
 moment): the membrane neither pushes the specimen sideways over frictionless platens nor
 twists it.
+The specimen's cross-section is the mean area the polygons enclose: with it the pressure
+is exactly the specimen's mean lateral stress.
 """
 from __future__ import annotations
 
@@ -26,15 +28,16 @@ import numpy as np
 
 def membrane_forces(position, radius, axis, low, high, pressure, cell):
     """Forces (N,3) N of the confining ``pressure`` (Pa) on the vertices of the membrane
-    between ``low`` and ``high`` (m, along ``axis``), the lateral surface (m^2) of the
-    cylinders of the rows' mean radii and that mean radius (m).
+    between ``low`` and ``high`` (m, along ``axis``), its lateral surface 2 pi R h_p (m^2)
+    and its radius R (m): R = sqrt(A / pi), A the mean area its pressed rows' polygons
+    enclose (the specimen's cross-section), h_p their height.
 
     In each cell of target size ``cell`` (m, about a particle diameter) the particle
     reaching farthest from the axis is a vertex; a row's vertices make a closed polygon
-    pressed by ``pressure`` over the row's height. A vertex's radius counts over the angle
-    from the middle of its gap to the vertex before to the middle of its gap to the one
-    after (so a vertex spanning empty cells counts for them). A row of fewer than three
-    vertices encloses nothing and is not pressed. The axis passes through the centroid of
+    pressed by ``pressure`` over the row's height. A row of fewer than three vertices
+    encloses nothing and is not pressed. With A as the cross-section the pressure is the
+    specimen's mean lateral stress exactly: the forces' virial -sum(f . P) over the
+    vertices' reach points P is 2 pressure A h_p. The axis passes through the centroid of
     the particles between low and high."""
     force = np.zeros_like(position)
     z = position[:, axis]
@@ -73,9 +76,11 @@ def membrane_forces(position, radius, axis, low, high, pressure, cell):
     push[:, lateral[1]] = 0.5 * pressure * d_z * chord[:, 0]
     push[~closed] = 0.0
     force[inside[vertex]] = push
-    span = 0.5 * np.mod(theta[vertex][after] - theta[vertex][before], 2.0 * math.pi)
-    span = np.where(closed, span, 0.0)
-    if not closed.any():
+    # the shoelace formula: each vertex and the next one span a triangle with the axis
+    cross = point[:, 0] * point[after, 1] - point[after, 0] * point[:, 1]
+    rows = np.count_nonzero(count >= 3)
+    enclosed = 0.5 * float(np.sum(cross[closed]))
+    if rows == 0 or not enclosed > 0.0:
         return force, 0.0, 0.0
-    swept = float(np.sum(reach[vertex] * span))
-    return force, swept * d_z, swept / float(np.sum(span))
+    mean_radius = math.sqrt(enclosed / rows / math.pi)
+    return force, 2.0 * math.pi * mean_radius * d_z * rows, mean_radius

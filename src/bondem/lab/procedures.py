@@ -1044,8 +1044,8 @@ class _Membrane:
             steps -= n
 
     def cross_section(self):
-        """The specimen's current cross-section pi R^2 (m^2), R the membrane's mean
-        radius (lab/membrane.py)."""
+        """The specimen's current cross-section pi R^2 (m^2): the mean area the
+        membrane's polygons enclose (lab/membrane.py)."""
         return math.pi * self.radius ** 2
 
     def lateral_stress(self):
