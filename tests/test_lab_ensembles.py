@@ -342,7 +342,7 @@ def test_the_ensemble_on_dask_one_single_threaded_process_per_run(monkeypatch):
     assert fake.log == [
         ("cluster", {"n_workers": 3, "threads_per_worker": 1, "processes": True,
                      "dashboard_address": None,
-                     "env": {"NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}}),
+                     "env": {"OMP_NUM_THREADS": "1"}}),
         ("client", "cluster", {}),
         ("submit", "single_threaded", (pow, 2, 3), {"pure": False}),
         ("submit", "single_threaded", (pow, 3, 2), {"pure": False}),

@@ -471,7 +471,7 @@ def test_a_study_on_dask_gives_the_serial_table(tmp_path, fake_dask):
     (cluster,), (client,) = fake_dask["clusters"], fake_dask["clients"]
     assert cluster.kwargs == {"n_workers": 3, "threads_per_worker": 1, "processes": True,
                               "dashboard_address": None,
-                              "env": {"NUMBA_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}}
+                              "env": {"OMP_NUM_THREADS": "1"}}
     assert client.args == (cluster,) and cluster.closed and client.closed
     function, args, kwargs = client.submitted[0]
     assert function is study_module._run_case_task
