@@ -69,18 +69,16 @@ def membrane_forces(position, radius, axis, low, high, pressure, cell):
     closed = size >= 3
     safe = np.maximum(rho[vertex], 1e-300)
     point = (reach[vertex] / safe)[:, None] * xy[vertex]
-    chord = point[after] - point[before]
-    push = np.zeros((vertex.size, 3))
+    chord = point[after[closed]] - point[before[closed]]
+    pressed = inside[vertex[closed]]
     # rot(chord) = (chord_y, -chord_x) points out of a polygon gone round anticlockwise
-    push[:, lateral[0]] = -0.5 * pressure * d_z * chord[:, 1]
-    push[:, lateral[1]] = 0.5 * pressure * d_z * chord[:, 0]
-    push[~closed] = 0.0
-    force[inside[vertex]] = push
+    force[pressed, lateral[0]] = -0.5 * pressure * d_z * chord[:, 1]
+    force[pressed, lateral[1]] = 0.5 * pressure * d_z * chord[:, 0]
     # the shoelace formula: each vertex and the next one span a triangle with the axis
     cross = point[:, 0] * point[after, 1] - point[after, 0] * point[:, 1]
     rows = np.count_nonzero(count >= 3)
     enclosed = 0.5 * float(np.sum(cross[closed]))
-    if rows == 0 or not enclosed > 0.0:
+    if not enclosed > 0.0:
         return force, 0.0, 0.0
     mean_radius = math.sqrt(enclosed / rows / math.pi)
     return force, 2.0 * math.pi * mean_radius * d_z * rows, mean_radius

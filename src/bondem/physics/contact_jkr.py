@@ -57,10 +57,16 @@ CONSTANTS = ("adhesion_k",)
 ADHESION_K = PAIR_MODEL + 1
 
 
+@physics
+def jkr_k(w, e_star):
+    """k = sqrt(2 pi w / E*) (m^1/2) of work of adhesion w (J/m^2) and E* (Pa)."""
+    return math.sqrt(2.0 * math.pi * w / e_star)
+
+
 def constants(values):
-    """(k = sqrt(2 pi w / E*) in m^1/2,) of a pair's mixed surface energy w (J/m^2) and
-    its E* (Pa, ``values["e_star"]``)."""
-    return (math.sqrt(2.0 * math.pi * values["surface_energy"] / values["e_star"]),)
+    """(k, ``jkr_k``,) of a pair's mixed surface energy w (J/m^2) and its E* (Pa,
+    ``values["e_star"]``)."""
+    return (jkr_k(values["surface_energy"], values["e_star"]),)
 
 
 @physics
@@ -96,7 +102,7 @@ def jkr_root(overlap, r_star, k):
 def jkr_contact_radius(overlap, r_star, e_star, w):
     """Contact radius a (m) on JKR's stable branch at overlap (m) for R* (m), E* (Pa) and
     work of adhesion w (J/m^2); overlap >= -delta_c (else the value at the tip)."""
-    s, _ = jkr_root(overlap, r_star, math.sqrt(2.0 * math.pi * w / e_star))
+    s, _ = jkr_root(overlap, r_star, jkr_k(w, e_star))
     return s * s
 
 
@@ -127,14 +133,13 @@ def jkr_potential_of_root(s, s_c, inverse_r, e_star, k):
 @physics
 def jkr_force(a, r_star, e_star, w):
     """JKR's elastic normal force (N, repulsive > 0) at contact radius a (m)."""
-    return jkr_force_of_root(math.sqrt(a), 1.0 / r_star, e_star,
-                             math.sqrt(2.0 * math.pi * w / e_star))
+    return jkr_force_of_root(math.sqrt(a), 1.0 / r_star, e_star, jkr_k(w, e_star))
 
 
 @physics
 def jkr_potential(a, r_star, e_star, w):
     """JKR's elastic energy (J) at contact radius a (m), zero at the pull-off point."""
-    k = math.sqrt(2.0 * math.pi * w / e_star)
+    k = jkr_k(w, e_star)
     return jkr_potential_of_root(math.sqrt(a), (0.25 * r_star * k) ** (1.0 / 3.0),
                                  1.0 / r_star, e_star, k)
 
