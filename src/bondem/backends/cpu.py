@@ -10,7 +10,7 @@ import numba
 import numpy as np
 from numba import prange
 
-from ..physics import bond_models, compile_physics
+from ..physics import bond_models, compile_physics, field_models
 from ..status import STATUS_OK
 from ..physics.bond_elastic import CRITERION_NONE
 from ..physics.rotation import SMALL_ANGLE
@@ -480,10 +480,14 @@ def box(model, put=lambda a: a):
 
 
 def fields(model, put=lambda a: a):
-    """The model's body-force fields as a ``loops.Fields``: gravity, each field model's
-    parameter array (Model.fields), their INPUTS (Model attributes, as gravity)."""
-    return loops.Fields(*(put(model.fields[name] if name in model.fields
-                              else getattr(model, name)) for name in loops.Fields._fields))
+    """The model's body-force fields as a ``loops.Fields``: gravity, the models'
+    switches (field_models.switches), each field model's parameter array (Model.fields),
+    their INPUTS (Model attributes, as gravity)."""
+    def value(name):
+        if name == "acting":
+            return field_models.switches(model.fields)
+        return model.fields[name] if name in model.fields else getattr(model, name)
+    return loops.Fields(*(put(value(name)) for name in loops.Fields._fields))
 
 
 def bodies(model, put=lambda a: a):

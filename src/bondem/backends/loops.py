@@ -45,7 +45,8 @@ from ..physics._registry import (PAIR_BETA, PAIR_E_STAR, PAIR_FRICTION,  # noqa:
 # run silently). Units: SI throughout (m, m/s, rad/s, kg, kg m^2, N, N m, J, Pa).
 Particles = namedtuple("Particles", "position velocity angular_velocity")
 Bodies = namedtuple("Bodies", "mass inertia fixed external_force external_moment radius")
-# The body-force fields (physics/field_models.py's ARRAYS): gravity (3,) m/s^2, each
+# The body-force fields (physics/field_models.py's ARRAYS): gravity (3,) m/s^2, acting
+# (uint8 per model, field_models.switches: which models the loops evaluate), each
 # field model's parameter array under its NAME (the fluid's FLUID_* columns, the rotating
 # frame's FRAME_*), then their INPUTS (the fluid's flow grid (nx, ny, nz, 3) m/s and box
 # FLOW_*, its per-particle fluid_local (N, 4) or (0, 4): a velocity m/s and a voidage)
@@ -380,14 +381,18 @@ def bond_energy(b, bonds, materials, state, position, box):
 
 def _summed(name, signature, terms, doc):
     """A loop body ``name(signature)`` returning the sum of the 3-tuples ``terms``
-    (expressions; zero for none), added in their order."""
-    lines = [f"def {name}({signature}):"]
-    if not terms:
-        lines.append("    return (0.0, 0.0, 0.0)")
-    else:
-        lines.append(f"    total = {terms[0]}")
-        lines += [f"    total = add(total, {term})" for term in terms[1:]]
-        lines.append("    return total")
+    ((k, expression): a field model's term, evaluated only where fields.acting[k], the
+    model's switch; zero for none acting), added in their order. The switch is there
+    for speed: a field that does not act still costs its call per particle (its arrays
+    passed by value), 2 of the 3 ms of integrating a 10^5-particle bed on two threads."""
+    lines = [f"def {name}({signature}):", "    total = (0.0, 0.0, 0.0)",
+             "    started = False"]
+    for k, term in terms:
+        lines += [f"    if fields.acting[{k}]:",
+                  f"        term = {term}",
+                  "        total = add(total, term) if started else term",
+                  "        started = True"]
+    lines.append("    return total")
     namespace = {}
     exec(compile("\n".join(lines), f"<fields: {__name__}>", "exec"), namespace)
     function = namespace[name]
@@ -402,19 +407,20 @@ def _field_force_term(module):
 
 field_force = body(_summed(
     "field_force", "fields, p, mass, radius, x, v",
-    [_field_force_term(m) for m in field_models.MODELS],
-    """The field models' force (N, 3-tuple; physics/field_models.py's FORCE) on particle
-    p of mass (kg) and radius (m) at x (m) moving at v (m/s), from the ``fields``."""))
+    [(k, _field_force_term(m)) for k, m in enumerate(field_models.MODELS)],
+    """The acting field models' force (N, 3-tuple; physics/field_models.py's FORCE) on
+    particle p of mass (kg) and radius (m) at x (m) moving at v (m/s), from the
+    ``fields``."""))
 clump_field_force = body(_summed(
     "clump_field_force", "fields, p, mass, radius, x, v",
-    [_field_force_term(m) for m in field_models.MODELS if m.CLUMPS],
+    [(k, _field_force_term(m)) for k, m in enumerate(field_models.MODELS) if m.CLUMPS],
     """``field_force`` of the field models that act on clumps' members (CLUMPS)."""))
 field_moment = body(_summed(
     "field_moment", "fields, inertia, w",
-    [f"{m.MOMENT}(fields.{m.NAME}, inertia, w)" for m in field_models.MODELS
-     if getattr(m, "MOMENT", None)],
-    """The field models' moment (N m, 3-tuple; MOMENT) on a sphere of moment of inertia
-    (kg m^2) spinning at w (rad/s), from the ``fields``."""))
+    [(k, f"{m.MOMENT}(fields.{m.NAME}, inertia, w)")
+     for k, m in enumerate(field_models.MODELS) if getattr(m, "MOMENT", None)],
+    """The acting field models' moment (N m, 3-tuple; MOMENT) on a sphere of moment of
+    inertia (kg m^2) spinning at w (rad/s), from the ``fields``."""))
 
 
 @body

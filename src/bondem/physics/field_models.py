@@ -27,14 +27,17 @@ import importlib
 import pkgutil
 from pathlib import Path
 
+import numpy as np
+
 _NAMES = sorted(info.name for info in pkgutil.iter_modules([str(Path(__file__).parent)])
                 if info.name.startswith("field_") and info.name != "field_models")
 MODELS = [m for m in (importlib.import_module(f"{__package__}.{name}") for name in _NAMES)
           if hasattr(m, "NAME")]
 BY_NAME = {m.NAME: m for m in MODELS}
-# The arrays the particle loops take (loops.Fields): gravity, each model's parameter
-# array under its NAME, then the INPUTS of them all.
-ARRAYS = ("gravity", *BY_NAME, *dict.fromkeys(i for m in MODELS for i in m.INPUTS))
+# The arrays the particle loops take (loops.Fields): gravity, the models' switches
+# (``switches``), each model's parameter array under its NAME, then the INPUTS of them all.
+ARRAYS = ("gravity", "acting", *BY_NAME,
+          *dict.fromkeys(i for m in MODELS for i in m.INPUTS))
 
 
 def array(module, **values):
@@ -50,6 +53,12 @@ def defaults():
 def acting(fields):
     """The NAMEs of the models acting in ``fields`` ({NAME: parameter array})."""
     return [m.NAME for m in MODELS if m.active(fields[m.NAME])]
+
+
+def switches(fields):
+    """uint8 per model of MODELS, 1 where it acts in ``fields`` ({NAME: parameter
+    array}): the particle loops evaluate the acting models only."""
+    return np.array([m.active(fields[m.NAME]) for m in MODELS], dtype=np.uint8)
 
 
 def time_scales(fields, mass, radius):
