@@ -396,3 +396,85 @@ def test_contact_kernel_gives_the_same_bits_however_its_chunks_are_shared():
         for a, b in zip(results[0], other):
             np.testing.assert_array_equal(a, b)
     assert not np.array_equal(results[0][1], before["contact_force"])
+
+
+def test_relative_spread_is_the_box_of_each_cell_and_its_neighbours():
+    """neighbors.relative_spread is, by its definition, the largest diagonal of the box
+    holding the displacements of an occupied cell and its 26 neighbours (brute force over
+    the cells here), so it bounds |d_i - d_j| for every two particles of neighbouring
+    cells; on a grid of unequal sides, with empty cells."""
+    from bondem.neighbors import reference_cells, relative_spread
+    rng = np.random.default_rng(8)
+    reference = rng.uniform((0.0, 0.0, 0.0), (9.5, 6.2, 4.1), (300, 3))
+    displacement = rng.normal(0.0, 0.05, reference.shape)
+    displacement[rng.random(300) < 0.1] *= 7.0
+    counts, cell = reference_cells(reference, 1.0, 10**6)
+    assert len(set(counts.tolist())) == 3 and np.unique(cell).size < counts.prod()
+    got = relative_spread(reference + displacement, reference, cell, counts,
+                          np.empty(12 * counts.prod()))
+    where = np.stack(np.unravel_index(cell, counts), axis=1)
+    moved = (reference + displacement) - reference
+    worst = 0.0
+    pair_worst = 0.0
+    for c in np.unique(cell):
+        near = np.all(np.abs(where - where[cell == c][0]) <= 1, axis=1)
+        box = moved[near].max(axis=0) - moved[near].min(axis=0)
+        worst = max(worst, float(np.sqrt(box[0] ** 2 + box[1] ** 2 + box[2] ** 2)))
+        own = moved[cell == c]
+        pair_worst = max(pair_worst, float(np.linalg.norm(
+            own[:, None, :] - moved[near][None, :, :], axis=2).max()))
+    assert got == pytest.approx(worst, rel=1e-15, abs=0.0)
+    assert got >= pair_worst > 0.0
+
+
+def test_relative_trigger_rebuilds_less_for_the_same_bits():
+    """The relative trigger (ContactLaw.relative_trigger) keeps a list past skin/2 while
+    neighbours have not moved a skin relative to each other: an agglomerate hitting a
+    plane (contacts forming inside it and with the plane, bonds breaking) runs to the same
+    bits as with a rebuild whenever a particle has moved skin/2, with fewer rebuilds. A
+    trigger that let a pair come into reach unlisted would change the bits."""
+    from bondem import bench
+    from bondem.backends.cpu_contacts import ContactLaw
+    model, state, walls = bench.impact_system(1500)
+    runs = []
+    for relative in (False, True):
+        sim = bondem.Simulation(model, state.copy(), contact=ContactSettings(),
+                                walls=walls)
+        sim.contacts.relative_trigger = relative
+        sim.step(400)
+        runs.append(sim.state)
+    plain, relative = runs
+    print("rebuilds", plain.extra["contact_counters"][2], relative.extra["contact_counters"][2],
+          "broken", np.count_nonzero(~relative.bond_active), "touching",
+          np.count_nonzero(np.any(relative.extra["contact_force"] != 0.0, axis=1)))
+    assert relative.extra["contact_counters"][2] < plain.extra["contact_counters"][2]
+    assert np.count_nonzero(~relative.bond_active) > 10
+    assert np.count_nonzero(np.any(relative.extra["contact_force"] != 0.0, axis=1)) > 100
+    for name in ("position", "velocity", "angular_velocity", "bond_active"):
+        np.testing.assert_array_equal(getattr(plain, name), getattr(relative, name))
+
+
+@pytest.mark.parametrize("shift, expected", [
+    ((0.9, 0.9, 0.9), False),      # all move together 0.9 skin: no gap closed
+    ((0.0, 0.9, -0.9), True),      # A and B close 1.8 skin of their 1.5 skin gap
+    ((0.0, 0.45, -0.45), False),   # they close 0.9 skin: still apart
+    ((1.05, 1.05, 1.05), True),    # a whole skin moved: the walls' list may not hold
+])
+def test_relative_trigger_rebuilds_before_an_unlisted_pair_can_touch(shift, expected):
+    """Three spheres on a line: P at 0, A just below 2 r, B 2 r + 1.5 skin beyond A (an
+    unlisted pair). The trigger must rebuild when A and B close more than their gap's
+    excess over the listed margin, also when they sit two cells apart in a grid of the
+    bare cut-off (the cells must be 2 skin wider), and not when all move together."""
+    from bondem.backends.cpu_contacts import ContactLaw
+    r, skin = 1e-3, 2e-4
+    a = 2 * r - 0.2 * skin
+    position = np.array([[0.0, 0.0, 0.0], [a, 0.0, 0.0], [a + 2 * r + 1.5 * skin, 0.0, 0.0]])
+    glass = bondem.Material(density=2500.0, young_modulus=1e8, poisson_ratio=0.3)
+    model, state = bondem.make_system(position, r, glass)
+    law = ContactLaw(model, ContactSettings(skin=skin))
+    law.update_lists(model, state, 1e-8)
+    assert law.skin == skin
+    assert [0, 1] in state.extra["contact_pairs"].tolist()
+    assert [1, 2] not in state.extra["contact_pairs"].tolist()
+    state.position[:, 0] += np.array(shift) * skin
+    assert law._needs_rebuild(model, state) is expected

@@ -4,7 +4,8 @@
 the backend's contact law (``backends.cpu_contacts.ContactLaw``, ``cuda_contacts.
 ContactLawGpu``, which import this module, never the other way round) is the object in
 ``Simulation.laws``: each step it refreshes the Verlet lists
-(``neighbors``, ``walls``) when some particle or wall moved more than skin/2, computes every
+(``neighbors``, ``walls``) when particles or walls moved enough to close a listed margin
+(``cpu_contacts.ContactLaw._needs_rebuild``), computes every
 listed contact and adds the loads per particle.
 
 All contact history lives in ``state.extra`` as NumPy arrays, so a checkpoint of

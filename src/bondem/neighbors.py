@@ -9,6 +9,8 @@ fewer than three cells the wrapped neighbours are visited once each. The search 
 parallel pass per particle (into rows of a guessed room, or counting then filling when a
 row outgrows it), each row sorted, so the list is the same whatever the thread count.
 History of contacts is carried across rebuilds by ``carry_history`` (match by pair key).
+``relative_spread`` bounds how far neighbours moved relative to each other, which lets a
+list outlive skin/2 of common motion.
 """
 import math
 
@@ -364,3 +366,102 @@ def carry_history(old_pairs, old_values, new_pairs, n_particles, mapping=None):
         _copy_rows(np.ascontiguousarray(old_values).reshape(rows, -1),
                    new_values.reshape(new_values.shape[0], -1), new_rows, old_rows)
     return new_values
+
+
+# -- the relative trigger ------------------------------------------------------------------
+# A pair's gap changes by at most |d_i - d_j| (d: displacements since the build), not
+# d_i + d_j: particles that move together (a falling agglomerate, a flying fragment) do not
+# close their gaps. Bounding |d_i - d_j| over every pair that could come into reach lets a
+# list live until the particles have moved relative to their neighbours, not past them.
+
+def reference_cells(reference, cell_size, max_cells):
+    """Cells of the reference positions (N,3) m for ``relative_spread``: (counts (3,) int64,
+    cell of each particle (N,) int64); cells at least ``cell_size`` (m) wide, at most
+    ``max_cells`` of them."""
+    n = reference.shape[0]
+    low, width, counts = grid_shape(reference, cell_size, np.zeros(3, dtype=np.bool_),
+                                    np.zeros(3), np.zeros(3), max_cells)
+    cell = np.empty(n, dtype=np.int64)
+    _cells_of(reference, low, width, counts, cell)
+    return counts, cell
+
+
+@numba.njit(cache=True, nogil=True)
+def _cells_of(position, low, width, counts, cell):
+    for p in range(position.shape[0]):
+        c = 0
+        for k in range(3):
+            q = int(math.floor((position[p, k] - low[k]) / width[k]))
+            q = min(max(q, 0), counts[k] - 1)
+            c = c * counts[k] + q
+        cell[p] = c
+
+
+@numba.njit(cache=True, nogil=True)
+def _window3(s, t, axis, sign):
+    """t = the extreme (minimum for sign 1, maximum for -1: of sign * value) of each cell
+    of the (n0, n1, n2) grid s over itself and its two neighbours along ``axis``."""
+    n0, n1, n2 = s.shape
+    for i in range(n0):
+        for j in range(n1):
+            if axis == 2:
+                for k in range(n2):
+                    v = s[i, j, k]
+                    if k > 0 and sign * s[i, j, k - 1] < sign * v:
+                        v = s[i, j, k - 1]
+                    if k + 1 < n2 and sign * s[i, j, k + 1] < sign * v:
+                        v = s[i, j, k + 1]
+                    t[i, j, k] = v
+            else:
+                below = (i > 0) if axis == 0 else (j > 0)
+                above = (i + 1 < n0) if axis == 0 else (j + 1 < n1)
+                i0, j0 = (i - 1, j) if axis == 0 else (i, j - 1)
+                i1, j1 = (i + 1, j) if axis == 0 else (i, j + 1)
+                for k in range(n2):
+                    t[i, j, k] = s[i, j, k]
+                if below:
+                    for k in range(n2):
+                        if sign * s[i0, j0, k] < sign * t[i, j, k]:
+                            t[i, j, k] = s[i0, j0, k]
+                if above:
+                    for k in range(n2):
+                        if sign * s[i1, j1, k] < sign * t[i, j, k]:
+                            t[i, j, k] = s[i1, j1, k]
+
+
+@numba.njit(cache=True, nogil=True)
+def relative_spread(position, reference, cell, counts, scratch):
+    """Bound (m) on |d_i - d_j| over the particles i, j of neighbouring cells (``cell``,
+    ``counts`` from ``reference_cells``; d = position - reference, no periodic images):
+    the largest diagonal of the box holding the displacements of a non-empty cell and
+    its 26 neighbours. scratch: at least 12 C float64, C = counts' product."""
+    cells = counts[0] * counts[1] * counts[2]
+    values = scratch[:6 * cells]
+    spare = scratch[6 * cells:12 * cells]
+    values[:3 * cells] = np.inf
+    values[3 * cells:] = -np.inf
+    for p in range(position.shape[0]):
+        c = cell[p]
+        for k in range(3):
+            d = position[p, k] - reference[p, k]
+            values[k * cells + c] = min(values[k * cells + c], d)
+            values[(3 + k) * cells + c] = max(values[(3 + k) * cells + c], d)
+    occupied = np.empty(cells, dtype=np.bool_)
+    for c in range(cells):
+        occupied[c] = values[c] <= values[3 * cells + c]
+    shape = (counts[0], counts[1], counts[2])
+    for row in range(6):
+        grid = values[row * cells:(row + 1) * cells].reshape(shape)
+        other = spare[row * cells:(row + 1) * cells].reshape(shape)
+        sign = 1.0 if row < 3 else -1.0
+        _window3(grid, other, 0, sign)
+        _window3(other, grid, 1, sign)
+        _window3(grid, other, 2, sign)
+    worst = 0.0
+    for c in range(cells):
+        if occupied[c]:
+            d2 = 0.0
+            for k in range(3):
+                d2 += (spare[(3 + k) * cells + c] - spare[k * cells + c]) ** 2
+            worst = max(worst, d2)
+    return math.sqrt(worst)

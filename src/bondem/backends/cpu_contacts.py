@@ -13,7 +13,7 @@ from ..contacts import (MUSEN_PAIR_HISTORY, MUSEN_WALL_HISTORY, PAIR_HISTORY,
                         WALL_HISTORY, ContactSettings, contact_cutoff, contact_reach,
                         material_parameters)
 from ..neighbors import (build_pairs, carry_history, counting_sort, history_map,
-                         max_displacement)
+                         max_displacement, reference_cells, relative_spread)
 from ..physics.contact_hertz_musen import MUSEN_VERSION, MUSEN_VERSIONS
 from ..physics import contact_models
 from ..walls import PLANE, WallSet, build_wall_pairs
@@ -340,6 +340,12 @@ class ContactLaw:
     """
 
     name = "contacts"
+    # False: rebuild the lists whenever a particle has moved skin/2 (the test of
+    # neighbors.max_displacement alone); True: then also ask whether any two neighbours
+    # moved skin relative to each other (``_needs_rebuild``). The lists, and so the
+    # results, are the same bits either way; the relative test rebuilds less where
+    # particles move together (the impact under way: every 9 steps instead of 5).
+    relative_trigger = True
     # True: MUSEN's Hertz-Mindlin (contact_hertz_musen), set by Simulation(musen_compat=True);
     # musen_code: which MUSEN release's (contact_hertz_musen.MUSEN_VERSIONS)
     musen_compat = False
@@ -401,6 +407,11 @@ class ContactLaw:
         self._chunk_work = np.ones(0)   # particle_contacts' work per chunk of live rows
         self._last_state = None
         self._t_wall = 0.0   # s, where the walls stand for the step being evaluated
+        # the relative trigger's cells (counts, cell of each particle) of the reference
+        # positions they were made for, and its scratch (12 per cell)
+        self._cells = None
+        self._cells_for = None
+        self._spread_scratch = np.empty(0)
         self.wall_force = np.zeros((self.walls.n_walls, 3))
         self.wall_torque = np.zeros((self.walls.n_walls, 3))
 
@@ -471,11 +482,34 @@ class ContactLaw:
         extra = state.extra
         if "contact_pairs" not in extra:
             return True
-        moved = max_displacement(state.position, extra["contact_reference_position"],
-                                 self._box_length, model.periodic)
+        reference = extra["contact_reference_position"]
+        moved = max_displacement(state.position, reference, self._box_length, model.periodic)
         moved += self.walls.max_displacement(
             self._t_wall, self._t_wall - extra["contact_reference_time"][0])
-        return moved > 0.5 * self.skin
+        if moved <= 0.5 * self.skin:
+            return False
+        # Past skin/2 a listed gap may only have closed if its two particles moved
+        # relative to each other (neighbors.relative_spread): while no particle (plus the
+        # walls) has moved a whole skin, the walls' list holds, and pairs farther apart
+        # than the cells of the reference positions cannot have come into reach.
+        if (moved >= self.skin or not self.relative_trigger or np.any(model.periodic)
+                or model.n_particles < 2):
+            return True
+        return self._relative_spread(model, state.position, reference) >= self.skin
+
+    def _relative_spread(self, model, position, reference):
+        """``neighbors.relative_spread`` of the particles since ``reference`` (m), in cells
+        2 r_max + reach + 2 skin wide: two particles of cells that are not neighbours were
+        at least that far apart, and have closed less than 2 skin since."""
+        if self._cells_for is not reference:
+            size = 2.0 * float(model.radius.max()) + self.reach()[0] + 2.0 * self.skin
+            self._cells = reference_cells(reference, size, max(64, model.n_particles // 8))
+            self._cells_for = reference
+            cells = int(np.prod(self._cells[0]))
+            if self._spread_scratch.shape[0] < 12 * cells:
+                self._spread_scratch = np.empty(12 * cells)
+        counts, cell = self._cells
+        return relative_spread(position, reference, cell, counts, self._spread_scratch)
 
     def _derive_live(self, model, state):
         """Rows that can carry a contact load (no intact bond joins the pair) and their
