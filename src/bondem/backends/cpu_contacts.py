@@ -344,7 +344,7 @@ class ContactLaw:
     # neighbors.max_displacement alone); True: then also ask whether any two neighbours
     # moved skin relative to each other (``_needs_rebuild``). The lists, and so the
     # results, are the same bits either way; the relative test rebuilds less where
-    # particles move together (the impact under way: every 9 steps instead of 5).
+    # particles move together (the impact under way: every 8 steps instead of 5).
     relative_trigger = True
     # True: MUSEN's Hertz-Mindlin (contact_hertz_musen), set by Simulation(musen_compat=True);
     # musen_code: which MUSEN release's (contact_hertz_musen.MUSEN_VERSIONS)

@@ -17,11 +17,13 @@ field model file declares, besides its ``@physics`` functions:
               of moment of inertia (kg m^2) spinning at w (rad/s)
     CLUMPS    whether it acts on clumps' members (FORCE only; else a run with clumps and
               the field on is refused)
-    active(array) -> whether the field acts (energy bookkeeping, results' field force)
+    active(array) -> whether the field acts: the particle loops call FORCE and MOMENT only
+              then (so both must be zero when it is false); energy bookkeeping, results'
+              field force
     time_scales(array, mass, radius) -> {name: s}, its limits on the time step
-The particle loops add every model's FORCE and MOMENT (backends/loops.py), the scene reads
-each table, the time step and the results ask every model: a new field is its file and
-its test.
+The particle loops add every acting model's FORCE and MOMENT (backends/loops.py), the
+scene reads each table, the time step and the results ask every model: a new field is its
+file and its test.
 """
 import importlib
 import pkgutil
