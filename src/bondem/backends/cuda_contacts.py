@@ -11,7 +11,10 @@ What runs where:
   no atomics), the wall kernel (one thread per particle: its wall candidates, the
   double-hit filter of meshes, the spring hand-over, the loads, and the gather of its
   wall rows, in the CPU's order);
-- at a list rebuild (rare: a particle moved half the skin), on the host: the device
+- once a particle moved half the skin: the device positions are copied back and the CPU
+  law's own test decides (its relative trigger: whether neighbours moved a skin relative
+  to each other), so both backends rebuild at the same steps;
+- at a list rebuild, on the host: the device
   position, bond flags and history rows are copied back, the CPU ``ContactLaw`` rebuilds
   the lists with the same code (so the lists, their order and the carried springs are the
   CPU's), and the new lists go back to the device;
@@ -236,6 +239,13 @@ class ContactLawGpu(ContactLaw):
         d.bond_active.copy_to_host(state.bond_active)
         self._pull_history(state)
 
+    def _host_needs_rebuild(self, model, state):
+        """The CPU law's test (``ContactLaw._needs_rebuild``, its relative trigger
+        included) on the device's positions, once the device saw a particle move skin/2:
+        both backends rebuild at the same steps, so their lists stay equal."""
+        self.g.device.position.copy_to_host(state.position)
+        return self._needs_rebuild(model, state)
+
     def _device_needs_rebuild(self, model, state):
         extra = state.extra
         limit = 0.5 * self.skin - self.walls.max_displacement(
@@ -259,7 +269,8 @@ class ContactLawGpu(ContactLaw):
             if self._needs_rebuild(model, state):
                 self._rebuild(model, state)
             self._upload(model, state)
-        elif self._device_needs_rebuild(model, state):
+        elif self._device_needs_rebuild(model, state) and self._host_needs_rebuild(model,
+                                                                                  state):
             self._sync_for_rebuild(state)
             self._rebuild(model, state)
             self._upload(model, state)
