@@ -7,7 +7,6 @@ import struct
 import subprocess
 import sys
 import textwrap
-import time
 
 import h5py
 import numpy as np
@@ -15,16 +14,19 @@ import pytest
 
 from bondem.io._h5guard import clear_open_flags, lookup3
 
+# The writer is killed between flushes, as SWMR promises: a kill inside HDF5's flush may
+# leave a metadata block half written (CI saw "incorrect metadata checksum" once in many
+# runs when the writer was killed while it kept writing), which no flag repair restores.
 WRITER = textwrap.dedent("""
-    import sys, h5py, numpy as np
+    import sys, time, h5py, numpy as np
     f = h5py.File(sys.argv[1], "w", libver="latest")
     d = f.create_dataset("x", shape=(0, 100), maxshape=(None, 100), chunks=(1, 100),
                          dtype="f8")
     f.swmr_mode = True
-    i = 0
-    while True:
-        d.resize(i + 1, axis=0); d[i] = i; f.flush(); i += 1
-        if i == 20: print("ready", flush=True)
+    for i in range(20):
+        d.resize(i + 1, axis=0); d[i] = i; f.flush()
+    print("ready", flush=True)
+    time.sleep(600)
 """)
 
 
@@ -97,7 +99,6 @@ def test_killed_swmr_writer_file_opens_plainly_after_repair(tmp_path):
     writer = subprocess.Popen([sys.executable, "-c", WRITER, str(path)],
                               stdout=subprocess.PIPE)
     assert writer.stdout.readline().strip() == b"ready"
-    time.sleep(0.2)
     os.kill(writer.pid, signal.SIGKILL)
     writer.wait()
     with pytest.raises(OSError):
@@ -105,8 +106,8 @@ def test_killed_swmr_writer_file_opens_plainly_after_repair(tmp_path):
     assert clear_open_flags(path)
     with h5py.File(path, "r") as f:
         rows = f["x"][()]
-    assert rows.shape[0] >= 20
-    np.testing.assert_array_equal(rows[:, 0], np.arange(rows.shape[0]))
+    assert rows.shape == (20, 100)
+    np.testing.assert_array_equal(rows, np.repeat(np.arange(20.0)[:, None], 100, axis=1))
     assert not clear_open_flags(path)   # nothing left to clear: the file is not touched
 
 
