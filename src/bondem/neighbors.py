@@ -376,12 +376,12 @@ def carry_history(old_pairs, old_values, new_pairs, n_particles, mapping=None):
 
 def reference_cells(reference, cell_size, max_cells):
     """Cells of the reference positions (N,3) m for ``relative_spread``: (counts (3,) int64,
-    cell of each particle (N,) int64); cells at least ``cell_size`` (m) wide, at most
-    ``max_cells`` of them."""
+    cell of each particle (N,) int32); cells at least ``cell_size`` (m) wide, at most
+    ``max_cells`` (< 2^31) of them."""
     n = reference.shape[0]
     low, width, counts = grid_shape(reference, cell_size, np.zeros(3, dtype=np.bool_),
                                     np.zeros(3), np.zeros(3), max_cells)
-    cell = np.empty(n, dtype=np.int64)
+    cell = np.empty(n, dtype=np.int32)
     _cells_of(reference, low, width, counts, cell)
     return counts, cell
 

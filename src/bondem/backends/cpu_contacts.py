@@ -4,6 +4,8 @@ Each particle-particle pair and each particle-wall candidate writes its loads to
 row; particles sum their rows through fixed CSR indices built with the Verlet list. No
 atomics, so the sums are the same bits with any number of threads.
 """
+import weakref
+
 import numba
 from numba import prange
 
@@ -408,7 +410,7 @@ class ContactLaw:
         self._last_state = None
         self._t_wall = 0.0   # s, where the walls stand for the step being evaluated
         # the relative trigger's cells (counts, cell of each particle) of the reference
-        # positions they were made for, and its scratch (12 per cell)
+        # positions they were made for (weakly held), and its scratch (12 per cell)
         self._cells = None
         self._cells_for = None
         self._spread_scratch = np.empty(0)
@@ -501,10 +503,11 @@ class ContactLaw:
         """``neighbors.relative_spread`` of the particles since ``reference`` (m), in cells
         2 r_max + reach + 2 skin wide: two particles of cells that are not neighbours were
         at least that far apart, and have closed less than 2 skin since."""
-        if self._cells_for is not reference:
+        if self._cells_for is None or self._cells_for() is not reference:
             size = 2.0 * float(model.radius.max()) + self.reach()[0] + 2.0 * self.skin
             self._cells = reference_cells(reference, size, max(64, model.n_particles // 8))
-            self._cells_for = reference
+            # a weak reference: the old positions are not kept alive past a rebuild
+            self._cells_for = weakref.ref(reference)
             cells = int(np.prod(self._cells[0]))
             if self._spread_scratch.shape[0] < 12 * cells:
                 self._spread_scratch = np.empty(12 * cells)
