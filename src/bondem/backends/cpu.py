@@ -640,15 +640,16 @@ class Integrator:
         self.status[0] = STATUS_OK
         # Energy bookkeeping only where gravity, a field, external loads or damping act.
         # (the external loads are looked at each step: a coupled solver sets them)
+        body_fields = fields(model)
         track = (model.damping > 0.0 or bool(np.any(model.gravity))
-                 or bool(model.acting_fields) or bool(model.external_force.any())
+                 or bool(body_fields.acting.any()) or bool(model.external_force.any())
                  or bool(model.external_moment.any()))
-        integrate(particles(state), bodies(model), force, moment, fields(model),
+        integrate(particles(state), bodies(model), force, moment, body_fields,
                   model.damping, kick_dt, drift_dt, box(model), self.status, track,
                   self.energy)
         if self.clumps is not None:
             integrate_clumps(force, moment, self.clumps, clump_state(state), particles(state),
-                             bodies(model), fields(model), model.damping, kick_dt, drift_dt,
+                             bodies(model), body_fields, model.damping, kick_dt, drift_dt,
                              box(model), self.status, track, self.clump_energy)
         if track:
             # a sum in a fixed order: the same bits whatever the thread count.
