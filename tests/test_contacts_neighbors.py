@@ -458,6 +458,7 @@ def test_relative_trigger_rebuilds_less_for_the_same_bits():
     ((0.9, 0.9, 0.9), False),      # all move together 0.9 skin: no gap closed
     ((0.0, 0.9, -0.9), True),      # A and B close 1.8 skin of their 1.5 skin gap
     ((0.0, 0.45, -0.45), False),   # they close 0.9 skin: still apart
+    ((0.0, 0.55, -0.55), True),    # just past skin/2 each, they close 1.1 skin
     ((1.05, 1.05, 1.05), True),    # a whole skin moved: the walls' list may not hold
 ])
 def test_relative_trigger_rebuilds_before_an_unlisted_pair_can_touch(shift, expected):
@@ -478,3 +479,19 @@ def test_relative_trigger_rebuilds_before_an_unlisted_pair_can_touch(shift, expe
     assert [1, 2] not in state.extra["contact_pairs"].tolist()
     state.position[:, 0] += np.array(shift) * skin
     assert law._needs_rebuild(model, state) is expected
+
+
+def test_particles_of_cells_that_are_not_neighbours_lie_a_cell_size_apart():
+    """What the relative trigger rests on (neighbors.reference_cells): two particles whose
+    cells are not neighbours were at least the asked cell size apart, on an elongated
+    cloud where the grid has cells of unequal counts per axis."""
+    from bondem.neighbors import reference_cells
+    rng = np.random.default_rng(21)
+    reference = rng.uniform((-2.0, 0.5, 3.0), (7.5, 3.9, 5.2), (400, 3))
+    size = 0.7
+    counts, cell = reference_cells(reference, size, 10**6)
+    where = np.stack(np.unravel_index(cell, counts), axis=1)
+    apart = np.any(np.abs(where[:, None, :] - where[None, :, :]) > 1, axis=2)
+    distance = np.linalg.norm(reference[:, None, :] - reference[None, :, :], axis=2)
+    assert apart.sum() > 1000 and (~apart).sum() > 1000
+    assert distance[apart].min() >= size

@@ -553,3 +553,38 @@ def test_a_drum_in_its_rotating_frame_moves_as_the_drum_turning_as_a_wall():
     assert np.all(out > np.linalg.norm(start[:, :2], axis=1) + 5e-3)
     assert np.all(out > d["radius"] - d["particle_radius"] - 1e-3)
     assert t2 == pytest.approx(d["time"])
+
+
+@pytest.mark.parametrize("fluid_on, frame_on", [(True, True), (True, False), (False, True),
+                                                (False, False)])
+def test_the_acting_fields_forces_add_and_the_idle_ones_add_nothing(fluid_on, frame_on):
+    """Stokes drag 3 pi mu d (u - v) and the frame's -m (Omega x (Omega x (x - c)) +
+    2 Omega x v) on three spheres: both together add up, each alone is itself, neither
+    gives zero (the loops call only the acting models: field_models.switches)."""
+    from bondem.backends.cpu import field_force_array
+    from bondem.model import frame_array
+    mu, u = 1.3e-3, np.array([0.2, -0.1, 0.05])
+    omega, center = np.array([0.4, -1.1, 2.5]), np.array([0.01, 0.02, -0.03])
+    position = np.array([[0.1, 0.2, -0.05], [-0.3, 0.05, 0.2], [0.02, -0.2, 0.1]])
+    velocity = np.array([[0.3, 0.1, -0.2], [0.0, -0.4, 0.1], [0.05, 0.05, 0.6]])
+    radius = np.array([1e-3, 2e-3, 1.5e-3])
+    glass = Material(name="glass", density=2500.0, young_modulus=1e9, poisson_ratio=0.3)
+    fields = {}
+    if fluid_on:
+        fields["fluid"] = fluid_array(viscosity=mu, velocity=u, drag="stokes")
+    if frame_on:
+        fields["frame"] = frame_array(omega, center)
+    model, state = make_system(position, radius, [glass], velocity=velocity, **fields)
+    mass = 2500.0 * 4.0 / 3.0 * np.pi * radius ** 3
+    expected = np.zeros((3, 3))
+    if fluid_on:
+        expected += 3.0 * np.pi * mu * (2.0 * radius)[:, None] * (u - velocity)
+    if frame_on:
+        arm = position - center
+        expected -= mass[:, None] * (np.cross(omega, np.cross(omega, arm))
+                                     + 2.0 * np.cross(omega, velocity))
+    got = field_force_array(model, state)
+    if fluid_on or frame_on:
+        np.testing.assert_allclose(got, expected, rtol=1e-12, atol=0.0)
+    else:
+        assert np.all(got == 0.0)
