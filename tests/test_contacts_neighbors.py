@@ -434,7 +434,6 @@ def test_relative_trigger_rebuilds_less_for_the_same_bits():
     bits as with a rebuild whenever a particle has moved skin/2, with fewer rebuilds. A
     trigger that let a pair come into reach unlisted would change the bits."""
     from bondem import bench
-    from bondem.backends.cpu_contacts import ContactLaw
     model, state, walls = bench.impact_system(1500)
     runs = []
     for relative in (False, True):
