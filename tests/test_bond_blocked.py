@@ -4,7 +4,10 @@ Both paths advance the same random bonded cluster for several steps: particles s
 enough that some twists leave the series' range (the vectorised path's fallback), bonds
 that break in tension, shear and compression under three criteria (its exact break test),
 bonds already broken, a periodic axis, and a bond count that is not a multiple of the
-block. Every array the kernels write must be identical, not merely close.
+block. Every array the kernels write must be identical, not merely close. The vectorised
+path skips broken bonds and tests the bonds near their strength exactly in the block
+(cpu.settle_block_breaks), so the case has both, and bonds broken outside the kernel must
+put no load on their particles.
 """
 import copy
 
@@ -14,6 +17,8 @@ import pytest
 
 from bondem.backends import cpu
 from bondem.model import BondMaterial, Material, make_system
+from bondem.physics.bond_elastic import (CRITERION_CODES, CRITERION_NONE, INTACT,
+                                         bond_break_mode, bond_breaks, bond_surely_intact)
 from bondem.physics.rotation import SMALL_ANGLE
 
 DT = 1e-6
@@ -47,7 +52,7 @@ def random_cluster(seed, n_particles=150, periodic=False):
     return model, state
 
 
-def advance(vectorised, model, state, steps):
+def advance(vectorised, model, state, steps, near=None):
     bonds = cpu.ElasticBonds(model)
     bonds.vectorised = vectorised
     bonds.vectorise_from = 0      # this small cluster too
@@ -55,10 +60,29 @@ def advance(vectorised, model, state, steps):
     for step in range(steps):
         bonds.compute(model, state, DT)
         loads.append(np.concatenate([bonds.force_i, bonds.moment_i, bonds.moment_j]))
+        if near is not None:
+            near.append(not_surely_intact(model, state, bonds))
         # Move the particles so that the bonds stretch, shear, bend and twist.
         state.position += state.velocity * DT * 20
         state.time += DT
     return loads
+
+
+def not_surely_intact(model, state, bonds):
+    """Intact bonds whose loads ``bond_surely_intact`` cannot clear (the normal force
+    taken as force_i - F_t, close enough for a count)."""
+    table = model.bond_material_table()
+    count = 0
+    for b in np.flatnonzero(state.bond_active):
+        m = model.bond_material[b]
+        criterion = int(table["breakage"][m])
+        f_t = tuple(state.bond_tangential_force[b])
+        f_n = tuple(bonds.force_i[b] - state.bond_tangential_force[b])
+        count += criterion != CRITERION_NONE and not bond_surely_intact(
+            f_n, f_t, tuple(state.bond_normal_moment[b]), tuple(state.bond_tangential_moment[b]),
+            model.bond_diameter[b], table["normal_strength"][m], table["tangential_strength"][m],
+            criterion)
+    return count
 
 
 @pytest.mark.parametrize("periodic", [False, True])
@@ -66,8 +90,9 @@ def test_vectorised_path_matches_the_scalar_path_bit_for_bit(periodic):
     model, start = random_cluster(7, periodic=periodic)
     assert model.n_bonds % cpu.BOND_BLOCK != 0
     scalar, blocked = copy.deepcopy(start), copy.deepcopy(start)
+    near = []
     loads_scalar = advance(False, model, scalar, 12)
-    loads_blocked = advance(True, model, blocked, 12)
+    loads_blocked = advance(True, model, blocked, 12, near)
     for a, b in zip(loads_scalar, loads_blocked):
         np.testing.assert_array_equal(a, b)
     for name in ("bond_active", "bond_axis", "bond_previous_length",
@@ -78,6 +103,8 @@ def test_vectorised_path_matches_the_scalar_path_bit_for_bit(periodic):
     # The case must exercise what it claims: breaks of several kinds, and large twists.
     broke = (blocked.bond_break_mode != 0) & start.bond_active
     assert broke.sum() >= 5 and len(set(blocked.bond_break_mode[broke])) >= 2
+    # bonds past half their strength that stay intact: the block's exact test clears them
+    assert sum(near) >= 20
     w_sum = (start.angular_velocity[model.bond_pairs[:, 0]]
              + start.angular_velocity[model.bond_pairs[:, 1]])
     assert np.any(0.5 * np.linalg.norm(w_sum, axis=1) * DT > SMALL_ANGLE)
@@ -99,3 +126,61 @@ def test_vectorised_path_is_the_same_with_one_and_two_threads():
         np.testing.assert_array_equal(a, b)
     np.testing.assert_array_equal(state_1.bond_tangential_moment,
                                   state_2.bond_tangential_moment)
+
+
+@pytest.mark.parametrize("vectorised", [False, True])
+def test_a_bond_broken_outside_the_kernel_puts_no_load(vectorised):
+    """A bond set broken between steps (a resumed state, a user's edit) has zero loads
+    after the next step, though the vectorised path never visits broken bonds again; set
+    intact again, it carries load."""
+    model, state = random_cluster(5)
+    bonds = cpu.ElasticBonds(model)
+    bonds.vectorised = vectorised
+    bonds.vectorise_from = 0
+    bonds.compute(model, state, DT)
+    loaded = np.flatnonzero(state.bond_active & (np.abs(bonds.force_i).sum(axis=1) > 0))
+    chosen = loaded[::7]
+    assert chosen.size >= 10
+    state.bond_active[chosen] = False
+    bonds.compute(model, state, DT)
+    for loads in (bonds.force_i, bonds.moment_i, bonds.moment_j):
+        assert not np.any(loads[chosen])
+    force = np.zeros((model.n_particles, 3))
+    moment = np.zeros_like(force)
+    bonds.gather(force, moment, assign=True)
+    # each particle's sum is that of its intact bonds alone
+    expected = np.zeros_like(force)
+    for b in np.flatnonzero(state.bond_active):
+        i, j = model.bond_pairs[b]
+        expected[i] += bonds.force_i[b]
+        expected[j] -= bonds.force_i[b]
+    np.testing.assert_allclose(force, expected, rtol=1e-12, atol=1e-12 * np.abs(expected).max())
+    state.bond_active[chosen] = True
+    bonds.compute(model, state, DT)
+    held = chosen[state.bond_active[chosen]]   # (some break again at once: this spin)
+    assert held.size >= 5 and np.all(np.abs(bonds.force_i[held]).sum(axis=1) > 0)
+
+
+def test_the_blocks_exact_break_test_is_the_break_mode_of_the_scalar_path():
+    """``bond_breaks`` (the block's test) says "breaks" exactly where ``bond_break_mode``
+    gives a mode: random loads around the strengths, in tension and compression, with and
+    without compressive breakage, under each criterion."""
+    rng = np.random.default_rng(3)
+    diameter, strength = 1e-3, 1e6
+    area = np.pi * (0.5 * diameter) ** 2
+    seen = {True: 0, False: 0}
+    for _ in range(3000):
+        # each load up to ~1.5x what alone would reach the strength
+        f_n = tuple(rng.normal(0.0, 0.6 * strength * area, 3))
+        f_t = tuple(rng.normal(0.0, 0.6 * strength * area, 3))
+        m_n = tuple(rng.normal(0.0, 0.6 * strength * area * diameter / 4, 3))
+        m_t = tuple(rng.normal(0.0, 0.6 * strength * area * diameter / 8, 3))
+        length = 1e-3 * (1.0 + rng.choice([-1.0, 1.0]) * 1e-3)
+        criterion = int(rng.choice(list(CRITERION_CODES.values())))
+        compressive = bool(rng.random() < 0.5)
+        args = (length, 1e-3, f_n, f_t, m_n, m_t, diameter, strength, 0.8 * strength,
+                criterion, compressive)
+        breaks = bool(bond_breaks(*args))
+        assert breaks == (bond_break_mode(*args) != INTACT), args
+        seen[breaks] += 1
+    assert min(seen.values()) > 300

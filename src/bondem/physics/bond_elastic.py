@@ -207,6 +207,34 @@ def bond_surely_intact(f_n, f_t, m_n, m_t, diameter, normal_strength, tangential
 
 
 @physics
+def bond_stress_terms(f_n, f_t, m_n, m_t, diameter):
+    """The four stress terms of the break test (Pa): axial |F_n| / A_b, bending
+    |M_t| R_b / I, shear |F_t| / A_b, torsion |M_n| R_b / J; loads in N and N m,
+    diameter in m."""
+    inverse_radius = 2.0 / diameter
+    inverse_area = inverse_radius * inverse_radius * (1.0 / math.pi)
+    bending_factor = 4.0 * inverse_area * inverse_radius
+    return (norm(f_n) * inverse_area, norm(m_t) * bending_factor, norm(f_t) * inverse_area,
+            norm(m_n) * (0.5 * bending_factor))
+
+
+@physics
+def bond_breaks(length, initial_length, f_n, f_t, m_n, m_t, diameter, normal_strength,
+                tangential_strength, criterion, compressive_breakage):
+    """``bond_break_mode`` != INTACT, decided without its early returns: the vectorised
+    bond kernel's exact test of the bonds that ``bond_surely_intact`` could not clear.
+    Same arguments and units as ``bond_break_mode``."""
+    axial, bending, shear, torsion = bond_stress_terms(f_n, f_t, m_n, m_t, diameter)
+    combined = criterion == CRITERION_COMBINED
+    normal_checked = (length > initial_length) | compressive_breakage
+    normal = ((axial + bending >= normal_strength) if combined
+              else (axial >= normal_strength) | (bending >= normal_strength))
+    tangential = ((shear + torsion >= tangential_strength) if combined
+                  else (shear >= tangential_strength) | (torsion >= tangential_strength))
+    return (criterion != CRITERION_NONE) & ((normal_checked & normal) | tangential)
+
+
+@physics
 def bond_break_mode(length, initial_length, f_n, f_t, m_n, m_t, diameter, normal_strength,
                     tangential_strength, criterion, compressive_breakage):
     """INTACT, or the mode (TENSION, COMPRESSION, SHEAR) in which the bond breaks now.
@@ -218,13 +246,7 @@ def bond_break_mode(length, initial_length, f_n, f_t, m_n, m_t, diameter, normal
     if bond_surely_intact(f_n, f_t, m_n, m_t, diameter, normal_strength,
                           tangential_strength, criterion):
         return INTACT
-    inverse_radius = 2.0 / diameter
-    inverse_area = inverse_radius * inverse_radius * (1.0 / math.pi)
-    bending_factor = 4.0 * inverse_area * inverse_radius
-    axial = norm(f_n) * inverse_area
-    bending = norm(m_t) * bending_factor
-    shear = norm(f_t) * inverse_area
-    torsion = norm(m_n) * (0.5 * bending_factor)
+    axial, bending, shear, torsion = bond_stress_terms(f_n, f_t, m_n, m_t, diameter)
     in_tension = length > initial_length
     normal_mode = TENSION if in_tension else COMPRESSION
     normal_checked = in_tension or compressive_breakage
