@@ -184,3 +184,44 @@ def test_the_blocks_exact_break_test_is_the_break_mode_of_the_scalar_path():
         assert breaks == (bond_break_mode(*args) != INTACT), args
         seen[breaks] += 1
     assert min(seen.values()) > 300
+
+
+def bond_sums(model, state, bonds):
+    """Each particle's force and moment from its intact bonds' loads, summed in numpy."""
+    force = np.zeros((model.n_particles, 3))
+    moment = np.zeros_like(force)
+    for b in np.flatnonzero(state.bond_active):
+        i, j = model.bond_pairs[b]
+        force[i] += bonds.force_i[b]
+        force[j] -= bonds.force_i[b]
+        moment[i] += bonds.moment_i[b]
+        moment[j] += bonds.moment_j[b]
+    return force, moment
+
+
+def test_the_gather_sums_the_intact_bonds_after_breaks_and_repairs():
+    """The gather leaves out bonds broken since its index was made (a twentieth of them,
+    here two fifths); bonds set intact again between steps are summed again."""
+    model, state = random_cluster(9, n_particles=300)
+    state.angular_velocity *= 1e-3     # few breaks of its own: the repairs add bonds
+    rng = np.random.default_rng(4)
+    bonds = cpu.ElasticBonds(model)
+    bonds.vectorise_from = 0
+    broken = rng.random(model.n_bonds) < 0.4
+    state.bond_active[broken] = False
+    repaired = np.flatnonzero(broken)[::3]
+    assert broken.sum() >= 64 and repaired.size >= 20
+    for step in range(3):
+        if step == 2:
+            state.bond_active[repaired] = True
+        bonds.compute(model, state, DT)
+        force = np.zeros((model.n_particles, 3))
+        moment = np.zeros_like(force)
+        bonds.gather(force, moment, assign=True)
+        expected_force, expected_moment = bond_sums(model, state, bonds)
+        scale = np.abs(expected_force).max()
+        np.testing.assert_allclose(force, expected_force, rtol=1e-12, atol=1e-12 * scale)
+        np.testing.assert_allclose(moment, expected_moment, rtol=1e-12,
+                                   atol=1e-12 * np.abs(expected_moment).max())
+    held = repaired[state.bond_active[repaired]]
+    assert held.size >= 10 and np.all(np.abs(bonds.force_i[held]).sum(axis=1) > 0)
