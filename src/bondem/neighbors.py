@@ -389,12 +389,9 @@ def reference_cells(reference, cell_size, max_cells):
 @numba.njit(cache=True, nogil=True)
 def _cells_of(position, low, width, counts, cell):
     for p in range(position.shape[0]):
-        c = 0
-        for k in range(3):
-            q = int(math.floor((position[p, k] - low[k]) / width[k]))
-            q = min(max(q, 0), counts[k] - 1)
-            c = c * counts[k] + q
-        cell[p] = c
+        cell[p] = ((_axis_cell(position[p, 0], low[0], width[0], counts[0], False) * counts[1]
+                    + _axis_cell(position[p, 1], low[1], width[1], counts[1], False))
+                   * counts[2] + _axis_cell(position[p, 2], low[2], width[2], counts[2], False))
 
 
 @numba.njit(cache=True, nogil=True)

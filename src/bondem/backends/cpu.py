@@ -178,14 +178,21 @@ def advance_bond_block(s, count, dt):
     return flagged
 
 
+@numba.njit(inline="always")
+def slot_bond(q, start, dense, at):
+    """The bond in slot q of the block from bond ``start``: start + q in a block of intact
+    bonds (``dense``), else at[q]."""
+    return start + q if dense else at[q]
+
+
 @numba.njit(**_serial)
 def settle_block_breaks(s, count, dt, start, dense, at, material, compressive_breakage):
     """The exact break test (``bond_breaks``) of the bonds that ``advance_bond_block``
     marked 1 in row _SLOW (not surely intact): their row becomes 0 if intact, so only the
     bonds that break, or twist too far (2), are left to the scalar path. Each is advanced
     again by ``elastic_bond`` from its gathered inputs (no memory read; the same bits as
-    the block), for the normal force the block does not keep. The bond in slot q: start + q
-    if ``dense``, else at[q]; material (B,), compressive_breakage (materials,) as in
+    the block), for the normal force the block does not keep. start, dense, at: the
+    block's slots (``slot_bond``); material (B,), compressive_breakage (materials,) as in
     ``loops.Bonds``, ``loops.BondMaterials``.
 
     Under way in the 10^5 impact 2.6 % of the bonds carry more than half their strength,
@@ -213,7 +220,7 @@ def settle_block_breaks(s, count, dt, start, dense, at, material, compressive_br
             length, initial_length, f_n, f_t, m_n, m_t, diameter,
             s[_NORMAL_STRENGTH * B + q], s[_TANGENTIAL_STRENGTH * B + q],
             s[_CRITERION * B + q],
-            compressive_breakage[material[start + q if dense else at[q]]])
+            compressive_breakage[material[slot_bond(q, start, dense, at)]])
         s[_SLOW * B + q] = 1.0 if breaks else 0.0
 
 
@@ -305,7 +312,7 @@ def elastic_bonds(bonds, materials, state, particles, box, time, dt, musen, vect
                         moment_j[b, k] = 0.0
                     slow[b] = ZEROED
         for q in range(count):
-            b = start + q if dense else at[q]
+            b = slot_bond(q, start, dense, at)
             i = pairs[b, 0]
             j = pairs[b, 1]
             m = material[b]
@@ -336,7 +343,7 @@ def elastic_bonds(bonds, materials, state, particles, box, time, dt, musen, vect
         if advance_bond_block(s, count, dt):
             settle_block_breaks(s, count, dt, start, dense, at, material, compressive)
         for q in range(count):
-            b = start + q if dense else at[q]
+            b = slot_bond(q, start, dense, at)
             if s[_SLOW * B + q] != 0.0:
                 slow[b] = SLOW
                 continue

@@ -219,19 +219,32 @@ def bond_stress_terms(f_n, f_t, m_n, m_t, diameter):
 
 
 @physics
+def bond_failures(length, initial_length, f_n, f_t, m_n, m_t, diameter, normal_strength,
+                  tangential_strength, criterion, compressive_breakage):
+    """(the normal stress reaches its strength where it is checked, the tangential stress
+    reaches its) under ``criterion`` _COMBINED or _SEPARATE; the arguments and units of
+    ``bond_break_mode``."""
+    axial, bending, shear, torsion = bond_stress_terms(f_n, f_t, m_n, m_t, diameter)
+    normal_checked = length > initial_length or compressive_breakage
+    if criterion == CRITERION_COMBINED:
+        return (normal_checked and axial + bending >= normal_strength,
+                shear + torsion >= tangential_strength)
+    return (normal_checked and (axial >= normal_strength or bending >= normal_strength),
+            shear >= tangential_strength or torsion >= tangential_strength)
+
+
+@physics
 def bond_breaks(length, initial_length, f_n, f_t, m_n, m_t, diameter, normal_strength,
                 tangential_strength, criterion, compressive_breakage):
-    """``bond_break_mode`` != INTACT, decided without its early returns: the vectorised
-    bond kernel's exact test of the bonds that ``bond_surely_intact`` could not clear.
-    Same arguments and units as ``bond_break_mode``."""
-    axial, bending, shear, torsion = bond_stress_terms(f_n, f_t, m_n, m_t, diameter)
-    combined = criterion == CRITERION_COMBINED
-    normal_checked = (length > initial_length) | compressive_breakage
-    normal = ((axial + bending >= normal_strength) if combined
-              else (axial >= normal_strength) | (bending >= normal_strength))
-    tangential = ((shear + torsion >= tangential_strength) if combined
-                  else (shear >= tangential_strength) | (torsion >= tangential_strength))
-    return (criterion != CRITERION_NONE) & ((normal_checked & normal) | tangential)
+    """``bond_break_mode`` != INTACT without ``bond_surely_intact`` first: the vectorised
+    bond kernel's exact test of the bonds that test could not clear. Same arguments and
+    units as ``bond_break_mode``."""
+    if criterion == CRITERION_NONE:
+        return False
+    normal, tangential = bond_failures(length, initial_length, f_n, f_t, m_n, m_t, diameter,
+                                       normal_strength, tangential_strength, criterion,
+                                       compressive_breakage)
+    return normal or tangential
 
 
 @physics
@@ -246,19 +259,12 @@ def bond_break_mode(length, initial_length, f_n, f_t, m_n, m_t, diameter, normal
     if bond_surely_intact(f_n, f_t, m_n, m_t, diameter, normal_strength,
                           tangential_strength, criterion):
         return INTACT
-    axial, bending, shear, torsion = bond_stress_terms(f_n, f_t, m_n, m_t, diameter)
-    in_tension = length > initial_length
-    normal_mode = TENSION if in_tension else COMPRESSION
-    normal_checked = in_tension or compressive_breakage
-    if criterion == CRITERION_COMBINED:
-        if normal_checked and axial + bending >= normal_strength:
-            return normal_mode
-        if shear + torsion >= tangential_strength:
-            return SHEAR
-        return INTACT
-    if normal_checked and (axial >= normal_strength or bending >= normal_strength):
-        return normal_mode
-    if shear >= tangential_strength or torsion >= tangential_strength:
+    normal, tangential = bond_failures(length, initial_length, f_n, f_t, m_n, m_t, diameter,
+                                       normal_strength, tangential_strength, criterion,
+                                       compressive_breakage)
+    if normal:
+        return TENSION if length > initial_length else COMPRESSION
+    if tangential:
         return SHEAR
     return INTACT
 
