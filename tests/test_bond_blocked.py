@@ -225,3 +225,30 @@ def test_the_gather_sums_the_intact_bonds_after_breaks_and_repairs():
                                    atol=1e-12 * np.abs(expected_moment).max())
     held = repaired[state.bond_active[repaired]]
     assert held.size >= 10 and np.all(np.abs(bonds.force_i[held]).sum(axis=1) > 0)
+
+
+def test_prefetch_emits_llvms_prefetch_and_changes_nothing():
+    """The bond kernel's prefetch is a hint: LLVM's llvm.prefetch on the row's address,
+    with every value read and written as without it."""
+    prefetch = cpu.prefetch
+
+    @numba.njit
+    def sum_ahead(a, rows, ahead):
+        total = 0.0
+        for k in range(rows.shape[0]):
+            if k + ahead < rows.shape[0]:
+                prefetch(a, rows[k + ahead])
+            total += a[rows[k], 1]
+        return total
+
+    rng = np.random.default_rng(3)
+    a = rng.random((500, 3))
+    rows = rng.integers(0, 500, 200)
+    before = a.copy()
+    expected = 0.0
+    for r in rows:
+        expected += a[r, 1]
+    assert sum_ahead(a, rows, 4) == expected
+    assert np.array_equal(a, before)
+    ir = sum_ahead.inspect_llvm(sum_ahead.signatures[0])
+    assert "@llvm.prefetch" in ir
