@@ -431,7 +431,7 @@ def integrate_range(first, last, particles, bodies, force, moment, fields, dampi
         work, lost, code = integrate_particle(p, row3(force, p), row3(moment, p), particles,
                                               bodies, fields, damping, kick_dt,
                                               drift_dt, box, track_energy)
-        if track_energy:
+        if track_energy or work != 0.0 or lost != 0.0:
             gained += work
             removed += lost
         if code != STATUS_OK:
@@ -445,9 +445,10 @@ def integrate(particles, bodies, force, moment, fields, damping, kick_dt, drift_
     """``loops.integrate_particle`` for every particle with its loads force (N), moment
     (N m) and the body-force ``fields`` (``loops.Fields``: gravity, the fluid, the
     rotating frame). Sets status[0] when a
-    particle blows up. If track_energy, energy (chunks(N), 2) receives each chunk's (work
-    of gravity, the fluid and external loads, energy removed by damping) in J over this
-    kick, summed over its particles in order."""
+    particle blows up. energy (chunks(N), 2) receives each chunk's (work of gravity, the
+    fluid and external loads, energy removed by damping) in J over this kick, summed over
+    its particles in order: all of it if track_energy, else the external loads' work
+    alone (0 where there are none)."""
     # Energies go to per-chunk slots, summed by the caller in a fixed order: a scalar
     # "+=" here would be a prange reduction, whose sum depends on the thread count (and
     # which numba 0.68 silently dropped, returning 0, inside this nested loop). Slots per
@@ -457,9 +458,8 @@ def integrate(particles, bodies, force, moment, fields, damping, kick_dt, drift_
         gained, removed, code = integrate_range(
             c * CHUNK, min(n, (c + 1) * CHUNK), particles, bodies, force, moment, fields,
             damping, kick_dt, drift_dt, box, track_energy)
-        if track_energy:
-            energy[c, 0] = gained
-            energy[c, 1] = removed
+        energy[c, 0] = gained
+        energy[c, 1] = removed
         if code != STATUS_OK:
             status[0] = code
 
@@ -475,9 +475,8 @@ def integrate_clump_range(first, last, force, moment, clumps, clump_state, parti
         work, lost, code = integrate_clump(c, force, moment, clumps, clump_state, particles,
                                            bodies, fields, damping, kick_dt, drift_dt, box,
                                            track_energy)
-        if track_energy:
-            energy[c, 0] = work
-            energy[c, 1] = lost
+        energy[c, 0] = work
+        energy[c, 1] = lost
         if code != STATUS_OK:
             status = code
     return status
@@ -798,12 +797,12 @@ class Integrator:
     def advance(self, model, state, force, moment, kick_dt, drift_dt):
         """Kick velocities by kick_dt (s), drift positions by drift_dt (s); return status."""
         self.status[0] = STATUS_OK
-        # Energy bookkeeping only where gravity, a field, external loads or damping act.
-        # (the external loads are looked at each step: a coupled solver sets them)
+        # Energy bookkeeping where gravity, a field or damping act; external loads (which
+        # a coupled solver or a script may set between any two steps) are tracked by the
+        # kernels wherever they are not zero, without a pass over them here.
         body_fields = fields(model)
         track = (model.damping > 0.0 or bool(np.any(model.gravity))
-                 or bool(body_fields.acting.any()) or bool(model.external_force.any())
-                 or bool(model.external_moment.any()))
+                 or bool(body_fields.acting.any()))
         integrate(particles(state), bodies(model), force, moment, body_fields,
                   model.damping, kick_dt, drift_dt, box(model), self.status, track,
                   self.energy)
@@ -811,13 +810,13 @@ class Integrator:
             integrate_clumps(force, moment, self.clumps, clump_state(state), particles(state),
                              bodies(model), body_fields, model.damping, kick_dt, drift_dt,
                              box(model), self.status, track, self.clump_energy)
-        if track:
-            # a sum in a fixed order: the same bits whatever the thread count.
-            work, dissipated = column_sums(self.energy)
+        # a sum in a fixed order: the same bits whatever the thread count (+0 where
+        # nothing acts).
+        work, dissipated = column_sums(self.energy)
+        state.work_external += float(work)
+        state.dissipated_damping += float(dissipated)
+        if self.clumps is not None:
+            work, dissipated = column_sums(self.clump_energy)
             state.work_external += float(work)
             state.dissipated_damping += float(dissipated)
-            if self.clumps is not None:
-                work, dissipated = column_sums(self.clump_energy)
-                state.work_external += float(work)
-                state.dissipated_damping += float(dissipated)
         return int(self.status[0])
