@@ -399,3 +399,73 @@ def test_a_bond_gather_storing_the_loads_equals_adding_them_to_zeroed_arrays():
     assert np.any(stored[2][unbonded] != 0.0)        # unbonded particles touch something
     for a, b in zip(stored, added):
         assert a.tobytes() == b.tobytes()
+
+
+def test_part_bytes_of_the_lattice_add_up_to_its_step_bytes():
+    """The per-part byte counts (``bench.part_bytes``) and the whole lattice step's
+    (``bench.step_bytes``) are two counts of the same traffic: they must agree, and the
+    lattice, all of whose listed pairs are bonded, moves no contact row."""
+    model, state = bench.lattice_system(4)
+    sim, _ = bench.make_simulation(model, state)
+    sim.step(3)
+    parts = bench.part_bytes(sim)
+    assert set(parts) == set(bench.PROFILE_PARTS)
+    assert sum(parts.values()) == bench.step_bytes(model.n_particles, model.n_bonds)
+    assert parts["contacts"] == parts["walls"] == parts["zero loads"] == 0
+    assert parts["bond kernel"] == bench.BOND_UPDATE_BYTES * model.n_bonds
+    # a broken bond moves nothing
+    sim.state.bond_active[:5] = False
+    assert (bench.part_bytes(sim)["bond kernel"]
+            == bench.BOND_UPDATE_BYTES * (model.n_bonds - 5))
+
+
+def test_row_counts_are_the_rows_that_hold_something():
+    """A bed's contact rows as ``part_bytes`` counts them, checked against the rows' own
+    values after the step: a row is evaluated when it holds a force, a moment, an energy
+    or a dissipation; its particles are loaded, and the gather then sums every row of a
+    loaded particle. Walls: one row per listed particle-wall candidate."""
+    model, state, walls = bench.bed_system(400)
+    sim, _ = bench.scene_simulation(model, state, walls)
+    sim.step(25)
+    law = sim.contacts
+    counts = law.row_counts()
+    extra = sim.state.extra
+    live = law._live
+    pairs = extra["contact_pairs"]
+    holds = ((extra["contact_energy"] != 0.0) | (law._dissipated != 0.0)
+             | np.any(extra["contact_force"] != 0.0, axis=1)
+             | np.any(extra["contact_moment_i"] != 0.0, axis=1)
+             | np.any(extra["contact_moment_j"] != 0.0, axis=1))[live]
+    assert counts["live"] == live.shape[0] > counts["evaluated"] > 0
+    assert counts["evaluated"] == int(holds.sum())
+    loaded = np.unique(pairs[live[holds]].ravel())
+    assert counts["loaded"] == loaded.shape[0]
+    rows_of = np.bincount(pairs[live].ravel(), minlength=model.n_particles)
+    assert counts["ends"] == int(rows_of[loaded].sum())
+    assert counts["wall_rows"] == extra["wall_pairs"].shape[0] > 0
+    parts = bench.part_bytes(sim)
+    assert parts["bond kernel"] == parts["gather"] == 0
+    assert parts["zero loads"] == bench.ZERO_LOADS_BYTES * model.n_particles
+    assert parts["contacts"] > bench.CONTACT_EVALUATED_ROW_BYTES * counts["evaluated"]
+
+
+def test_bench_profile_with_the_triad_prints_each_parts_share(monkeypatch):
+    monkeypatch.setattr(bench, "stream_triad", lambda: 10e9)
+    result = CliRunner().invoke(main, ["bench", "bed", "--sizes", "400", "--steps", "3",
+                                       "--profile", "--triad"])
+    assert result.exit_code == 0, result.output
+    lines = result.output.splitlines()
+    at = next(k for k, x in enumerate(lines) if "parts against the roofline" in x)
+    table = {}
+    for line in lines[at + 2:]:
+        cells = line.split()
+        if not line.startswith("  ") or len(cells) < 5:
+            break
+        table[" ".join(cells[:-5])] = [float(c) for c in cells[-5:-1]]
+    assert {"contacts", "integrate", "walls"} <= set(table)
+    ms, mb, roofline, share = table["integrate"]
+    # integration: 257 B per particle at 10 GB/s
+    particles = int(next(x for x in lines if x.strip().startswith("cpu")).split()[2])
+    assert mb == pytest.approx(257 * particles / 1e6, abs=0.006)
+    assert roofline == pytest.approx(mb / 10.0, abs=0.0006)
+    assert share == pytest.approx(100 * roofline / ms, rel=0.1, abs=1)

@@ -43,7 +43,27 @@ BOND_UPDATE_BYTES = 334
 # flag 1, the external loads 48, the position and both velocities 72 and writes those 72.
 # (Every listed pair of the lattice is bonded: the contacts add nothing and move nothing.)
 BOND_GATHER_BYTES = 112
-PARTICLE_STEP_BYTES = 56 + 48 + 257
+BOND_GATHER_PARTICLE_BYTES, LIST_TEST_BYTES, INTEGRATE_BYTES = 56, 48, 257
+PARTICLE_STEP_BYTES = BOND_GATHER_PARTICLE_BYTES + LIST_TEST_BYTES + INTEGRATE_BYTES
+# Contacts (``part_bytes``; none in the lattice, whose listed pairs are all bonded). The
+# pair kernel reads per live row its index 8, pair 16 and quiet flag 1, per particle its
+# position and radius 32 (the apart test); per evaluated row its history (spring, force,
+# both moments, energy: 104), which it writes back with its dissipation (112); per
+# particle in such a row its velocities, mass, inertia and material 72. The gather reads
+# per live row its places in both CSR orders and their quiet flags 18, per particle its
+# two offsets 16; per row end of a particle with an evaluated row its force and moment 48,
+# and that particle's force and moment are read and written 96. Zeroing the loads (only
+# without bonds) writes 48 per particle; a wall candidate row reads its pair 16 and reads
+# and writes its 80 B of history.
+CONTACT_LIVE_ROW_BYTES = 25 + 18
+CONTACT_PARTICLE_BYTES = 32 + 16
+CONTACT_EVALUATED_ROW_BYTES = 104 + 112
+CONTACT_LOADED_PARTICLE_BYTES = 72 + 96
+CONTACT_ROW_END_BYTES = 48
+ZERO_LOADS_BYTES = 48
+WALL_ROW_BYTES = 16 + 2 * 80
+PROFILE_PARTS = ("zero loads", "bond kernel", "gather", "neighbour lists", "contacts",
+                 "walls", "other laws", "integrate")
 
 
 def lattice_system(n, variant="intact", *, seed=42):
@@ -281,8 +301,7 @@ def profile_step(sim, steps=40):
     bonds = sim.bonds
     contacts = [law for law in sim.laws[1:] if hasattr(law, "update_lists")]
     others = [law for law in sim.laws[1:] if not hasattr(law, "update_lists")]
-    names = ("zero loads", "bond kernel", "gather", "neighbour lists", "contacts", "walls",
-             "other laws", "integrate")
+    names = PROFILE_PARTS
     samples = np.zeros((steps, len(names)))
     dt = sim.time_step
     sim.step(1)
@@ -326,10 +345,64 @@ def profile_step(sim, steps=40):
 
 
 def _profiles(sim, profile, backend):
-    """The figures' "profile", "profile_best" and "profile_mean" (``profile_step``, CPU
-    only; None otherwise)."""
-    parts = profile_step(sim) if profile and backend == "cpu" else (None, None, None)
-    return dict(zip(("profile", "profile_best", "profile_mean"), parts))
+    """The figures' "profile", "profile_best", "profile_mean" (``profile_step``) and
+    "profile_bytes" (``part_bytes`` after it); CPU only, None otherwise."""
+    if not (profile and backend == "cpu"):
+        return dict.fromkeys(("profile", "profile_best", "profile_mean", "profile_bytes"))
+    parts = profile_step(sim)
+    return {**dict(zip(("profile", "profile_best", "profile_mean"), parts)),
+            "profile_bytes": part_bytes(sim)}
+
+
+def part_bytes(sim):
+    """Bytes each part of the CPU step (``PROFILE_PARTS``, as ``profile_step`` times them)
+    must move at the least in a step like the last one, without a rebuild of the lists:
+    from the intact bonds and the rows the contact laws went through in the last step
+    (``ContactLaw.row_counts``). Write-allocate is not counted, as the triad does not
+    count it; a part's bytes at the triad's bandwidth over its time is its share of the
+    roofline (``format_profile``). For the lattice the parts add up to ``step_bytes``."""
+    model = sim.model
+    n = model.n_particles
+    parts = dict.fromkeys(PROFILE_PARTS, 0)
+    if model.n_bonds:
+        intact = int(np.count_nonzero(sim.state.bond_active))
+        parts["bond kernel"] = BOND_UPDATE_BYTES * intact
+        parts["gather"] = BOND_GATHER_BYTES * intact + BOND_GATHER_PARTICLE_BYTES * n
+    else:
+        parts["zero loads"] = ZERO_LOADS_BYTES * n
+    for law in sim.laws[1:]:
+        if not hasattr(law, "row_counts"):
+            continue
+        rows = law.row_counts()
+        parts["neighbour lists"] += LIST_TEST_BYTES * n
+        if rows["live"]:
+            parts["contacts"] += (CONTACT_LIVE_ROW_BYTES * rows["live"]
+                                  + CONTACT_PARTICLE_BYTES * n
+                                  + CONTACT_EVALUATED_ROW_BYTES * rows["evaluated"]
+                                  + CONTACT_LOADED_PARTICLE_BYTES * rows["loaded"]
+                                  + CONTACT_ROW_END_BYTES * rows["ends"])
+        parts["walls"] += WALL_ROW_BYTES * rows["wall_rows"]
+    parts["integrate"] = INTEGRATE_BYTES * n
+    return parts
+
+
+def format_profile(result, bandwidth):
+    """Lines of a profile table for one bench result with "profile" and "profile_bytes":
+    each part's median ms per step, its least MB per step, the ms those take at
+    ``bandwidth`` (B/s, the triad's) and that time's share of the measured one."""
+    head = ("part", "ms/step", "MB/step", "roofline ms", "share")
+    lines = [head]
+    for part in PROFILE_PARTS:
+        seconds = result["profile"][part]
+        moved = result["profile_bytes"][part]
+        if seconds < 1e-5 and moved == 0:
+            continue
+        roofline = moved / bandwidth
+        lines.append((part, f"{seconds * 1e3:.3f}", f"{moved / 1e6:.2f}",
+                      f"{roofline * 1e3:.3f}",
+                      f"{100 * roofline / seconds:.0f} %" if seconds > 0 else "-"))
+    widths = [max(len(row[c]) for row in lines) for c in range(len(head))]
+    return [("  ".join(cell.rjust(w) for cell, w in zip(row, widths))) for row in lines]
 
 
 def bond_roofline_share(bond_kernel_s_per_step, bonds, bandwidth):

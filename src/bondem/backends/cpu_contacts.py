@@ -699,6 +699,26 @@ class ContactLaw:
                            put(spin), put(w.centers(time)),
                            *(put(a) for a in self._wall_materials), put(self._wall_pair))
 
+    def row_counts(self):
+        """What the last step's pair and wall kernels went through (the bench's byte
+        counts, ``bench.part_bytes``): a dict of ``live`` (pair rows visited),
+        ``evaluated`` (live rows holding a load, an energy or a dissipation), ``loaded``
+        (particles in an evaluated row), ``ends`` (rows the gather sums: every row of a
+        loaded particle, at each of its ends) and ``wall_rows`` (particle-wall
+        candidates); all 0 before the first step."""
+        if self._last_state is None:
+            return dict.fromkeys(("live", "evaluated", "loaded", "ends", "wall_rows"), 0)
+        extra = self._last_state.extra
+        live = self._live
+        busy = live[self._quiet[live] == 0]
+        loaded = np.zeros(self._i_start.shape[0] - 1, dtype=bool)
+        loaded[extra["contact_pairs"][busy, 0]] = True
+        loaded[extra["contact_pairs"][busy, 1]] = True
+        rows = np.diff(self._i_start) + np.diff(self._j_start)
+        return {"live": int(live.shape[0]), "evaluated": int(busy.shape[0]),
+                "loaded": int(loaded.sum()), "ends": int(rows[loaded].sum()),
+                "wall_rows": int(extra["wall_pairs"].shape[0])}
+
     def touching(self):
         """(particle pairs, particle-wall contacts) that carried a load in the last step."""
         if self._last_state is None:

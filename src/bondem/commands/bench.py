@@ -65,7 +65,8 @@ def _ranks(text):
               help="Also time each part of the CPU step (bonds, gather, neighbour "
                    "lists, contacts, walls, integrate).")
 @click.option("--triad", is_flag=True,
-              help="Also measure memory bandwidth (STREAM-like triad).")
+              help="Also measure memory bandwidth (STREAM-like triad); with --profile, "
+                   "each part's share of that roofline.")
 def command(scene, sizes, steps, variant, backend, order, json_path, peer, peer_steps,
             ranks, warmup, profile, triad):
     """Time SCENE (the bench scenes of docs/performance.md) and print a table: lattice (a
@@ -97,6 +98,11 @@ def command(scene, sizes, steps, variant, backend, order, json_path, peer, peer_
             lists = r["profile_mean"]["neighbour lists"]
             click.echo(f"{r['scene']} n={r['n']} neighbour lists, mean over the profile's "
                        f"steps (rebuilds included): {lists * 1e3:.3f} ms per step")
+            if "triad_bytes_per_s" in extra:
+                click.echo(f"{r['scene']} n={r['n']} parts against the roofline (the "
+                           "median step; least bytes, no rebuild):")
+                for line in bench.format_profile(r, extra["triad_bytes_per_s"]):
+                    click.echo("  " + line)
             if not r["bonds"]:
                 continue
             bond_s = r["profile_best"]["bond kernel"]
