@@ -469,3 +469,36 @@ def test_bench_profile_with_the_triad_prints_each_parts_share(monkeypatch):
     assert mb == pytest.approx(257 * particles / 1e6, abs=0.006)
     assert roofline == pytest.approx(mb / 10.0, abs=0.0006)
     assert share == pytest.approx(100 * roofline / ms, rel=0.1, abs=1)
+
+
+def test_bench_rounds_run_bondem_and_its_peer_in_turn(monkeypatch, tmp_path):
+    """``--rounds 3``: bondem, then LAMMPS, three times over (a stand-in ``lmp``), each
+    round's ratio of particle-steps/s and their median printed and in the JSON."""
+    venv = tmp_path / "venv"
+    (venv / "bin").mkdir(parents=True)
+    log = tmp_path / "calls"
+    (venv / "bin" / "lmp").write_text(
+        "#!/bin/sh\n"
+        f"echo lmp >> {log}\n"
+        "echo 'Added 144 bonds'\n"
+        "echo 'Loop time of 0.5 on 1 procs for 10 steps with 64 atoms'\n"
+        "echo '95.0% CPU use with 1 MPI tasks x 1 OpenMP threads'\n")
+    (venv / "bin" / "lmp").chmod(0o755)
+    monkeypatch.setenv("LMP_VENV", str(venv))
+    out = tmp_path / "bench.json"
+    result = CliRunner().invoke(main, ["bench", "lattice", "--sizes", "4", "--steps", "10",
+                                       "--peer", "lammps", "--ranks", "1", "--rounds", "3",
+                                       "--json", str(out)])
+    assert result.exit_code == 0, result.output
+    data = json.loads(out.read_text())
+    rows = data["results"]
+    assert [(r["backend"], r["round"]) for r in rows] == [
+        ("cpu", 1), ("lammps x1", 1), ("cpu", 2), ("lammps x1", 2), ("cpu", 3),
+        ("lammps x1", 3)]
+    assert len(log.read_text().splitlines()) == 3
+    ratios = [rows[k]["particle_steps_per_s"] / 1280.0 for k in (0, 2, 4)]
+    summary = data["round_ratios"]
+    assert len(summary) == 1 and summary[0]["backend"] == "lammps x1"
+    assert summary[0]["ratios"] == pytest.approx(ratios)
+    assert summary[0]["median"] == pytest.approx(sorted(ratios)[1])
+    assert f"median {sorted(ratios)[1]:.2f}" in result.output

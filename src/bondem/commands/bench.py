@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 
 import click
+import numpy as np
 
 from ..errors import InputError
 
@@ -64,11 +65,15 @@ def _ranks(text):
 @click.option("--profile", is_flag=True,
               help="Also time each part of the CPU step (bonds, gather, neighbour "
                    "lists, contacts, walls, integrate).")
+@click.option("--rounds", type=click.IntRange(min=1, max=50), default=1, show_default=True,
+              help="Run bondem and its peer in turn this many times (each a fresh run) and "
+                   "print each round's ratio and their median: this host's speed can change "
+                   "between one run and the next.")
 @click.option("--triad", is_flag=True,
               help="Also measure memory bandwidth (STREAM-like triad); with --profile, "
                    "each part's share of that roofline.")
 def command(scene, sizes, steps, variant, backend, order, json_path, peer, peer_steps,
-            ranks, warmup, profile, triad):
+            ranks, warmup, profile, rounds, triad):
     """Time SCENE (the bench scenes of docs/performance.md) and print a table: lattice (a
     bonded cubic lattice), impact (a dense random bonded agglomerate hitting a plane,
     contacts live, bonds breaking), bed (an unbonded bed resting on a plane) or the same bed
@@ -81,12 +86,19 @@ def command(scene, sizes, steps, variant, backend, order, json_path, peer, peer_
     if triad:
         extra["triad_bytes_per_s"] = bench.stream_triad()
         click.echo(f"memory bandwidth (triad): {extra['triad_bytes_per_s'] / 1e9:.1f} GB/s")
-    if scene == "lattice":
-        _lattices(bench, _sizes(sizes or "22"), steps, variant, backend, order, peer,
-                  peer_steps, _ranks(ranks), profile, results)
-    else:
-        _scenes(bench, scene, _sizes(sizes or "1e4", scene), steps, backend, peer,
-                _ranks(ranks), profile, results, warmup)
+    sizes = _sizes(sizes or ("22" if scene == "lattice" else "1e4"), scene)
+    ranks = _ranks(ranks)
+    for round_number in range(1, rounds + 1):
+        done = len(results)
+        if scene == "lattice":
+            _lattices(bench, sizes, steps, variant, backend, order, peer, peer_steps, ranks,
+                      profile, results)
+        else:
+            _scenes(bench, scene, sizes, steps, backend, peer, ranks, profile, results,
+                    warmup)
+        if rounds > 1:
+            for r in results[done:]:
+                r["round"] = round_number
     click.echo(bench.format_table(results))
     for r in results:
         if "ratio_bondem_over_lammps" in r:
@@ -118,6 +130,8 @@ def command(scene, sizes, steps, variant, backend, order, json_path, peer, peer_
             click.echo(line)
     if scene == "lattice" and "triad_bytes_per_s" in extra:
         _step_roofline(bench, results, extra["triad_bytes_per_s"])
+    if rounds > 1 and peer:
+        extra["round_ratios"] = _round_ratios(results)
     cpu_runs = [r for r in results if r.get("backend") == "cpu" and r["bonds"]]
     if cpu_runs:
         estimate = bench.memory_estimate(cpu_runs[-1])
@@ -143,6 +157,24 @@ def _step_roofline(bench, results, bandwidth):
                    f"counted, roofline {total / bandwidth * 1e3:.3f} ms per step at "
                    f"{bandwidth / 1e9:.1f} GB/s, measured {r['s_per_step'] * 1e3:.3f} ms: "
                    f"{100 * r['step_roofline_share']:.0f} % of the roofline")
+
+
+def _round_ratios(results):
+    """Print and return, for each scene, size and peer, the ratio of particle-steps/s
+    of every round and their median (a list of dicts)."""
+    groups = {}
+    for r in results:
+        if "ratio_bondem_over_lammps" in r:
+            key = (r["scene"], r["n"], r["backend"])
+            groups.setdefault(key, []).append(r["ratio_bondem_over_lammps"])
+    summary = []
+    for (scene, n, backend), ratios in groups.items():
+        median = float(np.median(ratios))
+        click.echo(f"{scene} n={n}: bondem / {backend} particle-steps/s in {len(ratios)} "
+                   f"rounds: {', '.join(f'{x:.2f}' for x in ratios)}; median {median:.2f}")
+        summary.append({"scene": scene, "n": n, "backend": backend, "ratios": ratios,
+                        "median": median})
+    return summary
 
 
 def _add_peer(results, result, run):
