@@ -3,6 +3,7 @@ scenes.
 
 Thin: parses, calls ``bondem.bench``, prints a table (and writes JSON with --json).
 """
+import gc
 import json
 import sys
 from pathlib import Path
@@ -90,6 +91,8 @@ def command(scene, sizes, steps, variant, backend, order, json_path, peer, peer_
     ranks = _ranks(ranks)
     for round_number in range(1, rounds + 1):
         done = len(results)
+        if round_number > 1:
+            gc.collect()   # the last round's simulation, so that peak RSS stays its own
         if scene == "lattice":
             _lattices(bench, sizes, steps, variant, backend, order, peer, peer_steps, ranks,
                       profile, results)
