@@ -184,10 +184,10 @@ def test_bench_lattice_reports_the_whole_step_against_the_roofline(monkeypatch, 
     assert floor <= counted <= 1.5 * floor
 
 
-def test_lattice_peer_runs_lammps_on_each_rank_count(monkeypatch, tmp_path):
-    """``bench lattice --peer lammps --ranks 1,2`` runs the deck once per rank count, the
-    second under mpirun -np 2, and reads LAMMPS's figures (a stand-in ``lmp`` prints
-    LAMMPS's lines and what it was started with)."""
+def stand_in_lammps(tmp_path, monkeypatch):
+    """A stand-in LAMMPS venv (LMP_VENV): its ``lmp`` prints LAMMPS's lines for 64 atoms
+    and 10 steps in 0.5 s (1280 particle-steps/s) and logs how it was started, as its
+    ``mpirun`` does; returns the log's path."""
     venv = tmp_path / "venv"
     (venv / "bin").mkdir(parents=True)
     log = tmp_path / "calls"
@@ -202,6 +202,14 @@ def test_lattice_peer_runs_lammps_on_each_rank_count(monkeypatch, tmp_path):
     for name in ("lmp", "mpirun"):
         (venv / "bin" / name).chmod(0o755)
     monkeypatch.setenv("LMP_VENV", str(venv))
+    return log
+
+
+def test_lattice_peer_runs_lammps_on_each_rank_count(monkeypatch, tmp_path):
+    """``bench lattice --peer lammps --ranks 1,2`` runs the deck once per rank count, the
+    second under mpirun -np 2, and reads LAMMPS's figures (a stand-in ``lmp`` prints
+    LAMMPS's lines and what it was started with)."""
+    log = stand_in_lammps(tmp_path, monkeypatch)
     out = tmp_path / "bench.json"
     result = CliRunner().invoke(main, ["bench", "lattice", "--sizes", "4", "--steps", "10",
                                        "--peer", "lammps", "--ranks", "1,2",
@@ -474,17 +482,7 @@ def test_bench_profile_with_the_triad_prints_each_parts_share(monkeypatch):
 def test_bench_rounds_run_bondem_and_its_peer_in_turn(monkeypatch, tmp_path):
     """``--rounds 3``: bondem, then LAMMPS, three times over (a stand-in ``lmp``), each
     round's ratio of particle-steps/s and their median printed and in the JSON."""
-    venv = tmp_path / "venv"
-    (venv / "bin").mkdir(parents=True)
-    log = tmp_path / "calls"
-    (venv / "bin" / "lmp").write_text(
-        "#!/bin/sh\n"
-        f"echo lmp >> {log}\n"
-        "echo 'Added 144 bonds'\n"
-        "echo 'Loop time of 0.5 on 1 procs for 10 steps with 64 atoms'\n"
-        "echo '95.0% CPU use with 1 MPI tasks x 1 OpenMP threads'\n")
-    (venv / "bin" / "lmp").chmod(0o755)
-    monkeypatch.setenv("LMP_VENV", str(venv))
+    log = stand_in_lammps(tmp_path, monkeypatch)
     out = tmp_path / "bench.json"
     result = CliRunner().invoke(main, ["bench", "lattice", "--sizes", "4", "--steps", "10",
                                        "--peer", "lammps", "--ranks", "1", "--rounds", "3",

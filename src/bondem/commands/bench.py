@@ -5,11 +5,11 @@ Thin: parses, calls ``bondem.bench``, prints a table (and writes JSON with --jso
 """
 import gc
 import json
+import statistics
 import sys
 from pathlib import Path
 
 import click
-import numpy as np
 
 from ..errors import InputError
 
@@ -172,7 +172,7 @@ def _round_ratios(results):
             groups.setdefault(key, []).append(r["ratio_bondem_over_lammps"])
     summary = []
     for (scene, n, backend), ratios in groups.items():
-        median = float(np.median(ratios))
+        median = statistics.median(ratios)
         click.echo(f"{scene} n={n}: bondem / {backend} particle-steps/s in {len(ratios)} "
                    f"rounds: {', '.join(f'{x:.2f}' for x in ratios)}; median {median:.2f}")
         summary.append({"scene": scene, "n": n, "backend": backend, "ratios": ratios,
