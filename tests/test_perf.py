@@ -455,6 +455,14 @@ def test_row_counts_are_the_rows_that_hold_something():
     assert parts["bond kernel"] == parts["gather"] == 0
     assert parts["zero loads"] == bench.ZERO_LOADS_BYTES * model.n_particles
     assert parts["contacts"] > bench.CONTACT_EVALUATED_ROW_BYTES * counts["evaluated"]
+    # each count (checked above against the rows) enters with its own bytes
+    assert parts["contacts"] == (
+        bench.CONTACT_LIVE_ROW_BYTES * counts["live"]
+        + bench.CONTACT_PARTICLE_BYTES * model.n_particles
+        + bench.CONTACT_EVALUATED_ROW_BYTES * counts["evaluated"]
+        + bench.CONTACT_LOADED_PARTICLE_BYTES * counts["loaded"]
+        + bench.CONTACT_ROW_END_BYTES * counts["ends"])
+    assert parts["walls"] == bench.WALL_ROW_BYTES * counts["wall_rows"]
 
 
 def test_bench_profile_with_the_triad_prints_each_parts_share(monkeypatch):
