@@ -298,8 +298,8 @@ def test_quiet_rows_skipped_give_the_same_bits_as_visiting_every_row(monkeypatch
     import bondem.backends.cpu_contacts as cc
     gather = cc.gather_pair_loads
 
-    def gather_every_row(index, rows, force, moment):
-        gather(index._replace(quiet=np.zeros_like(index.quiet)), rows, force, moment)
+    def gather_every_row(index, rows, force, moment, assign):
+        gather(index._replace(quiet=np.zeros_like(index.quiet)), rows, force, moment, assign)
 
     runs = []
     woke = 0
@@ -309,9 +309,9 @@ def test_quiet_rows_skipped_give_the_same_bits_as_visiting_every_row(monkeypatch
         law = sim.contacts
         pair_loads = law.pair_loads
 
-        def every_row(*arguments, law=law, pair_loads=pair_loads):
+        def every_row(*arguments, law=law, pair_loads=pair_loads, **keywords):
             law._quiet[:] = 0
-            pair_loads(*arguments)
+            pair_loads(*arguments, **keywords)
         with monkeypatch.context() as patch:
             if not skip:
                 law.pair_loads = every_row
@@ -329,6 +329,58 @@ def test_quiet_rows_skipped_give_the_same_bits_as_visiting_every_row(monkeypatch
         np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
     for name, value in a.extra.items():
         np.testing.assert_array_equal(value, b.extra[name], err_msg=name)
+
+
+class _Adding:
+    """A contact law seen without its ``assign``: the step then zeroes the loads and the
+    law adds to them (the reference for the law that stores them)."""
+
+    def __init__(self, law):
+        self.law = law
+
+    def accumulate(self, *arguments):
+        self.law.accumulate(*arguments)
+
+
+@pytest.mark.parametrize("model_name, spread", [("hertz_mindlin", 1.0), ("none", 1.0),
+                                                 ("hertz_mindlin", 3.0)])
+def test_contacts_that_store_their_loads_give_the_bits_of_adding_them_to_zeros(
+        model_name, spread):
+    """Without bonds the contact law comes first and stores the loads (``assign``): every
+    particle's, those without a loaded row too (they get +0), whatever the arrays held.
+    A bed (most particles touching), a bed without pair contacts (walls only) and the
+    same bed spread out (no pair listed: zeros stored) give the bits of the law adding its
+    loads to zeroed arrays, step by step and in the loads themselves."""
+    from bondem import bench
+    from bondem.integrate import step
+    model, state, walls = bench.bed_system(500)
+    state.position *= spread
+    runs = []
+    for storing in (True, False):
+        sim = bondem.Simulation(model, state.copy(), contact=ContactSettings(model_name),
+                                walls=walls)
+        laws = sim.laws if storing else [sim.laws[0], _Adding(sim.laws[1])]
+        assert not laws[0].acts(model)       # no bonds: the bond law is left out
+        for _ in range(30):
+            step(model, sim.state, laws, sim.integrator, sim.force, sim.moment,
+                 sim.time_step)
+        runs.append(sim)
+    a, b = runs
+    assert np.any(a.force != 0.0) == (spread == 1.0)
+    for name in ("position", "velocity", "angular_velocity"):
+        np.testing.assert_array_equal(getattr(a.state, name), getattr(b.state, name))
+    # the loads of one more evaluation, stored over NaN against added to zeros
+    stored = (np.full_like(a.force, np.nan), np.full_like(a.moment, np.nan))
+    added = (np.zeros_like(b.force), np.zeros_like(b.moment))
+    a.contacts.assign(model, a.state, *stored, a.time_step)
+    b.contacts.accumulate(model, b.state, *added, b.time_step)
+    listed = a.state.extra["contact_pairs"].shape[0]
+    assert (listed == 0) == (spread > 1.0 or model_name == "none")
+    if model_name == "hertz_mindlin" and spread == 1.0:
+        unloaded = ~np.any(added[0] != 0.0, axis=1)
+        assert np.any(unloaded) and np.any(~unloaded)
+    for mine, reference in zip(stored, added):
+        np.testing.assert_array_equal(mine.view(np.int64), reference.view(np.int64))
 
 
 def test_balanced_shares_cut_contiguous_runs_of_even_work():

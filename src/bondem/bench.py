@@ -52,13 +52,16 @@ PARTICLE_STEP_BYTES = BOND_GATHER_PARTICLE_BYTES + LIST_TEST_BYTES + INTEGRATE_B
 # particle in such a row its velocities, mass, inertia and material 72. The gather reads
 # per live row its places in both CSR orders and their quiet flags 18, per particle its
 # two offsets 16; per row end of a particle with an evaluated row its force and moment 48,
-# and that particle's force and moment are read and written 96. Zeroing the loads (only
-# without bonds) writes 48 per particle; a wall candidate row reads its pair 16 and reads
-# and writes its 80 B of history.
+# and that particle's force and moment are read and written 96 - or, where the contacts'
+# gather stores the loads (no bonds: it comes first, integrate.step), 48 per particle are
+# written and none read. Zeroing the loads (no bonds, and no contact law to store them)
+# writes 48 per particle; a wall candidate row reads its pair 16 and reads and writes its
+# 80 B of history.
 CONTACT_LIVE_ROW_BYTES = 25 + 18
 CONTACT_PARTICLE_BYTES = 32 + 16
 CONTACT_EVALUATED_ROW_BYTES = 104 + 112
 CONTACT_LOADED_PARTICLE_BYTES = 72 + 96
+CONTACT_LOADED_STORING_BYTES, CONTACT_STORE_BYTES = 72, 48
 CONTACT_ROW_END_BYTES = 48
 ZERO_LOADS_BYTES = 48
 WALL_ROW_BYTES = 16 + 2 * 80
@@ -286,8 +289,8 @@ def memory_estimate(result, particles=1_000_000, bonds_per_particle=3.0):
 
 def profile_step(sim, steps=40):
     """Wall seconds per step of each part of the CPU step, timed one part at a time over
-    ``steps`` steps (the same work as ``step``): zeroing the loads (only without bonds:
-    the bonds' gather stores them), the bond kernel, the bonds' gather, the contact law's
+    ``steps`` steps (the same work as ``step``): zeroing the loads (only without bonds
+    and contacts: the bonds' gather, else the contacts', stores them), the bond kernel, the bonds' gather, the contact law's
     neighbour lists (rebuild and derived indices), particle contacts (kernel and gather)
     and walls, other laws, integration.
 
@@ -306,9 +309,11 @@ def profile_step(sim, steps=40):
     dt = sim.time_step
     sim.step(1)
     assign = model.n_bonds > 0           # the step's bond gather then stores the loads
+    # without bonds, a contact law that comes first stores its pair loads (integrate.step)
+    stores = [not assign and k == 0 and sim.laws[1] is law for k, law in enumerate(contacts)]
     for rep in range(steps):
         clock = [time.perf_counter()]
-        if not assign:
+        if not (assign or any(stores)):
             sim.force.fill(0.0)
             sim.moment.fill(0.0)
         clock.append(time.perf_counter())
@@ -322,8 +327,8 @@ def profile_step(sim, steps=40):
         clock.append(time.perf_counter())
         moved = [law.update_lists(model, state, dt) for law in contacts]
         clock.append(time.perf_counter())
-        for law, moved_dt in zip(contacts, moved):
-            law.pair_loads(model, state, sim.force, sim.moment, dt, moved_dt)
+        for law, moved_dt, store in zip(contacts, moved, stores):
+            law.pair_loads(model, state, sim.force, sim.moment, dt, moved_dt, assign=store)
         clock.append(time.perf_counter())
         for law, moved_dt in zip(contacts, moved):
             law.wall_loads(model, state, sim.force, sim.moment, dt, moved_dt)
@@ -368,18 +373,26 @@ def part_bytes(sim):
         intact = int(np.count_nonzero(sim.state.bond_active))
         parts["bond kernel"] = BOND_UPDATE_BYTES * intact
         parts["gather"] = BOND_GATHER_BYTES * intact + BOND_GATHER_PARTICLE_BYTES * n
-    else:
+    # without bonds, a contact law that comes first stores the loads (integrate.step)
+    storing = None if model.n_bonds or len(sim.laws) < 2 else sim.laws[1]
+    if not hasattr(storing, "row_counts"):
+        storing = None
+    if not model.n_bonds and storing is None:
         parts["zero loads"] = ZERO_LOADS_BYTES * n
     for law in sim.laws[1:]:
         if not hasattr(law, "row_counts"):
             continue
         rows = law.row_counts()
         parts["neighbour lists"] += LIST_TEST_BYTES * n
+        stores = law is storing
+        if stores:   # every particle's loads written (by the gather, or zeros)
+            parts["contacts"] += CONTACT_STORE_BYTES * n
         if rows["live"]:
             parts["contacts"] += (CONTACT_LIVE_ROW_BYTES * rows["live"]
                                   + CONTACT_PARTICLE_BYTES * n
                                   + CONTACT_EVALUATED_ROW_BYTES * rows["evaluated"]
-                                  + CONTACT_LOADED_PARTICLE_BYTES * rows["loaded"]
+                                  + (CONTACT_LOADED_STORING_BYTES if stores
+                                     else CONTACT_LOADED_PARTICLE_BYTES) * rows["loaded"]
                                   + CONTACT_ROW_END_BYTES * rows["ends"])
         parts["walls"] += WALL_ROW_BYTES * rows["wall_rows"]
     parts["integrate"] = INTEGRATE_BYTES * n

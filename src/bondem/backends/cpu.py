@@ -709,6 +709,11 @@ class ElasticBonds:
         self.compute(model, state, increment_dt)
         self.gather(force, moment)
 
+    def acts(self, model):
+        """False for a model without bonds: this law adds no load, and the step leaves it
+        out so that the next law may store its loads (``assign``)."""
+        return model.n_bonds > 0
+
     def assign(self, model, state, force, moment, increment_dt):
         """As ``accumulate`` into zeroed force and moment, but storing the loads (zero for
         a particle without bonds): the step, whose first law this is, then need not zero

@@ -109,14 +109,22 @@ def particle_contacts(live, quiet, pairs, pair_bond, bond_active, particles, gra
 
 
 @numba.njit(**_serial)
-def gather_pair_range(first, last, index, rows, force, moment):
-    """Add the contact loads of particles first to last - 1 (``loops.pair_rows_sum``).
+def gather_pair_range(first, last, index, rows, force, moment, assign):
+    """Add the contact loads of particles first to last - 1 (``loops.pair_rows_sum``), or
+    store them (``assign``).
 
-    A particle whose sums are all zero is not written: adding +0 changes no load, since
-    every load is a sum that starts at +0 and so is never -0. That saves reading and
-    writing the loads of every particle without a touching neighbour."""
+    When adding, a particle whose sums are all zero is not written: adding +0 changes no
+    load, since every load is a sum that starts at +0 and so is never -0. That saves
+    reading and writing the loads of every particle without a touching neighbour.
+    Storing gives the same bits as adding to zeroed loads, without the pass that zeroes
+    them."""
     for p in range(first, last):
         f, m = pair_rows_sum(p, index, rows)
+        if assign:
+            for k in range(3):
+                force[p, k] = f[k]
+                moment[p, k] = m[k]
+            continue
         if (f[0] == 0.0 and f[1] == 0.0 and f[2] == 0.0 and m[0] == 0.0 and m[1] == 0.0
                 and m[2] == 0.0):
             continue
@@ -126,12 +134,13 @@ def gather_pair_range(first, last, index, rows, force, moment):
 
 
 @numba.njit(**_jit)
-def gather_pair_loads(index, rows, force, moment):
+def gather_pair_loads(index, rows, force, moment, assign):
     """Add each particle's contact loads (a ``loops.PairIndex`` over the live rows) to
-    force (N) and moment (N m)."""
+    force (N) and moment (N m), or store them there (``assign``)."""
     n = index.i_start.shape[0] - 1
     for c in prange(chunks(n)):
-        gather_pair_range(c * CHUNK, min(n, (c + 1) * CHUNK), index, rows, force, moment)
+        gather_pair_range(c * CHUNK, min(n, (c + 1) * CHUNK), index, rows, force, moment,
+                          assign)
 
 
 @numba.njit(**_serial)
@@ -610,6 +619,14 @@ class ContactLaw:
         self.pair_loads(model, state, force, moment, increment_dt, moved_dt)
         self.wall_loads(model, state, force, moment, increment_dt, moved_dt)
 
+    def assign(self, model, state, force, moment, increment_dt):
+        """As ``accumulate`` into zeroed force and moment, but the pair loads stored (zero
+        for a particle without a loaded row): the step, whose first law this is without
+        bonds, then need not zero the arrays (0.3 ms of the 10^5 bed's 9 ms step)."""
+        moved_dt = self.update_lists(model, state, increment_dt)
+        self.pair_loads(model, state, force, moment, increment_dt, moved_dt, assign=True)
+        self.wall_loads(model, state, force, moment, increment_dt, moved_dt)
+
     def update_lists(self, model, state, increment_dt):
         """The step's first part: rebuild the pair and wall lists if something moved more
         than skin/2 and derive their indices; returns the time (s) since the last
@@ -624,11 +641,16 @@ class ContactLaw:
         counters[3] = state.time
         return moved_dt
 
-    def pair_loads(self, model, state, force, moment, increment_dt, moved_dt):
-        """Add the particle-particle contacts' loads (N, N m) after ``update_lists``."""
+    def pair_loads(self, model, state, force, moment, increment_dt, moved_dt, assign=False):
+        """Add the particle-particle contacts' loads (N, N m) after ``update_lists``, or
+        store them (``assign``)."""
         extra = state.extra
         if not self._live.shape[0]:
-            return   # no pair listed, or every one bonded: no load, nothing dissipated
+            # no pair listed, or every one bonded: no load, nothing dissipated
+            if assign:
+                force.fill(0.0)
+                moment.fill(0.0)
+            return
         rows = pair_rows(extra, self._dissipated)
         if self._chunk_work.shape[0] != chunks(self._live.shape[0]):
             self._chunk_work = np.ones(chunks(self._live.shape[0]))
@@ -642,7 +664,7 @@ class ContactLaw:
         gather_pair_loads(
             loops.PairIndex(self._i_start, self._i_order, self._j_start, self._j_order,
                             self._quiet),
-            rows, force, moment)
+            rows, force, moment, assign)
         extra["contact_counters"][0] += float(self._dissipated.sum())
 
     def _kernel_law(self):
