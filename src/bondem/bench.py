@@ -290,9 +290,9 @@ def memory_estimate(result, particles=1_000_000, bonds_per_particle=3.0):
 def profile_step(sim, steps=40):
     """Wall seconds per step of each part of the CPU step, timed one part at a time over
     ``steps`` steps (the same work as ``step``): zeroing the loads (only without bonds
-    and contacts: the bonds' gather, else the contacts', stores them), the bond kernel, the bonds' gather, the contact law's
-    neighbour lists (rebuild and derived indices), particle contacts (kernel and gather)
-    and walls, other laws, integration.
+    and contacts: the bonds' gather, else the contacts', stores them), the bond kernel,
+    the bonds' gather, the contact law's neighbour lists (rebuild and derived indices),
+    particle contacts (kernel and gather) and walls, other laws, integration.
 
     Returns (median, best, mean): dicts of each part's median, minimum and mean over the
     steps. On a shared machine a step now and then waits for a preempted thread, which
@@ -374,9 +374,8 @@ def part_bytes(sim):
         parts["bond kernel"] = BOND_UPDATE_BYTES * intact
         parts["gather"] = BOND_GATHER_BYTES * intact + BOND_GATHER_PARTICLE_BYTES * n
     # without bonds, a contact law that comes first stores the loads (integrate.step)
-    storing = None if model.n_bonds or len(sim.laws) < 2 else sim.laws[1]
-    if not hasattr(storing, "row_counts"):
-        storing = None
+    storing = (sim.laws[1] if not model.n_bonds and len(sim.laws) > 1
+               and hasattr(sim.laws[1], "row_counts") else None)
     if not model.n_bonds and storing is None:
         parts["zero loads"] = ZERO_LOADS_BYTES * n
     for law in sim.laws[1:]:
