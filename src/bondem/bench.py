@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .integrate import storing_law
 from .model import BondMaterial, Material, make_system
 from .reorder import reorder_system, spatial_order
 
@@ -60,8 +61,8 @@ PARTICLE_STEP_BYTES = BOND_GATHER_PARTICLE_BYTES + LIST_TEST_BYTES + INTEGRATE_B
 CONTACT_LIVE_ROW_BYTES = 25 + 18
 CONTACT_PARTICLE_BYTES = 32 + 16
 CONTACT_EVALUATED_ROW_BYTES = 104 + 112
-CONTACT_LOADED_PARTICLE_BYTES = 72 + 96
 CONTACT_LOADED_STORING_BYTES, CONTACT_STORE_BYTES = 72, 48
+CONTACT_LOADED_PARTICLE_BYTES = CONTACT_LOADED_STORING_BYTES + 2 * CONTACT_STORE_BYTES
 CONTACT_ROW_END_BYTES = 48
 ZERO_LOADS_BYTES = 48
 WALL_ROW_BYTES = 16 + 2 * 80
@@ -308,12 +309,11 @@ def profile_step(sim, steps=40):
     samples = np.zeros((steps, len(names)))
     dt = sim.time_step
     sim.step(1)
-    assign = model.n_bonds > 0           # the step's bond gather then stores the loads
-    # without bonds, a contact law that comes first stores its pair loads (integrate.step)
-    stores = [not assign and k == 0 and sim.laws[1] is law for k, law in enumerate(contacts)]
+    storing = storing_law(model, sim.laws)   # the law that stores the loads (the step's)
+    assign = storing is bonds
     for rep in range(steps):
         clock = [time.perf_counter()]
-        if not (assign or any(stores)):
+        if storing is None:
             sim.force.fill(0.0)
             sim.moment.fill(0.0)
         clock.append(time.perf_counter())
@@ -327,8 +327,9 @@ def profile_step(sim, steps=40):
         clock.append(time.perf_counter())
         moved = [law.update_lists(model, state, dt) for law in contacts]
         clock.append(time.perf_counter())
-        for law, moved_dt, store in zip(contacts, moved, stores):
-            law.pair_loads(model, state, sim.force, sim.moment, dt, moved_dt, assign=store)
+        for law, moved_dt in zip(contacts, moved):
+            law.pair_loads(model, state, sim.force, sim.moment, dt, moved_dt,
+                           assign=law is storing)
         clock.append(time.perf_counter())
         for law, moved_dt in zip(contacts, moved):
             law.wall_loads(model, state, sim.force, sim.moment, dt, moved_dt)
@@ -373,10 +374,8 @@ def part_bytes(sim):
         intact = int(np.count_nonzero(sim.state.bond_active))
         parts["bond kernel"] = BOND_UPDATE_BYTES * intact
         parts["gather"] = BOND_GATHER_BYTES * intact + BOND_GATHER_PARTICLE_BYTES * n
-    # without bonds, a contact law that comes first stores the loads (integrate.step)
-    storing = (sim.laws[1] if not model.n_bonds and len(sim.laws) > 1
-               and hasattr(sim.laws[1], "row_counts") else None)
-    if not model.n_bonds and storing is None:
+    storing = storing_law(model, sim.laws)   # the law that stores the loads (the step's)
+    if storing is None:
         parts["zero loads"] = ZERO_LOADS_BYTES * n
     for law in sim.laws[1:]:
         if not hasattr(law, "row_counts"):

@@ -29,6 +29,20 @@ def extra_start_up_steps(started, musen_compat=False):
     return 1 if (not started and musen_compat) else 0
 
 
+def acting_laws(model, laws):
+    """The laws that add loads to ``model``, in order: those without ``acts(model)``, or
+    whose ``acts(model)`` is True (a bond law without bonds adds none)."""
+    return [law for law in laws if not hasattr(law, "acts") or law.acts(model)]
+
+
+def storing_law(model, laws):
+    """The law of ``laws`` (in the order the step adds them) that stores its loads rather
+    than adding them: the first acting one, if it has ``assign``; else None (the step then
+    zeroes the loads first)."""
+    acting = acting_laws(model, laws)
+    return acting[0] if acting and hasattr(acting[0], "assign") else None
+
+
 def step(model, state, laws, integrator, force, moment, dt, musen_compat=False):
     """Advance ``state`` in place by one step of ``dt`` seconds (or do the start-up kick).
 
@@ -44,8 +58,8 @@ def step(model, state, laws, integrator, force, moment, dt, musen_compat=False):
         laws = [*laws[1:], *laws[:1]]
     # A law that adds no load here (the bonds' without bonds) is left out, so that the
     # next may store its loads: one pass over the loads less.
-    laws = [law for law in laws if not hasattr(law, "acts") or law.acts(model)]
-    if laws and hasattr(laws[0], "assign"):
+    laws = acting_laws(model, laws)
+    if laws and hasattr(laws[0], "assign"):   # as storing_law, on the acting laws
         # a first law that stores its loads (the bonds', else the contacts'): nothing to
         # zero beforehand
         laws[0].assign(model, state, force, moment, increment_dt)
