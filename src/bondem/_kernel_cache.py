@@ -20,7 +20,7 @@ PACKAGE = Path(__file__).resolve().parent
 
 # What the cached kernels inline besides their own file: the physics, the loop bodies,
 # and the CPU backend's compile options and helpers, which the other kernel modules import.
-INLINED = ("physics/*.py", "backends/loops.py", "backends/cpu.py")
+INLINED = ("physics/*.py", "backends/loops.py", "backends/cpu.py", "backends/raw.py")
 
 
 def physics_digest(package=PACKAGE):

@@ -19,7 +19,7 @@ from ..neighbors import (build_pairs, carry_history, counting_sort, history_map,
 from ..physics.contact_hertz_musen import MUSEN_VERSION, MUSEN_VERSIONS
 from ..physics import contact_models
 from ..walls import PLANE, WallSet, build_wall_pairs
-from . import cpu, loops
+from . import cpu, loops, raw
 from .cpu import CHUNK, L, _jit, _serial, balanced_shares, chunks
 
 # The pair loop inlines its contact law as well (Hertz-Mindlin, friction and rolling, at
@@ -35,7 +35,8 @@ def _law_inlined(function):
                       else "never")(function)
 
 
-_INLINED = loops.compile_loops(numba.njit(cache=False, inline="always"), _law_inlined)
+_INLINED = loops.compile_loops(numba.njit(cache=False, inline="always"), _law_inlined,
+                               given=raw.ROWS)
 pair_contact = _INLINED.pair_contact
 pair_geometry = L.pair_geometry
 row_quiet = L.row_quiet

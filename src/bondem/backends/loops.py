@@ -138,10 +138,12 @@ def body(function):
     return function
 
 
-def compile_loops(jit, physics_jit, substitute=None):
+def compile_loops(jit, physics_jit, substitute=None, given=None):
     """Namespace of every loop body compiled by ``jit``, calling the physics compiled by
-    ``physics_jit`` (and the physics functions themselves, by name)."""
-    return compile_functions(_BODIES, jit, base=compile_physics(physics_jit, substitute))
+    ``physics_jit`` (and the physics functions themselves, by name); ``given``: {body
+    name: compiled function} used instead of those bodies (the CPU's ``raw.ROWS``)."""
+    return compile_functions(_BODIES, jit, base=compile_physics(physics_jit, substitute),
+                             given=given)
 
 
 # -- small helpers ------------------------------------------------------------------------
@@ -343,20 +345,20 @@ def bond_ends_sum(p, index, loads, start_f, start_m):
     mx, my, mz = start_m
     for k in range(index.offsets[p], index.offsets[p + 1]):
         b = index.ends[k] >> 1
+        f = row3(loads.force_i, b)
         if index.ends[k] & 1:
-            fx -= loads.force_i[b, 0]
-            fy -= loads.force_i[b, 1]
-            fz -= loads.force_i[b, 2]
-            mx += loads.moment_j[b, 0]
-            my += loads.moment_j[b, 1]
-            mz += loads.moment_j[b, 2]
+            m = row3(loads.moment_j, b)
+            fx -= f[0]
+            fy -= f[1]
+            fz -= f[2]
         else:
-            fx += loads.force_i[b, 0]
-            fy += loads.force_i[b, 1]
-            fz += loads.force_i[b, 2]
-            mx += loads.moment_i[b, 0]
-            my += loads.moment_i[b, 1]
-            mz += loads.moment_i[b, 2]
+            m = row3(loads.moment_i, b)
+            fx += f[0]
+            fy += f[1]
+            fz += f[2]
+        mx += m[0]
+        my += m[1]
+        mz += m[2]
     return (fx, fy, fz), (mx, my, mz)
 
 
@@ -741,17 +743,19 @@ def pair_contact(c, pairs, pair_bond, bond_active, particles, grains, materials,
     wj = row3(particles.angular_velocity, j)
     # Work of the previous loads over the step just made (their half of the trapezoid).
     work = 0.0
+    force, moment_on_i, moment_on_j = (row3(rows.force, c), row3(rows.moment_i, c),
+                                       row3(rows.moment_j, c))
     for k in range(3):
-        work += (rows.force[c, k] * (vi[k] - vj[k]) + rows.moment_i[c, k] * wi[k]
-                 + rows.moment_j[c, k] * wj[k])
+        work += (force[k] * (vi[k] - vj[k]) + moment_on_i[k] * wi[k]
+                 + moment_on_j[k] * wj[k])
     if apart:
-        for k in range(3):
-            rows.spring[c, k] = 0.0
-            rows.force[c, k] = 0.0
-            rows.moment_i[c, k] = 0.0
-            rows.moment_j[c, k] = 0.0
-            if musen is not None and musen:
-                rows.tangential[c, k] = 0.0
+        zero = (0.0, 0.0, 0.0)
+        store3(rows.spring, c, zero)
+        store3(rows.force, c, zero)
+        store3(rows.moment_i, c, zero)
+        store3(rows.moment_j, c, zero)
+        if musen is not None and musen:
+            store3(rows.tangential, c, zero)
         rows.energy[c] = 0.0
         rows.dissipated[c] = -0.5 * moved_dt * work + previous_energy
         return
@@ -777,11 +781,11 @@ def pair_contact(c, pairs, pair_bond, bond_active, particles, grains, materials,
         force_i, moment_i, moment_j, xi, energy = spec_pair_loads(
             r, distance, overlap, i, j, vi, vj, wi, wj, grains, materials, law,
             row3(rows.spring, c), dt)
+    store3(rows.spring, c, xi)
+    store3(rows.force, c, force_i)
+    store3(rows.moment_i, c, moment_i)
+    store3(rows.moment_j, c, moment_j)
     for k in range(3):
-        rows.spring[c, k] = xi[k]
-        rows.force[c, k] = force_i[k]
-        rows.moment_i[c, k] = moment_i[k]
-        rows.moment_j[c, k] = moment_j[k]
         work += force_i[k] * (vi[k] - vj[k]) + moment_i[k] * wi[k] + moment_j[k] * wj[k]
     rows.energy[c] = energy
     rows.dissipated[c] = -0.5 * moved_dt * work - (energy - previous_energy)
@@ -805,20 +809,24 @@ def pair_rows_sum(p, index, rows):
         return (fx, fy, fz), (mx, my, mz)
     for s in range(index.i_start[p], index.i_start[p + 1]):
         c = index.i_order[s]
-        fx += rows.force[c, 0]
-        fy += rows.force[c, 1]
-        fz += rows.force[c, 2]
-        mx += rows.moment_i[c, 0]
-        my += rows.moment_i[c, 1]
-        mz += rows.moment_i[c, 2]
+        f = row3(rows.force, c)
+        m = row3(rows.moment_i, c)
+        fx += f[0]
+        fy += f[1]
+        fz += f[2]
+        mx += m[0]
+        my += m[1]
+        mz += m[2]
     for s in range(index.j_start[p], index.j_start[p + 1]):
         c = index.j_order[s]
-        fx -= rows.force[c, 0]
-        fy -= rows.force[c, 1]
-        fz -= rows.force[c, 2]
-        mx += rows.moment_j[c, 0]
-        my += rows.moment_j[c, 1]
-        mz += rows.moment_j[c, 2]
+        f = row3(rows.force, c)
+        m = row3(rows.moment_j, c)
+        fx -= f[0]
+        fy -= f[1]
+        fz -= f[2]
+        mx += m[0]
+        my += m[1]
+        mz += m[2]
     return (fx, fy, fz), (mx, my, mz)
 
 

@@ -36,13 +36,19 @@ def compile_physics(jit, substitute=None):
     return compile_functions(_REGISTERED, jit, substitute=substitute)
 
 
-def compile_functions(functions, jit, base=None, substitute=None):
+def compile_functions(functions, jit, base=None, substitute=None, given=None):
     """``compile_physics`` for any list of plain functions: each is rebuilt with the
     compiled functions of ``base`` (a namespace, e.g. compiled physics) and of the
-    functions before it as its callees, then compiled by ``jit``."""
+    functions before it as its callees, then compiled by ``jit``. ``given`` maps a
+    function's name to a compiled function that this target uses in its place (the CPU's
+    unchecked row access, backends/raw.py)."""
     compiled = dict(vars(base)) if base is not None else {}
     substitute = substitute or {}
+    given = given or {}
     for function in functions:
+        if function.__name__ in given:
+            compiled[function.__name__] = given[function.__name__]
+            continue
         namespace = dict(function.__globals__)
         namespace.update(compiled)
         namespace.update({name: compiled[other] for name, other in substitute.items()

@@ -1,0 +1,152 @@
+"""Array access for the hottest CPU loops, without Numba's negative-index wraparound.
+
+Numba reads ``a[i]`` with a signed ``i`` as ``a[i + n if i < 0 else i]``, and LLVM can
+rarely prove ``i >= 0``: in the bond kernel's gather into its scratch and scatter out of
+it that was three extra instructions per access, and the shapes it needs, with the
+strides, left more values than registers (spilled and reloaded per bond). These intrinsics
+address the element directly, so an index must lie in ``[0, n)``: the callers' loops
+guarantee it (bond and particle numbers, scratch slots). They change no result.
+
+``prefetch`` asks the cache for a row ahead of its use.
+"""
+import numba
+from llvmlite import ir
+from numba import types
+from numba.core import cgutils
+from numba.core.errors import TypingError
+from numba.core.extending import intrinsic
+from numba.np.arrayobj import load_item, store_item
+
+
+def _element(context, builder, array_type, array, indices, index_types):
+    """Pointer to array[indices], with no wraparound and no bounds check."""
+    data = context.make_array(array_type)(context, builder, array)
+    shapes = cgutils.unpack_tuple(builder, data.shape, array_type.ndim)
+    strides = cgutils.unpack_tuple(builder, data.strides, array_type.ndim)
+    index = [context.cast(builder, value, kind, types.intp)
+             for value, kind in zip(indices, index_types)]
+    return cgutils.get_item_pointer2(context, builder, data.data, shapes, strides,
+                                     array_type.layout, index, wraparound=False,
+                                     boundscheck=False)
+
+
+def _row_of_three(context, builder, array_type, array, row, column, index_types):
+    """Pointer to array[row, column] of a C-contiguous (n, 3) array: 3 row + column
+    elements from the start, one multiply by a constant (no shape read)."""
+    data = context.make_array(array_type)(context, builder, array)
+    row, column = (context.cast(builder, value, kind, types.intp)
+                   for value, kind in zip((row, column), index_types))
+    offset = builder.add(builder.mul(row, context.get_constant(types.intp, 3)), column)
+    return builder.gep(data.data, [offset])
+
+
+def _need(array, ndim, contiguous=False):
+    if not isinstance(array, types.Array) or array.ndim != ndim:
+        raise TypingError(f"raw access: need a {ndim}-d array, got {array}")
+    if contiguous and array.layout != "C":
+        raise TypingError(f"raw access: need a C-contiguous array, got {array}")
+
+
+@intrinsic
+def get(typingctx, array, i):
+    """array[i] of a 1-d array, 0 <= i < len(array)."""
+    _need(array, 1)
+
+    def codegen(context, builder, signature, args):
+        pointer = _element(context, builder, signature.args[0], args[0], args[1:],
+                           signature.args[1:])
+        return load_item(context, builder, signature.args[0], pointer)
+    return array.dtype(array, i), codegen
+
+
+@intrinsic
+def get2(typingctx, array, i, k):
+    """array[i, k] of a 2-d array, both indices in range."""
+    _need(array, 2)
+
+    def codegen(context, builder, signature, args):
+        pointer = _element(context, builder, signature.args[0], args[0], args[1:],
+                           signature.args[1:])
+        return load_item(context, builder, signature.args[0], pointer)
+    return array.dtype(array, i, k), codegen
+
+
+@intrinsic
+def put(typingctx, array, i, value):
+    """array[i] = value for a 1-d array, 0 <= i < len(array)."""
+    _need(array, 1)
+
+    def codegen(context, builder, signature, args):
+        value = context.cast(builder, args[2], signature.args[2], signature.args[0].dtype)
+        pointer = _element(context, builder, signature.args[0], args[0], args[1:2],
+                           signature.args[1:2])
+        store_item(context, builder, signature.args[0], value, pointer)
+        return context.get_dummy_value()
+    return types.void(array, i, value), codegen
+
+
+@intrinsic
+def get3(typingctx, array, i, k):
+    """array[i, k] of a C-contiguous (n, 3) array (the caller checks the 3),
+    0 <= i < n, 0 <= k < 3."""
+    _need(array, 2, contiguous=True)
+
+    def codegen(context, builder, signature, args):
+        pointer = _row_of_three(context, builder, signature.args[0], args[0], args[1],
+                                args[2], signature.args[1:3])
+        return load_item(context, builder, signature.args[0], pointer)
+    return array.dtype(array, i, k), codegen
+
+
+@intrinsic
+def put3(typingctx, array, i, k, value):
+    """array[i, k] = value for a C-contiguous (n, 3) array, as ``get3``."""
+    _need(array, 2, contiguous=True)
+
+    def codegen(context, builder, signature, args):
+        value = context.cast(builder, args[3], signature.args[3], signature.args[0].dtype)
+        pointer = _row_of_three(context, builder, signature.args[0], args[0], args[1],
+                                args[2], signature.args[1:3])
+        store_item(context, builder, signature.args[0], value, pointer)
+        return context.get_dummy_value()
+    return types.void(array, i, k, value), codegen
+
+
+@intrinsic
+def prefetch(typingctx, array, row):
+    """Ask the cache for the first line of ``array[row]`` (a C-contiguous array), to be
+    read soon: LLVM's ``llvm.prefetch`` (read, keep in all levels). Changes no result."""
+    def codegen(context, builder, signature, args):
+        data = context.make_array(signature.args[0])(context, builder, args[0])
+        stride = cgutils.unpack_tuple(builder, data.strides, signature.args[0].ndim)[0]
+        byte = ir.IntType(8).as_pointer()
+        address = builder.gep(builder.bitcast(data.data, byte), [builder.mul(args[1], stride)])
+        i32 = ir.IntType(32)
+        # named .p0i8: this LLVM's own name on older llvmlite, upgraded to .p0 by newer
+        call = builder.module.declare_intrinsic(
+            "llvm.prefetch", [byte], ir.FunctionType(ir.VoidType(), [byte, i32, i32, i32]))
+        builder.call(call, [address, ir.Constant(i32, 0), ir.Constant(i32, 3),
+                            ir.Constant(i32, 1)])
+        return context.get_dummy_value()
+    return types.void(array, types.intp), codegen
+
+
+@numba.njit(inline="always")
+def row3(a, i):
+    """Row i of a C-contiguous (n, 3) array as a 3-tuple (``loops.row3`` on the CPU)."""
+    return (get3(a, i, 0), get3(a, i, 1), get3(a, i, 2))
+
+
+@numba.njit(inline="always")
+def store3(a, i, v):
+    """a[i] = v for a C-contiguous (n, 3) array and a 3-tuple (``loops.store3`` on the
+    CPU)."""
+    put3(a, i, 0, v[0])
+    put3(a, i, 1, v[1])
+    put3(a, i, 2, v[2])
+
+
+# The loop bodies the CPU compiles as these (``loops.compile_loops``' given): every row
+# of three a body reads or writes through row3 and store3 goes unchecked. An array of
+# another layout fails to compile (get3's typing), so a body never reads a wrong row.
+ROWS = {"row3": row3, "store3": store3}
