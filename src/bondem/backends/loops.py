@@ -426,6 +426,33 @@ field_moment = body(_summed(
 
 
 @body
+def kick(v, w, load_f, load_m, applied, applied_m, mass, inertia, damping, kick_dt,
+         track_energy):
+    """One component of ``integrate_particle``'s kick: (new v (m/s), new w (rad/s), work
+    of the applied loads, energy removed by damping (J)), from the old v, w, the contact
+    and bond loads load_f (N), load_m (N m) and the applied ones (gravity, fields,
+    external)."""
+    f = load_f + applied
+    mk = load_m + applied_m
+    damp_f = 0.0
+    damp_m = 0.0
+    if damping > 0.0:
+        damp_f = -damping * abs(f) * sign(v)
+        damp_m = -damping * abs(mk) * sign(w)
+    v_new = v + (f + damp_f) / mass * kick_dt
+    w_new = w + (mk + damp_m) / inertia * kick_dt
+    # Without gravity, damping or fields the caller does not track (a pass over the
+    # external loads each step cost 3 % of the lattice's); a component whose applied loads
+    # are zero would add +-0 here, which changes no sum.
+    if track_energy or applied != 0.0 or applied_m != 0.0:
+        v_mean = 0.5 * (v + v_new)
+        w_mean = 0.5 * (w + w_new)
+        return (v_new, w_new, (applied * v_mean + applied_m * w_mean) * kick_dt,
+                -(damp_f * v_mean + damp_m * w_mean) * kick_dt)
+    return v_new, w_new, 0.0, 0.0
+
+
+@body
 def integrate_particle(p, load_f, load_m, particles, bodies, fields, damping, kick_dt,
                        drift_dt, box, track_energy):
     """Semi-implicit Euler for particle p: v += F/m kick_dt; x += v drift_dt;
@@ -444,46 +471,43 @@ def integrate_particle(p, load_f, load_m, particles, bodies, fields, damping, ki
     axis wraps the position into the box."""
     work = 0.0
     lost = 0.0
-    v = particles.velocity
-    w = particles.angular_velocity
+    v = row3(particles.velocity, p)
+    w = row3(particles.angular_velocity, p)
     if not bodies.fixed[p]:
         mass = bodies.mass[p]
         inertia = bodies.inertia[p]
         gravity = fields.gravity
-        here = row3(particles.position, p)
-        carried = field_force(fields, p, mass, bodies.radius[p], here, row3(v, p))
-        turned = field_moment(fields, inertia, row3(w, p))
-        for k in range(3):
-            applied = mass * gravity[k] + bodies.external_force[p, k] + carried[k]
-            applied_m = bodies.external_moment[p, k] + turned[k]
-            f = load_f[k] + applied
-            mk = load_m[k] + applied_m
-            damp_f = 0.0
-            damp_m = 0.0
-            if damping > 0.0:
-                damp_f = -damping * abs(f) * sign(v[p, k])
-                damp_m = -damping * abs(mk) * sign(w[p, k])
-            v_old = v[p, k]
-            w_old = w[p, k]
-            v[p, k] = v_old + (f + damp_f) / mass * kick_dt
-            w[p, k] = w_old + (mk + damp_m) / inertia * kick_dt
-            # Without gravity, damping or fields the caller does not track (a pass over
-            # the external loads each step cost 3 % of the lattice's); a component whose
-            # applied loads are zero would add +-0 here, which changes no sum.
-            if track_energy or applied != 0.0 or applied_m != 0.0:
-                v_mean = 0.5 * (v_old + v[p, k])
-                w_mean = 0.5 * (w_old + w[p, k])
-                work += (applied * v_mean + applied_m * w_mean) * kick_dt
-                lost -= (damp_f * v_mean + damp_m * w_mean) * kick_dt
+        carried = field_force(fields, p, mass, bodies.radius[p],
+                              row3(particles.position, p), v)
+        turned = field_moment(fields, inertia, w)
+        outside_f = row3(bodies.external_force, p)
+        outside_m = row3(bodies.external_moment, p)
+        # the components in order, each (v, w, work, loss): the sums' order is kept
+        x = kick(v[0], w[0], load_f[0], load_m[0],
+                 mass * gravity[0] + outside_f[0] + carried[0], outside_m[0] + turned[0],
+                 mass, inertia, damping, kick_dt, track_energy)
+        y = kick(v[1], w[1], load_f[1], load_m[1],
+                 mass * gravity[1] + outside_f[1] + carried[1], outside_m[1] + turned[1],
+                 mass, inertia, damping, kick_dt, track_energy)
+        z = kick(v[2], w[2], load_f[2], load_m[2],
+                 mass * gravity[2] + outside_f[2] + carried[2], outside_m[2] + turned[2],
+                 mass, inertia, damping, kick_dt, track_energy)
+        v = (x[0], y[0], z[0])
+        w = (x[1], y[1], z[1])
+        work = 0.0 + x[2] + y[2] + z[2]
+        lost = 0.0 + x[3] + y[3] + z[3]
+        store3(particles.velocity, p, v)
+        store3(particles.angular_velocity, p, w)
     status = STATUS_OK
+    here = row3(particles.position, p)
     for k in range(3):
-        x = particles.position[p, k] + v[p, k] * drift_dt
+        x = here[k] + v[k] * drift_dt
         if box.periodic[k]:
             length = box.high[k] - box.low[k]
             x -= length * math.floor((x - box.low[k]) / length)
         elif x < box.low[k] or x > box.high[k]:
             status = STATUS_OUT_OF_DOMAIN
-        if not (math.isfinite(x) and math.isfinite(v[p, k]) and math.isfinite(w[p, k])):
+        if not (math.isfinite(x) and math.isfinite(v[k]) and math.isfinite(w[k])):
             status = STATUS_NOT_FINITE
         particles.position[p, k] = x
     return work, lost, status
