@@ -341,25 +341,16 @@ def bond_ends_sum(p, index, loads, start_f, start_m):
     one bond end at a time in a fixed CSR order (end = 2 bond + side; side 1 is j, which
     gets -F and its own moment). Starting from the loads already there adds the bonds
     after the contacts, in MUSEN's order (CPUSimulator::CalculateForcesSB)."""
-    fx, fy, fz = start_f
-    mx, my, mz = start_m
+    force, moment = start_f, start_m
     for k in range(index.offsets[p], index.offsets[p + 1]):
         b = index.ends[k] >> 1
-        f = row3(loads.force_i, b)
         if index.ends[k] & 1:
-            m = row3(loads.moment_j, b)
-            fx -= f[0]
-            fy -= f[1]
-            fz -= f[2]
+            force = sub(force, row3(loads.force_i, b))
+            moment = add(moment, row3(loads.moment_j, b))
         else:
-            m = row3(loads.moment_i, b)
-            fx += f[0]
-            fy += f[1]
-            fz += f[2]
-        mx += m[0]
-        my += m[1]
-        mz += m[2]
-    return (fx, fy, fz), (mx, my, mz)
+            force = add(force, row3(loads.force_i, b))
+            moment = add(moment, row3(loads.moment_i, b))
+    return force, moment
 
 
 @body
@@ -823,35 +814,24 @@ def pair_rows_sum(p, index, rows):
     read and the sums are +0, as summing them gives (they start at +0, and adding +-0 to
     +0 gives +0). The test is branch-free per row: a branch per row, mispredicted
     whenever touching and apart rows alternate, cost more than the reads it saved."""
-    fx = fy = fz = mx = my = mz = 0.0
+    zero = (0.0, 0.0, 0.0)
     loaded = 0
     for s in range(index.i_start[p], index.i_start[p + 1]):
         loaded |= 1 - index.quiet[index.i_order[s]]
     for s in range(index.j_start[p], index.j_start[p + 1]):
         loaded |= 1 - index.quiet[index.j_order[s]]
     if loaded == 0:
-        return (fx, fy, fz), (mx, my, mz)
+        return zero, zero
+    force = moment = zero
     for s in range(index.i_start[p], index.i_start[p + 1]):
         c = index.i_order[s]
-        f = row3(rows.force, c)
-        m = row3(rows.moment_i, c)
-        fx += f[0]
-        fy += f[1]
-        fz += f[2]
-        mx += m[0]
-        my += m[1]
-        mz += m[2]
+        force = add(force, row3(rows.force, c))
+        moment = add(moment, row3(rows.moment_i, c))
     for s in range(index.j_start[p], index.j_start[p + 1]):
         c = index.j_order[s]
-        f = row3(rows.force, c)
-        m = row3(rows.moment_j, c)
-        fx -= f[0]
-        fy -= f[1]
-        fz -= f[2]
-        mx += m[0]
-        my += m[1]
-        mz += m[2]
-    return (fx, fy, fz), (mx, my, mz)
+        force = sub(force, row3(rows.force, c))
+        moment = add(moment, row3(rows.moment_j, c))
+    return force, moment
 
 
 @body
