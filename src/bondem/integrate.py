@@ -59,10 +59,11 @@ def step(model, state, laws, integrator, force, moment, dt, musen_compat=False):
     # A law that adds no load here (the bonds' without bonds) is left out, so that the
     # next may store its loads: one pass over the loads less.
     laws = acting_laws(model, laws)
-    if laws and hasattr(laws[0], "assign"):   # as storing_law, on the acting laws
+    storing = storing_law(model, laws)
+    if storing is not None:
         # a first law that stores its loads (the bonds', else the contacts'): nothing to
         # zero beforehand
-        laws[0].assign(model, state, force, moment, increment_dt)
+        storing.assign(model, state, force, moment, increment_dt)
         laws = laws[1:]
     else:
         force.fill(0.0)

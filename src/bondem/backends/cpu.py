@@ -392,9 +392,8 @@ def gather_bond_range(first, last, index, loads, force, moment, assign):
             f, m = bond_ends_sum(p, index, loads, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
         else:
             f, m = bond_ends_sum(p, index, loads, row3(force, p), row3(moment, p))
-        for k in range(3):
-            force[p, k] = f[k]
-            moment[p, k] = m[k]
+        store3(force, p, f)
+        store3(moment, p, m)
 
 
 @numba.njit(**_jit)

@@ -20,7 +20,7 @@ from ..physics.contact_hertz_musen import MUSEN_VERSION, MUSEN_VERSIONS
 from ..physics import contact_models
 from ..walls import PLANE, WallSet, build_wall_pairs
 from . import cpu, loops, raw
-from .cpu import CHUNK, L, _jit, _serial, balanced_shares, chunks
+from .cpu import CHUNK, L, _jit, _serial, balanced_shares, chunks, store3
 
 # The pair loop inlines its contact law as well (Hertz-Mindlin, friction and rolling, at
 # Numba's IR level; the small vector helpers LLVM inlines anyway): a touching row costs
@@ -122,9 +122,8 @@ def gather_pair_range(first, last, index, rows, force, moment, assign):
     for p in range(first, last):
         f, m = pair_rows_sum(p, index, rows)
         if assign:
-            for k in range(3):
-                force[p, k] = f[k]
-                moment[p, k] = m[k]
+            store3(force, p, f)
+            store3(moment, p, m)
             continue
         if (f[0] == 0.0 and f[1] == 0.0 and f[2] == 0.0 and m[0] == 0.0 and m[1] == 0.0
                 and m[2] == 0.0):

@@ -474,19 +474,22 @@ def integrate_particle(p, load_f, load_m, particles, bodies, fields, damping, ki
         outside_f = row3(bodies.external_force, p)
         outside_m = row3(bodies.external_moment, p)
         # the components in order, each (v, w, work, loss): the sums' order is kept
-        x = kick(v[0], w[0], load_f[0], load_m[0],
-                 mass * gravity[0] + outside_f[0] + carried[0], outside_m[0] + turned[0],
-                 mass, inertia, damping, kick_dt, track_energy)
-        y = kick(v[1], w[1], load_f[1], load_m[1],
-                 mass * gravity[1] + outside_f[1] + carried[1], outside_m[1] + turned[1],
-                 mass, inertia, damping, kick_dt, track_energy)
-        z = kick(v[2], w[2], load_f[2], load_m[2],
-                 mass * gravity[2] + outside_f[2] + carried[2], outside_m[2] + turned[2],
-                 mass, inertia, damping, kick_dt, track_energy)
-        v = (x[0], y[0], z[0])
-        w = (x[1], y[1], z[1])
-        work = 0.0 + x[2] + y[2] + z[2]
-        lost = 0.0 + x[3] + y[3] + z[3]
+        along_x = kick(v[0], w[0], load_f[0], load_m[0],
+                       mass * gravity[0] + outside_f[0] + carried[0],
+                       outside_m[0] + turned[0],
+                       mass, inertia, damping, kick_dt, track_energy)
+        along_y = kick(v[1], w[1], load_f[1], load_m[1],
+                       mass * gravity[1] + outside_f[1] + carried[1],
+                       outside_m[1] + turned[1],
+                       mass, inertia, damping, kick_dt, track_energy)
+        along_z = kick(v[2], w[2], load_f[2], load_m[2],
+                       mass * gravity[2] + outside_f[2] + carried[2],
+                       outside_m[2] + turned[2],
+                       mass, inertia, damping, kick_dt, track_energy)
+        v = (along_x[0], along_y[0], along_z[0])
+        w = (along_x[1], along_y[1], along_z[1])
+        work = 0.0 + along_x[2] + along_y[2] + along_z[2]
+        lost = 0.0 + along_x[3] + along_y[3] + along_z[3]
         store3(particles.velocity, p, v)
         store3(particles.angular_velocity, p, w)
     status = STATUS_OK

@@ -47,42 +47,52 @@ def _need(array, ndim, contiguous=False):
         raise TypingError(f"raw access: need a C-contiguous array, got {array}")
 
 
+def _pointer(context, builder, signature, args, rows_of_three):
+    """Pointer to the element named by args = (array, *indices[, value])."""
+    array_type = signature.args[0]
+    if rows_of_three:
+        return _row_of_three(context, builder, array_type, args[0], args[1], args[2],
+                             signature.args[1:3])
+    count = array_type.ndim
+    return _element(context, builder, array_type, args[0], args[1:1 + count],
+                    signature.args[1:1 + count])
+
+
+def _loader(rows_of_three):
+    def codegen(context, builder, signature, args):
+        return load_item(context, builder, signature.args[0],
+                         _pointer(context, builder, signature, args, rows_of_three))
+    return codegen
+
+
+def _storer(rows_of_three):
+    def codegen(context, builder, signature, args):
+        value = context.cast(builder, args[-1], signature.args[-1], signature.args[0].dtype)
+        store_item(context, builder, signature.args[0], value,
+                   _pointer(context, builder, signature, args, rows_of_three))
+        return context.get_dummy_value()
+    return codegen
+
+
 @intrinsic
 def get(typingctx, array, i):
     """array[i] of a 1-d array, 0 <= i < len(array)."""
     _need(array, 1)
-
-    def codegen(context, builder, signature, args):
-        pointer = _element(context, builder, signature.args[0], args[0], args[1:],
-                           signature.args[1:])
-        return load_item(context, builder, signature.args[0], pointer)
-    return array.dtype(array, i), codegen
+    return array.dtype(array, i), _loader(False)
 
 
 @intrinsic
 def get2(typingctx, array, i, k):
     """array[i, k] of a 2-d array, both indices in range."""
     _need(array, 2)
-
-    def codegen(context, builder, signature, args):
-        pointer = _element(context, builder, signature.args[0], args[0], args[1:],
-                           signature.args[1:])
-        return load_item(context, builder, signature.args[0], pointer)
-    return array.dtype(array, i, k), codegen
+    return array.dtype(array, i, k), _loader(False)
 
 
 @intrinsic
 def put(typingctx, array, i, value):
     """array[i] = value for a 1-d array, 0 <= i < len(array)."""
     _need(array, 1)
-
-    def codegen(context, builder, signature, args):
-        value = context.cast(builder, args[2], signature.args[2], signature.args[0].dtype)
-        pointer = _element(context, builder, signature.args[0], args[0], args[1:2],
-                           signature.args[1:2])
-        store_item(context, builder, signature.args[0], value, pointer)
-        return context.get_dummy_value()
-    return types.void(array, i, value), codegen
+    return types.void(array, i, value), _storer(False)
 
 
 @intrinsic
@@ -90,26 +100,14 @@ def get3(typingctx, array, i, k):
     """array[i, k] of a C-contiguous (n, 3) array (the caller checks the 3),
     0 <= i < n, 0 <= k < 3."""
     _need(array, 2, contiguous=True)
-
-    def codegen(context, builder, signature, args):
-        pointer = _row_of_three(context, builder, signature.args[0], args[0], args[1],
-                                args[2], signature.args[1:3])
-        return load_item(context, builder, signature.args[0], pointer)
-    return array.dtype(array, i, k), codegen
+    return array.dtype(array, i, k), _loader(True)
 
 
 @intrinsic
 def put3(typingctx, array, i, k, value):
     """array[i, k] = value for a C-contiguous (n, 3) array, as ``get3``."""
     _need(array, 2, contiguous=True)
-
-    def codegen(context, builder, signature, args):
-        value = context.cast(builder, args[3], signature.args[3], signature.args[0].dtype)
-        pointer = _row_of_three(context, builder, signature.args[0], args[0], args[1],
-                                args[2], signature.args[1:3])
-        store_item(context, builder, signature.args[0], value, pointer)
-        return context.get_dummy_value()
-    return types.void(array, i, k, value), codegen
+    return types.void(array, i, k, value), _storer(True)
 
 
 @intrinsic
