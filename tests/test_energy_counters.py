@@ -67,6 +67,30 @@ def test_external_loads_set_between_steps_without_gravity_are_counted(glass):
     assert terms["dissipated_damping"] == 0.0
 
 
+@pytest.mark.parametrize("kind", ["force", "moment"])
+@pytest.mark.parametrize("axis", [0, 1, 2])
+def test_a_single_external_load_component_is_counted(glass, kind, axis):
+    """The integrator decides once per particle whether to count energies: a load on one
+    component alone must be counted, on any axis, force or moment. Its work is the
+    kinetic energy it gave the free sphere (2000 steps, no gravity or damping)."""
+    model, state = bondem.make_system([[0, 0, 0], [1e-2, 0, 0]], 1e-3, glass,
+                                      velocity=[[0.0, 0.0, 0.0], [0.1, -0.2, 0.3]],
+                                      angular_velocity=[[0.0] * 3, [2.0, -3.0, 1.0]])
+    sim = bondem.Simulation(model, state)
+    sim.step(5)
+    v0 = sim.state.velocity[1].copy()
+    w0 = sim.state.angular_velocity[1].copy()
+    load = np.zeros(3)
+    load[axis] = -0.03 if kind == "force" else 4e-7
+    (model.external_force if kind == "force" else model.external_moment)[1] = load
+    sim.step(2000)
+    v, w = sim.state.velocity[1], sim.state.angular_velocity[1]
+    gained = (0.5 * model.mass[1] * (v @ v - v0 @ v0)
+              + 0.5 * model.inertia[1] * (w @ w - w0 @ w0))
+    assert abs(gained) > 1e-9
+    assert sim.energy_terms()["work_external"] == pytest.approx(gained, rel=1e-9)
+
+
 def test_external_force_on_a_clump_without_gravity_is_counted(glass):
     """A dumbbell clump pulled along its axis (no torque about its centre), no gravity
     or damping: the force's work is the clump's gain of kinetic energy,

@@ -84,6 +84,21 @@ def test_blow_up_stops_with_message_and_last_good_state(glass, binder):
     assert np.all(np.abs(good.position) <= 1.0)
 
 
+@pytest.mark.parametrize("axis", [0, 1, 2])
+@pytest.mark.parametrize("kind", ["force", "moment"])
+def test_a_load_that_is_not_finite_stops_the_run(glass, binder, kind, axis):
+    """An infinite load on one component of one sphere (inside an unbounded box) makes its
+    velocity or spin infinite: the step must stop the run as not finite, on any axis."""
+    model, state = two(glass, binder)
+    sim = bondem.Simulation(model, state)
+    sim.step(3)
+    load = np.zeros(3)
+    load[axis] = np.inf
+    (model.external_force if kind == "force" else model.external_moment)[1] = load
+    with pytest.raises(bondem.SimulationBlowUp, match="NaN or infinite"):
+        sim.step(1)
+
+
 def test_reprs_show_counts_time_and_intact_bonds(tmp_path):
     import bondem
     from bondem.analysis import Results

@@ -417,12 +417,10 @@ field_moment = body(_summed(
 
 
 @body
-def kick(v, w, load_f, load_m, applied, applied_m, mass, inertia, damping, kick_dt,
-         track_energy):
-    """One component of ``integrate_particle``'s kick: (new v (m/s), new w (rad/s), work
-    of the applied loads, energy removed by damping (J)), from the old v, w, the contact
-    and bond loads load_f (N), load_m (N m) and the applied ones (gravity, fields,
-    external)."""
+def kick(v, w, load_f, load_m, applied, applied_m, mass, inertia, damping, kick_dt):
+    """One component of ``integrate_particle``'s kick: (new v (m/s), new w (rad/s), the
+    damping force (N) and moment (N m)), from the old v, w, the contact and bond loads
+    load_f (N), load_m (N m) and the applied ones (gravity, fields, external)."""
     f = load_f + applied
     mk = load_m + applied_m
     damp_f = 0.0
@@ -430,17 +428,38 @@ def kick(v, w, load_f, load_m, applied, applied_m, mass, inertia, damping, kick_
     if damping > 0.0:
         damp_f = -damping * abs(f) * sign(v)
         damp_m = -damping * abs(mk) * sign(w)
-    v_new = v + (f + damp_f) / mass * kick_dt
-    w_new = w + (mk + damp_m) / inertia * kick_dt
-    # Without gravity, damping or fields the caller does not track (a pass over the
-    # external loads each step cost 3 % of the lattice's); a component whose applied loads
-    # are zero would add +-0 here, which changes no sum.
+    return (v + (f + damp_f) / mass * kick_dt, w + (mk + damp_m) / inertia * kick_dt,
+            damp_f, damp_m)
+
+
+@body
+def kick_energy(v, w, kicked, applied, applied_m, kick_dt, track_energy):
+    """(work of the applied loads, energy removed by damping) in J of one component
+    ``kicked`` (``kick``'s result) from the old v (m/s), w (rad/s): each load times the
+    mean of the old and new velocity. 0 where the caller does not track and no load is
+    applied (it would add +-0, which changes no sum)."""
     if track_energy or applied != 0.0 or applied_m != 0.0:
-        v_mean = 0.5 * (v + v_new)
-        w_mean = 0.5 * (w + w_new)
-        return (v_new, w_new, (applied * v_mean + applied_m * w_mean) * kick_dt,
-                -(damp_f * v_mean + damp_m * w_mean) * kick_dt)
-    return v_new, w_new, 0.0, 0.0
+        v_mean = 0.5 * (v + kicked[0])
+        w_mean = 0.5 * (w + kicked[1])
+        return ((applied * v_mean + applied_m * w_mean) * kick_dt,
+                -(kicked[2] * v_mean + kicked[3] * w_mean) * kick_dt)
+    return 0.0, 0.0
+
+
+@body
+def particle_status(p, particles, box):
+    """STATUS_NOT_FINITE if particle p's position, velocity or spin is not finite,
+    STATUS_OUT_OF_DOMAIN if it lies outside the box on an axis that is not periodic,
+    else STATUS_OK (on axes in order, the last such finding)."""
+    status = STATUS_OK
+    for k in range(3):
+        x = particles.position[p, k]
+        if not box.periodic[k] and (x < box.low[k] or x > box.high[k]):
+            status = STATUS_OUT_OF_DOMAIN
+        if not (math.isfinite(x) and math.isfinite(particles.velocity[p, k])
+                and math.isfinite(particles.angular_velocity[p, k])):
+            status = STATUS_NOT_FINITE
+    return status
 
 
 @body
@@ -473,38 +492,56 @@ def integrate_particle(p, load_f, load_m, particles, bodies, fields, damping, ki
         turned = field_moment(fields, inertia, w)
         outside_f = row3(bodies.external_force, p)
         outside_m = row3(bodies.external_moment, p)
-        # the components in order, each (v, w, work, loss): the sums' order is kept
-        along_x = kick(v[0], w[0], load_f[0], load_m[0],
-                       mass * gravity[0] + outside_f[0] + carried[0],
-                       outside_m[0] + turned[0],
-                       mass, inertia, damping, kick_dt, track_energy)
-        along_y = kick(v[1], w[1], load_f[1], load_m[1],
-                       mass * gravity[1] + outside_f[1] + carried[1],
-                       outside_m[1] + turned[1],
-                       mass, inertia, damping, kick_dt, track_energy)
-        along_z = kick(v[2], w[2], load_f[2], load_m[2],
-                       mass * gravity[2] + outside_f[2] + carried[2],
-                       outside_m[2] + turned[2],
-                       mass, inertia, damping, kick_dt, track_energy)
+        applied = (mass * gravity[0] + outside_f[0] + carried[0],
+                   mass * gravity[1] + outside_f[1] + carried[1],
+                   mass * gravity[2] + outside_f[2] + carried[2])
+        applied_m = (outside_m[0] + turned[0], outside_m[1] + turned[1],
+                     outside_m[2] + turned[2])
+        along_x = kick(v[0], w[0], load_f[0], load_m[0], applied[0], applied_m[0], mass,
+                       inertia, damping, kick_dt)
+        along_y = kick(v[1], w[1], load_f[1], load_m[1], applied[1], applied_m[1], mass,
+                       inertia, damping, kick_dt)
+        along_z = kick(v[2], w[2], load_f[2], load_m[2], applied[2], applied_m[2], mass,
+                       inertia, damping, kick_dt)
+        # Energies only where tracked or a load is applied, tested once for the three
+        # components rather than in each (without gravity, damping or fields the caller
+        # does not track, and the external loads are zero but where a script or a
+        # coupled solver set them)
+        if track_energy or ((applied[0] != 0.0) | (applied[1] != 0.0)
+                            | (applied[2] != 0.0) | (applied_m[0] != 0.0)
+                            | (applied_m[1] != 0.0) | (applied_m[2] != 0.0)):
+            energy_x = kick_energy(v[0], w[0], along_x, applied[0], applied_m[0], kick_dt,
+                                   track_energy)
+            energy_y = kick_energy(v[1], w[1], along_y, applied[1], applied_m[1], kick_dt,
+                                   track_energy)
+            energy_z = kick_energy(v[2], w[2], along_z, applied[2], applied_m[2], kick_dt,
+                                   track_energy)
+            # in component order
+            work = 0.0 + energy_x[0] + energy_y[0] + energy_z[0]
+            lost = 0.0 + energy_x[1] + energy_y[1] + energy_z[1]
         v = (along_x[0], along_y[0], along_z[0])
         w = (along_x[1], along_y[1], along_z[1])
-        work = 0.0 + along_x[2] + along_y[2] + along_z[2]
-        lost = 0.0 + along_x[3] + along_y[3] + along_z[3]
         store3(particles.velocity, p, v)
         store3(particles.angular_velocity, p, w)
-    status = STATUS_OK
     here = row3(particles.position, p)
+    # Without branches: ``outside`` on any axis off the domain, ``spread`` NaN where any
+    # of x, v, w is not finite (x - x is 0 only for a finite x); the status itself, rare,
+    # from ``particle_status``. With the energies' single test above: integrating took
+    # 0.9 of its time on the n = 47 lattice, 0.83 on the 10^5 bed (two threads).
+    outside = False
+    spread = 0.0
     for k in range(3):
         x = here[k] + v[k] * drift_dt
         if box.periodic[k]:
             length = box.high[k] - box.low[k]
             x -= length * math.floor((x - box.low[k]) / length)
-        elif x < box.low[k] or x > box.high[k]:
-            status = STATUS_OUT_OF_DOMAIN
-        if not (math.isfinite(x) and math.isfinite(v[k]) and math.isfinite(w[k])):
-            status = STATUS_NOT_FINITE
+        else:
+            outside |= (x < box.low[k]) | (x > box.high[k])
+        spread += (x - x) + (v[k] - v[k]) + (w[k] - w[k])
         particles.position[p, k] = x
-    return work, lost, status
+    if outside or spread != 0.0:
+        return work, lost, particle_status(p, particles, box)
+    return work, lost, STATUS_OK
 
 
 @body
