@@ -16,7 +16,7 @@ from scipy.spatial import cKDTree
 
 import bondem
 from bondem.contacts import ContactSettings
-from bondem.neighbors import build_pairs, carry_history
+from bondem.neighbors import build_pairs, carry_history, max_displacement
 from bondem.status import SimulationBlowUp
 
 
@@ -59,6 +59,29 @@ def test_verlet_list_equals_brute_force(periodic, n, box):
     for room in (1, 64):
         np.testing.assert_array_equal(
             build_pairs(position, radius, skin, periodic, low, high, row_room=room), pairs)
+
+
+@pytest.mark.parametrize("n", [50, 70000])       # serial, and in parallel blocks
+@pytest.mark.parametrize("axis", [0, 1, 2])
+@pytest.mark.parametrize("periodic", [False, True])
+def test_max_displacement_is_the_largest_move(n, axis, periodic):
+    """Every particle moved a little (< 1 um); one moved 3 um along one axis, across the
+    box's edge if that axis is periodic (its minimum image is 3 um, not the box less
+    3 um): the largest displacement is 3 um."""
+    rng = np.random.default_rng(axis + 3 * n)
+    length = np.array([0.02, 0.03, 0.05])
+    reference = rng.uniform(0.0, 1.0, (n, 3)) * length
+    position = reference + rng.uniform(-0.57e-6, 0.57e-6, (n, 3))
+    mover = n // 3
+    reference[mover, axis] = length[axis] - 1e-6 if periodic else 0.5 * length[axis]
+    position[mover] = reference[mover]
+    position[mover, axis] += 3e-6
+    if periodic:
+        position[mover, axis] -= length[axis]      # wrapped into the box
+    flags = np.zeros(3, dtype=bool)
+    flags[axis] = periodic
+    assert max_displacement(position, reference, length, flags) == pytest.approx(3e-6,
+                                                                                 rel=1e-6)
 
 
 def test_history_follows_pairs_across_rebuilds():

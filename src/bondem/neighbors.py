@@ -276,6 +276,15 @@ def csr_pairs(row_start, out_j):
 @numba.njit(cache=True, nogil=True)
 def _max_displacement_range(first, last, position, reference, box_length, periodic):
     worst = 0.0
+    if not (periodic[0] or periodic[1] or periodic[2]):
+        # without the per-component test LLVM vectorises the loop: the n = 47 lattice's
+        # test took 0.7 of its time
+        for p in range(first, last):
+            dx = position[p, 0] - reference[p, 0]
+            dy = position[p, 1] - reference[p, 1]
+            dz = position[p, 2] - reference[p, 2]
+            worst = max(worst, dx * dx + dy * dy + dz * dz)
+        return worst
     for p in range(first, last):
         d2 = 0.0
         for k in range(3):
