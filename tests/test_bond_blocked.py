@@ -24,7 +24,10 @@ from bondem.physics.rotation import SMALL_ANGLE
 DT = 1e-6
 
 
-def random_cluster(seed, n_particles=150, periodic=False):
+def random_cluster(seed, n_particles=150, periodic=False, materials="three"):
+    """A random bonded cluster; materials: "three" bond materials (three criteria), "one"
+    (every bond the same, no strength scatter: the kernel's uniform constants), or
+    "scattered" (one material whose strengths scatter from bond to bond)."""
     rng = np.random.default_rng(seed)
     radius = 1e-3
     position = rng.uniform(0.0, 0.012, size=(n_particles, 3))
@@ -35,14 +38,24 @@ def random_cluster(seed, n_particles=150, periodic=False):
                      restitution=0.5, friction=0.3, name="glass")
     weak = dict(young_modulus=1e8, poisson_ratio=0.3, normal_strength=4e5,
                 tangential_strength=4e5)
-    materials = [BondMaterial(**weak, name="combined"),
-                 BondMaterial(**weak, breakage="separate", compressive_breakage=True,
-                              name="separate"),
-                 BondMaterial(**weak, breakage="none", name="unbreakable")]
+    index = rng.integers(0, 3, size=len(bonds))
+    if materials == "three":
+        materials = [BondMaterial(**weak, name="combined"),
+                     BondMaterial(**weak, breakage="separate", compressive_breakage=True,
+                                  name="separate"),
+                     BondMaterial(**weak, breakage="none", name="unbreakable")]
+    else:
+        # normal and tangential strengths apart, so that a swap of the two shows
+        scatter = (dict(strength_scatter="normal", strength_spread=0.3, strength_seed=5)
+                   if materials == "scattered" else {})
+        materials = [BondMaterial(young_modulus=1.3e8, poisson_ratio=0.21,
+                                  normal_strength=3e5, tangential_strength=6e5,
+                                  name="one", **scatter)]
+        index = np.zeros(len(bonds), dtype=int)
     model, state = make_system(
         position, radius, glass, velocity=rng.normal(0.0, 0.3, size=(n_particles, 3)),
         bonds=bonds, bond_diameter=rng.uniform(0.5e-3, 1e-3, size=len(bonds)),
-        bond_material=materials, bond_material_index=rng.integers(0, 3, size=len(bonds)),
+        bond_material=materials, bond_material_index=index,
         periodic=(periodic, False, False), box_low=(0.0, 0.0, 0.0),
         box_high=(0.012, 0.012, 0.012))
     # A spin whose twist per step, |w| dt / 2, exceeds the series' range for some bonds.
@@ -85,10 +98,13 @@ def not_surely_intact(model, state, bonds):
     return count
 
 
-@pytest.mark.parametrize("periodic", [False, True])
-def test_vectorised_path_matches_the_scalar_path_bit_for_bit(periodic):
-    model, start = random_cluster(7, periodic=periodic)
+@pytest.mark.parametrize("periodic, materials", [(False, "three"), (True, "three"),
+                                                 (False, "one"), (True, "scattered")])
+def test_vectorised_path_matches_the_scalar_path_bit_for_bit(periodic, materials):
+    model, start = random_cluster(7, periodic=periodic, materials=materials)
     assert model.n_bonds % cpu.BOND_BLOCK != 0
+    # one material and no scatter: the kernel writes the bonds' constants once
+    assert cpu.ElasticBonds(model)._uniform == (materials == "one")
     scalar, blocked = copy.deepcopy(start), copy.deepcopy(start)
     near = []
     loads_scalar = advance(False, model, scalar, 12)

@@ -101,8 +101,8 @@ def test_bond_kernel_refuses_vector_arrays_without_three_columns():
     particles = cpu.particles(state)._replace(velocity=np.zeros((model.n_particles, 4)))
     with pytest.raises(ValueError, match="3 columns"):
         cpu.elastic_bonds(law._bonds, law._materials, law._bond_state(model, state), particles,
-                          law._box, state.time, 1e-7, None, True, law._scratch, law._slots,
-                          law._slow, law._pending, law.loads)
+                          law._box, state.time, 1e-7, None, True, None, law._scratch,
+                          law._slots, law._slow, law._pending, law.loads)
     assert np.array_equal(state.position, before)
 
 
