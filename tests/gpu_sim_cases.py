@@ -196,8 +196,18 @@ def case_bonds_match_cpu(steps=30, system=bonded_cluster, musen_compat=False, br
         prepare(sim)
         sim.step(steps // 2)
         sim.step(steps - steps // 2)   # two batches: the host copy between them is exact
-        runs[backend] = (sim.state, sim.energy_terms())
+        runs[backend] = (sim.state, sim.energy_terms(), *(
+            a.copy_to_host() if hasattr(a, "copy_to_host") else np.array(a)
+            for a in (sim.force, sim.moment)))
     cpu, gpu = runs["cpu"][0], runs["gpu"][0]
+    # the particles' loads of the last evaluation (results' /particles/force): the bonds'
+    # included, on both backends
+    for k, name in ((2, "force"), (3, "moment")):
+        a, b = runs["cpu"][k], runs["gpu"][k]
+        scale = max(float(np.abs(a).max()), 1e-300)
+        error = float(np.abs(a - b).max()) / scale
+        print(f"{name:24s} max |cpu - gpu| / scale = {error:.2e}")
+        assert error < 1e-12, name
     assert set(runs["cpu"][1]) == set(runs["gpu"][1])
     print(f"bonds {cpu.bond_active.size}, broken cpu {np.sum(~cpu.bond_active)} "
           f"gpu {np.sum(~gpu.bond_active)}, time {cpu.time:.3e} s")

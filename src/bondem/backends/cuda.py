@@ -11,9 +11,10 @@ Design (the same as the CPU backend's, see its docstring):
 - one thread per bond computes the bond law and writes its loads to the bond's own slot;
 - one thread per particle sums its bonds through the fixed CSR index (particle -> bond
   ends): no atomics, the same bits every run; the same thread adds the other laws' loads
-  (if any) and integrates, so a bonds-only step is two launches and never stores the
-  particle forces; a particle that turns NaN or leaves the domain sets a status flag,
-  checked by the host once per batch of steps (no exceptions in kernels);
+  (if any), stores the particle's total loads (what the results save, the clumps read)
+  and integrates, so a bonds-only step is two launches; a particle that turns NaN or
+  leaves the domain sets a status flag, checked by the host once per batch of steps (no
+  exceptions in kernels);
 - every changing array lives on the device (``DeviceState``) between outputs; the host
   ``State`` is refreshed by ``GpuBackend.to_host`` at the end of each batch of steps.
 - work and damping energies are accumulated per particle on the device and summed on the
@@ -72,25 +73,23 @@ def gather_bond_loads_kernel(index, loads, force, moment, assign):
 
 @cuda.jit
 def integrate_kernel(index, loads, use_loads, particles, bodies, force, moment, fields,
-                     damping, kick_dt, drift_dt, box, status, work, dissipated, store):
+                     damping, kick_dt, drift_dt, box, status, work, dissipated):
     """``loops.integrate_particle`` for every particle, with its bond loads gathered here
     (``loops.bond_ends_sum``) plus, when ``use_loads``, the other laws' loads in force (N)
-    and moment (N m). Fusing the gather saves a launch and the force arrays' write and
-    read (96 B per particle) when the bonds are the only law. Adds each particle's work
-    of gravity, the fields and external loads and its damping loss (J) to ``work[p]`` and
-    ``dissipated[p]``, summed on the host when the state is copied back; sets status[0]
-    on a NaN or a particle out of the domain. store: keep each particle's total loads in
-    force and moment (for the clumps)."""
+    and moment (N m); the total is stored in force and moment (the particles' loads of
+    this evaluation, as on the CPU: saved to the results, read by the clumps). Fusing the
+    gather saves a launch and the force arrays' read (48 B per particle) when the bonds
+    are the only law. Adds each particle's work of gravity, the fields and external loads
+    and its damping loss (J) to ``work[p]`` and ``dissipated[p]``, summed on the host when the state is copied back; sets status[0]
+    on a NaN or a particle out of the domain."""
     for p in range(cuda.grid(1), particles.position.shape[0], cuda.gridsize(1)):
         f, m = bond_ends_sum(p, index, loads, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
         if use_loads:
             f = add(f, row3(force, p))
             m = add(m, row3(moment, p))
-        if store:
-            # the clumps read their members' loads (clump_kernel, after this one)
-            for k in range(3):
-                force[p, k] = f[k]
-                moment[p, k] = m[k]
+        for k in range(3):
+            force[p, k] = f[k]
+            moment[p, k] = m[k]
         gained, lost, code = integrate_particle(p, f, m, particles, bodies, fields, damping,
                                                 kick_dt, drift_dt, box, True)
         work[p] += gained
@@ -442,7 +441,7 @@ class IntegratorGpu:
         index, loads = self._no_bonds if bonds is None else (bonds.index, bonds.loads)
         launch(integrate_kernel, model.n_particles, index, loads, use_loads, particles(g.device),
                g.bodies, force, moment, g.fields, model.damping, kick_dt, drift_dt, g.box,
-               g.status, g.device.work, g.device.dissipated, self.clumps is not None)
+               g.status, g.device.work, g.device.dissipated)
         if self.clumps is not None:
             launch(clump_kernel, model.n_clumps, force, moment, self.clumps,
                    clump_state(g.device), particles(g.device), g.bodies, g.fields,
