@@ -113,8 +113,10 @@ SERIAL_BELOW = 2048
 
 
 # Bonds per block of the vectorised kernel, and the rows of a thread's scratch: the
-# block's inputs, gathered from the particle and bond arrays, then its results.
-BOND_BLOCK = 32
+# block's inputs, gathered from the particle and bond arrays, then its results. 64: the
+# n = 47 lattice's kernel 0.87-1.02 (median 0.945) of its time with 32, the impact under
+# way 0.985 (once the gather shrank, docs/performance.md, twelfth round; 128 no better).
+BOND_BLOCK = 64
 (_R, _VI, _VJ, _WI, _WJ, _AXIS, _FT0, _MN0, _MT0) = range(0, 27, 3)
 (_L0, _DIAMETER, _YOUNG, _POISSON, _NORMAL_STRENGTH, _TANGENTIAL_STRENGTH,
  _CRITERION) = range(27, 34)
