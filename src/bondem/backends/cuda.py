@@ -80,8 +80,9 @@ def integrate_kernel(index, loads, use_loads, particles, bodies, force, moment, 
     this evaluation, as on the CPU: saved to the results, read by the clumps). Fusing the
     gather saves a launch and the force arrays' read (48 B per particle) when the bonds
     are the only law. Adds each particle's work of gravity, the fields and external loads
-    and its damping loss (J) to ``work[p]`` and ``dissipated[p]``, summed on the host when the state is copied back; sets status[0]
-    on a NaN or a particle out of the domain."""
+    and its damping loss (J) to ``work[p]`` and ``dissipated[p]``, summed on the host
+    when the state is copied back; sets status[0] on a NaN or a particle out of the
+    domain."""
     for p in range(cuda.grid(1), particles.position.shape[0], cuda.gridsize(1)):
         f, m = bond_ends_sum(p, index, loads, (0.0, 0.0, 0.0), (0.0, 0.0, 0.0))
         if use_loads:
